@@ -1,0 +1,53 @@
+"""The exceptions raised by the engine.
+
+One hierarchy, documented once (in the manner of httpx):
+
+    ShapeSearchError            anything the engine raises on purpose
+    ├── InvalidShapeError       the input can never be described (bad file, bad geometry);
+    │                           retrying will not help, the message tells the user what to fix
+    └── SolverError             a numerical step failed on acceptable input; may be transient
+
+Every refusal of user input is an ``InvalidShapeError`` with a short machine-readable
+``reason`` code and a human-readable message.
+"""
+
+from __future__ import annotations
+
+__all__ = ["InvalidShapeError", "ShapeSearchError", "SolverError"]
+
+
+class ShapeSearchError(Exception):
+    """Base class of every error the engine raises on purpose."""
+
+
+class InvalidShapeError(ShapeSearchError):
+    """The input cannot be described; the message says why and what to do.
+
+    Parameters
+    ----------
+    reason : str
+        Machine-readable code, one of ``REASONS``.
+    message : str
+        Sentence a user can act on.
+    """
+
+    REASONS = (
+        "empty_file",
+        "unknown_format",
+        "unparsable",
+        "non_finite",
+        "too_few_points",
+        "degenerate",
+        "too_large",
+    )
+
+    def __init__(self, reason: str, message: str) -> None:
+        if reason not in self.REASONS:
+            raise ValueError(f"unknown reason {reason!r}")
+        super().__init__(message)
+        self.reason = reason
+        self.message = message
+
+
+class SolverError(ShapeSearchError):
+    """A numerical step (factorisation, eigen-solve) failed on acceptable input."""

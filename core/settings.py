@@ -1,0 +1,109 @@
+"""Engine settings: every parameter that changes what ``describe`` computes.
+
+Plain frozen dataclasses (the service maps its environment variables onto them), validated
+in one place, ``validate()``, so every caller gets the same refusal for the same mistake.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["CutoffSettings", "DescriptorSettings", "EngineSettings"]
+
+
+@dataclass(frozen=True)
+class CutoffSettings:
+    """How many eigenpairs a model gets.
+
+    ``mode="adaptive"`` runs the Williams & Ilies cutoff with ``xi`` and ``t``;
+    ``mode="fixed"`` computes exactly ``n`` eigenpairs (the baseline of the paper).
+    """
+
+    mode: str = "adaptive"
+    xi: float = 1e-10
+    t: float = 1e-3
+    seed: int = 50
+    n_min: int = 80
+    n_max: int = 500
+    margin: int = 10
+    n: int = 300
+
+    def validate(self) -> None:
+        if self.mode not in ("adaptive", "fixed"):
+            raise ValueError(f"cutoff mode must be 'adaptive' or 'fixed', not {self.mode!r}")
+        if not 0 < self.xi < 1:
+            raise ValueError("cutoff xi must lie in (0, 1)")
+        if self.t <= 0:
+            raise ValueError("cutoff t must be positive")
+        if not 2 <= self.seed:
+            raise ValueError("cutoff seed must be at least 2 eigenpairs")
+        if not 1 <= self.n_min <= self.n_max:
+            raise ValueError("cutoff needs 1 <= n_min <= n_max")
+        if self.margin < 0:
+            raise ValueError("cutoff margin must be >= 0")
+        if self.n < 2:
+            raise ValueError("fixed cutoff n must be at least 2")
+
+
+@dataclass(frozen=True)
+class DescriptorSettings:
+    """Signature grids and histogram layout; shared by every model of one database.
+
+    Grids are database-wide (log-spaced ``t`` for unit-area shapes), never derived from one
+    model's own spectrum, so that descriptors of different models are comparable.
+
+    The descriptor concatenates weighted blocks, each of unit norm before weighting:
+    area-weighted histograms of log HKS per time (always), of WKS per energy (when
+    ``wks_energies > 0``) and a normalised eigenvalue channel (when ``dna_count > 0``).
+    """
+
+    hks_times: tuple[float, ...] = tuple(np.geomspace(1e-3, 1e-1, 16).tolist())
+    hks_scaled: bool = True
+    hks_range: tuple[float, float] = (-3.0, 3.0)
+    bins: int = 32
+    wks_energies: int = 0
+    wks_range: tuple[float, float] = (2.0, 8.0)
+    wks_weight: float = 1.0
+    dna_count: int = 0
+    dna_weight: float = 0.5
+
+    def validate(self) -> None:
+        if not self.hks_times or min(self.hks_times) <= 0:
+            raise ValueError("hks_times must be a non-empty list of positive times")
+        if self.bins < 2:
+            raise ValueError("descriptor needs at least 2 histogram bins")
+        for name in ("hks_range", "wks_range"):
+            low, high = getattr(self, name)
+            if not low < high:
+                raise ValueError(f"{name} must be (low, high) with low < high")
+        if self.wks_energies < 0 or self.dna_count < 0:
+            raise ValueError("wks_energies and dna_count must be >= 0")
+        if self.wks_weight < 0 or self.dna_weight < 0:
+            raise ValueError("channel weights must be >= 0")
+
+
+@dataclass(frozen=True)
+class EngineSettings:
+    """Everything ``describe`` needs."""
+
+    max_points: int = 20000
+    min_points: int = 100
+    laplacian: str = "robust"
+    normalisation: str = "area"
+    sample_seed: int = 0
+    cutoff: CutoffSettings = field(default_factory=CutoffSettings)
+    descriptor: DescriptorSettings = field(default_factory=DescriptorSettings)
+
+    def validate(self) -> None:
+        if self.min_points < 10:
+            raise ValueError("min_points must be at least 10")
+        if self.max_points < self.min_points:
+            raise ValueError("max_points must be >= min_points")
+        if self.laplacian not in ("robust", "spcl"):
+            raise ValueError(f"laplacian must be 'robust' or 'spcl', not {self.laplacian!r}")
+        if self.normalisation not in ("area", "bbox"):
+            raise ValueError("normalisation must be 'area' or 'bbox'")
+        self.cutoff.validate()
+        self.descriptor.validate()
