@@ -1,0 +1,25 @@
+"""Loading shape files as checked point clouds.
+
+Public face of the package; everything else in ``core.io`` is private::
+
+    from core.io import load_points, validate_points, detect_format, LoadedShape
+
+``load_points`` reads point clouds (``.xyz .txt .csv .pts .ply .pcd .npy``) and meshes
+(``.stl .obj .off .ply .glb``; meshes are sampled by area with a fixed seed), then
+``validate_points`` refuses bad geometry and thins large clouds evenly. Every refusal is a
+``core.errors.InvalidShapeError`` whose ``reason`` a program can test and whose message a user
+can act on.
+"""
+
+from core.io._formats import SUPPORTED_FORMATS, detect_format
+from core.io._loader import LoadedShape, load_points
+from core.io._validate import MAX_PARSED_POINTS, validate_points
+
+__all__ = [
+    "MAX_PARSED_POINTS",
+    "SUPPORTED_FORMATS",
+    "LoadedShape",
+    "detect_format",
+    "load_points",
+    "validate_points",
+]

@@ -1,0 +1,117 @@
+"""Which format a file is in: by its extension first, by its first bytes otherwise.
+
+The extension wins because it is what the user chose and because several formats (the text
+point formats, OBJ) have no magic number at all. The first bytes are only consulted when there
+is no file name or its extension is not one we read.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+
+from core.errors import InvalidShapeError
+
+__all__ = [
+    "MESH_FORMATS",
+    "POINT_FORMATS",
+    "SUPPORTED_FORMATS",
+    "TEXT_POINT_FORMATS",
+    "detect_format",
+]
+
+#: Formats read as plain text columns ``x y z [extra ...]``.
+TEXT_POINT_FORMATS: tuple[str, ...] = ("xyz", "txt", "csv", "pts")
+#: Formats that hold points only.
+POINT_FORMATS: tuple[str, ...] = (*TEXT_POINT_FORMATS, "pcd", "npy")
+#: Formats read through trimesh. PLY is here although a PLY without faces is a point cloud.
+MESH_FORMATS: tuple[str, ...] = ("stl", "obj", "off", "ply", "glb")
+#: Every format ``load_points`` reads, named by its usual extension.
+SUPPORTED_FORMATS: tuple[str, ...] = (*MESH_FORMATS, *POINT_FORMATS)
+
+_NPY_MAGIC = b"\x93NUMPY"
+_GLB_MAGIC = b"glTF"
+# Keywords that open a PCD header (a comment line, then VERSION, FIELDS, ... in this order).
+_PCD_HEADER = re.compile(rb"^\s*(#\s*\.PCD|VERSION\s|FIELDS\s)")
+# Three numbers at the start of a line, separated by whitespace, commas or semicolons.
+_NUMERIC_ROW = re.compile(
+    rb"^\s*[-+]?(\d|\.\d)[^\s,;]*[\s,;]+[-+]?(\d|\.\d)[^\s,;]*[\s,;]+[-+]?(\d|\.\d)", re.M
+)
+
+
+def _extension(filename: str | None) -> str | None:
+    """Lower-case extension without the dot, or None when there is none."""
+    if not filename:
+        return None
+    ext = os.path.splitext(filename.strip())[1].lower().lstrip(".")
+    return ext or None
+
+
+def _sniff(head: bytes) -> str | None:
+    """Guess the format from the first bytes of a file; None when nothing matches.
+
+    Parameters
+    ----------
+    head : bytes
+        The first few hundred bytes of the file (more is fine).
+    """
+    if head.startswith(_NPY_MAGIC):
+        return "npy"
+    if head.startswith(_GLB_MAGIC):
+        return "glb"
+    stripped = head.lstrip()
+    if re.match(rb"ply\s", stripped):
+        return "ply"
+    if _PCD_HEADER.match(head):
+        return "pcd"
+    # ``solid`` opens an ASCII STL; binary STL headers often start with it too, and the STL
+    # reader tells the two apart by size, so "stl" is right either way.
+    if stripped[:5].lower() == b"solid":
+        return "stl"
+    if re.match(rb"[CN]?OFF\b", stripped):
+        return "off"
+    if re.search(rb"^\s*(v|f)\s+[-+\d.]", head, re.M) and not _NUMERIC_ROW.match(stripped):
+        return "obj"
+    if b"\x00" not in head and _NUMERIC_ROW.search(head):
+        # Plain numeric columns: read as the generic text point format.
+        return "xyz"
+    return None
+
+
+def _unknown(filename: str | None) -> InvalidShapeError:
+    what = f"'{filename}'" if filename else "this file"
+    return InvalidShapeError(
+        "unknown_format",
+        f"could not tell the format of {what}: upload one of "
+        f"{', '.join('.' + f for f in SUPPORTED_FORMATS)} (the file name's extension "
+        "tells the format)",
+    )
+
+
+def detect_format(filename: str | None, head: bytes) -> str:
+    """Name the format of a file.
+
+    Parameters
+    ----------
+    filename : str or None
+        Original file name; its extension decides, case-insensitively (``part.STL``).
+    head : bytes
+        The first bytes of the file, used when the extension is missing or not supported.
+
+    Returns
+    -------
+    str
+        One of ``SUPPORTED_FORMATS``.
+
+    Raises
+    ------
+    InvalidShapeError
+        ``reason="unknown_format"``, listing the supported formats.
+    """
+    ext = _extension(filename)
+    if ext in SUPPORTED_FORMATS:
+        return ext
+    sniffed = _sniff(bytes(head[:4096]))
+    if sniffed is None:
+        raise _unknown(filename)
+    return sniffed

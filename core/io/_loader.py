@@ -1,0 +1,196 @@
+"""``load_points``: any supported file in, checked ``(n, 3)`` points out.
+
+    bytes -> detect format -> parse (points, or vertices + triangles)
+          -> meshes: area-weighted surface sampling -> validate_points
+
+Every parser runs inside one net that turns any exception into
+``InvalidShapeError("unparsable")``: a malformed upload must never crash a worker with a
+``struct.error`` from deep inside a library.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from core.errors import InvalidShapeError
+from core.io._formats import TEXT_POINT_FORMATS, detect_format
+from core.io._meshes import RawGeometry, read_mesh
+from core.io._pcd import read_pcd
+from core.io._pointfiles import read_npy, read_text_points
+from core.io._sampling import sample_surface, triangle_areas
+from core.io._validate import validate_points
+
+__all__ = ["LoadedShape", "load_points"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class LoadedShape:
+    """A loaded, checked shape.
+
+    Attributes
+    ----------
+    points : (n, 3) float64
+        Finite, distinct points, ``min_points <= n <= max_points``.
+    format : str
+        Detected format: ``"stl"``, ``"obj"``, ``"off"``, ``"ply"``, ``"glb"``, ``"xyz"``,
+        ``"txt"``, ``"csv"``, ``"pts"``, ``"pcd"``, ``"npy"`` (``"array"`` for in-memory points).
+    kind : str
+        ``"mesh"`` (points sampled on triangles) or ``"points"`` (points from the file).
+    n_input : int
+        Number of points, or of mesh vertices, in the file.
+    """
+
+    points: np.ndarray
+    format: str
+    kind: str
+    n_input: int
+
+
+def _read_source(source: str | os.PathLike[str] | bytes) -> tuple[bytes, str | None]:
+    """The file's bytes and, for a path, its name. OSError (missing file) is the caller's."""
+    if isinstance(source, bytes | bytearray | memoryview):
+        return bytes(source), None
+    path = Path(source)
+    return path.read_bytes(), path.name
+
+
+def _parse(data: bytes, fmt: str) -> RawGeometry:
+    """Run the parser of ``fmt``; faces are empty for point formats."""
+    no_faces = np.zeros((0, 3), dtype=np.int64)
+    if fmt in TEXT_POINT_FORMATS:
+        return RawGeometry(read_text_points(data, fmt), no_faces)
+    if fmt == "pcd":
+        return RawGeometry(read_pcd(data), no_faces)
+    if fmt == "npy":
+        return RawGeometry(read_npy(data), no_faces)
+    return read_mesh(data, fmt)
+
+
+def _parse_safely(data: bytes, fmt: str) -> RawGeometry:
+    """``_parse`` with every unexpected exception turned into ``unparsable``."""
+    try:
+        return _parse(data, fmt)
+    except InvalidShapeError:
+        raise
+    except Exception as exc:  # any library error on a bad file means the same to the user
+        logger.info("unparsable .%s upload: %r", fmt, exc)
+        raise InvalidShapeError(
+            "unparsable",
+            f"could not read this .{fmt} file ({type(exc).__name__}: {str(exc)[:120]}): check "
+            f"that it is a complete, valid .{fmt} file, or export the part again",
+        ) from exc
+
+
+def _check_mesh_finite(vertices: np.ndarray) -> None:
+    bad = ~np.isfinite(vertices).all(axis=1)
+    if bad.any():
+        raise InvalidShapeError(
+            "non_finite",
+            f"{int(bad.sum()):,} of {len(vertices):,} mesh vertices have NaN or infinite "
+            f"coordinates (the first is vertex {int(np.argmax(bad)) + 1}): repair the mesh and "
+            "upload it again",
+        )
+
+
+def _mesh_points(
+    geometry: RawGeometry, *, max_points: int, min_points: int, seed: int
+) -> np.ndarray:
+    """Sample ``max_points`` points on the triangles, then validate them.
+
+    A mesh without area (every triangle degenerate) falls back to its vertices when it has
+    enough distinct ones; otherwise it is ``degenerate``.
+    """
+    _check_mesh_finite(geometry.vertices)
+    areas = triangle_areas(geometry.vertices, geometry.faces)
+    total = float(areas.sum())
+    if not np.isfinite(total):
+        raise InvalidShapeError(
+            "non_finite",
+            "the mesh coordinates are too large to compute its area: rescale the part "
+            "(for example to millimetres) and upload it again",
+        )
+    if total > 0.0:
+        sampled = sample_surface(geometry.vertices, geometry.faces, areas, max_points, seed)
+        return validate_points(sampled, max_points=max_points, min_points=min_points, seed=seed)
+    try:
+        return validate_points(
+            geometry.vertices, max_points=max_points, min_points=min_points, seed=seed
+        )
+    except InvalidShapeError as exc:
+        if exc.reason != "too_few_points":
+            raise
+        raise InvalidShapeError(
+            "degenerate",
+            "every triangle of the mesh has zero area and it has too few distinct vertices "
+            f"to use as points ({exc.message}): upload a mesh with a real surface",
+        ) from exc
+
+
+def load_points(
+    source: str | os.PathLike[str] | bytes,
+    *,
+    filename: str | None = None,
+    max_points: int = 20000,
+    min_points: int = 100,
+    seed: int = 0,
+) -> LoadedShape:
+    """Load a point cloud or mesh file as checked points.
+
+    Parameters
+    ----------
+    source : path or bytes
+        The file, or its content.
+    filename : str, optional
+        Original file name; its extension tells the format (case-insensitive). Defaults to the
+        name of the path; for bytes without it the format is sniffed from the content.
+    max_points : int
+        Meshes are sampled with exactly this many points; larger clouds are thinned evenly.
+    min_points : int
+        Fewer distinct points are refused.
+    seed : int
+        Seed of mesh sampling and thinning: the same file always gives the same points.
+
+    Returns
+    -------
+    LoadedShape
+
+    Raises
+    ------
+    core.errors.InvalidShapeError
+        For any file that cannot be loaded; ``reason`` is one of ``empty_file``,
+        ``unknown_format``, ``unparsable``, ``non_finite``, ``too_few_points``,
+        ``degenerate``, ``too_large``.
+    OSError
+        ``source`` is a path that cannot be read.
+    """
+    data, name = _read_source(source)
+    filename = filename or name
+    if not data or data.isspace():
+        raise InvalidShapeError(
+            "empty_file",
+            f"file is empty: upload a point cloud or mesh with at least {min_points} "
+            "distinct points",
+        )
+    fmt = detect_format(filename, data[:4096])
+    geometry = _parse_safely(data, fmt)
+    n_input = len(geometry.vertices)
+    if n_input == 0:
+        raise InvalidShapeError(
+            "empty_file",
+            f"this .{fmt} file contains no points: upload a point cloud or mesh with at least "
+            f"{min_points} distinct points",
+        )
+    if len(geometry.faces):
+        points = _mesh_points(geometry, max_points=max_points, min_points=min_points, seed=seed)
+        return LoadedShape(points=points, format=fmt, kind="mesh", n_input=n_input)
+    points = validate_points(
+        geometry.vertices, max_points=max_points, min_points=min_points, seed=seed
+    )
+    return LoadedShape(points=points, format=fmt, kind="points", n_input=n_input)

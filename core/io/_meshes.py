@@ -1,0 +1,200 @@
+"""Reading ``.stl``, ``.obj``, ``.off``, ``.ply`` and ``.glb`` through trimesh.
+
+trimesh does the parsing (with ``process=False``: merging vertices or fixing normals would only
+cost time, since the mesh is sampled anyway). Around it this module
+
+* checks cheap structural facts first (STL size, PLY header) so that empty or truncated files
+  get a precise reason instead of whatever trimesh happens to do with them;
+* never lets an OBJ or glTF read other files (no resolver: ``mtllib`` and external buffers
+  are ignored; the geometry is all we need and an upload must not reach the server's disk);
+* flattens a Scene into one set of vertices and triangles, with each node's transform applied.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+import struct
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from core.errors import InvalidShapeError
+from core.io._validate import MAX_PARSED_POINTS
+
+__all__ = ["RawGeometry", "read_mesh"]
+
+_STL_HEADER = 80
+_STL_RECORD = 50
+# Record keywords of OBJ files; a file made only of these (and comments) is valid.
+_OBJ_KEYWORDS = frozenset(
+    {"v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "mg", "usemtl", "mtllib"}
+    | {"curv", "curv2", "surf", "cstype", "deg", "parm", "end"}
+)
+
+
+@dataclass(frozen=True)
+class RawGeometry:
+    """Vertices and triangles as read from a file.
+
+    Attributes
+    ----------
+    vertices : (v, 3) float64
+    faces : (f, 3) int64
+        Valid indices into ``vertices``; ``f == 0`` for a point cloud (a PLY without faces).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+
+
+def _unparsable(fmt: str, detail: str) -> InvalidShapeError:
+    return InvalidShapeError(
+        "unparsable",
+        f"could not read this .{fmt} file ({detail}): check that it is a complete, valid "
+        f".{fmt} file, or export the part again",
+    )
+
+
+def _empty(fmt: str, what: str) -> InvalidShapeError:
+    return InvalidShapeError(
+        "empty_file",
+        f"this .{fmt} file contains no {what}: upload a file that holds the part's mesh or "
+        "point cloud",
+    )
+
+
+def _check_stl(data: bytes) -> None:
+    """Refuse empty or truncated STL files before trimesh guesses what they are.
+
+    A binary STL is an 80-byte header, a uint32 triangle count and 50 bytes per triangle, so
+    its size is known; an ASCII STL starts with ``solid`` (binary headers may too, which is why
+    the size is checked first).
+    """
+    count = struct.unpack("<I", data[80:84])[0] if len(data) >= 84 else None
+    if count is not None and len(data) == _STL_HEADER + 4 + _STL_RECORD * count:
+        if count == 0:
+            raise _empty("stl", "triangles (its triangle count is 0)")
+        return
+    # ASCII STL is text: a NUL byte means a binary file whose header happens to say "solid".
+    if data.lstrip()[:5].lower() == b"solid" and b"\x00" not in data[:1024]:
+        if not re.search(rb"\bvertex\b", data):
+            raise _empty("stl", "triangles (no 'facet' / 'vertex' records)")
+        return
+    if count is None:
+        raise _unparsable("stl", f"only {len(data)} bytes, shorter than a binary STL header")
+    expected = _STL_HEADER + 4 + _STL_RECORD * count
+    if len(data) < expected:
+        raise _unparsable(
+            "stl",
+            f"binary STL declares {count:,} triangles ({expected:,} bytes) but has only "
+            f"{len(data):,} bytes: the file is truncated",
+        )
+
+
+def _check_ply(data: bytes) -> None:
+    """Refuse PLY files whose header is missing, has no vertices, or declares too many."""
+    end = data.find(b"end_header")
+    if end < 0:
+        raise _unparsable("ply", "no 'end_header' line")
+    header = data[:end].decode("ascii", errors="replace")
+    match = re.search(r"^\s*element\s+vertex\s+(\d+)", header, re.M)
+    if match is None or int(match.group(1)) == 0:
+        raise _empty("ply", "vertices (its header declares none)")
+    if int(match.group(1)) > MAX_PARSED_POINTS:
+        raise InvalidShapeError(
+            "too_large",
+            f"the PLY file declares {int(match.group(1)):,} vertices, more than the "
+            f"{MAX_PARSED_POINTS:,} accepted: simplify the mesh or thin the cloud first",
+        )
+
+
+def _no_geometry(fmt: str, data: bytes) -> InvalidShapeError:
+    """Reason for a file trimesh read without finding any geometry."""
+    if fmt == "obj":
+        keywords = {
+            line.split()[0]
+            for line in data.decode("utf-8", errors="replace").splitlines()
+            if line.strip() and not line.lstrip().startswith("#")
+        }
+        if not keywords <= _OBJ_KEYWORDS:
+            return _unparsable("obj", "lines that are not OBJ records")
+    if fmt == "stl":
+        return _unparsable("stl", "no triangles could be read")
+    return _empty(fmt, "vertices")
+
+
+def _load_scene(data: bytes, fmt: str) -> trimesh.Scene:
+    try:
+        return trimesh.load_scene(io.BytesIO(data), file_type=fmt, process=False)
+    except Exception as exc:  # trimesh raises many types for bad input; all mean "bad file"
+        raise _unparsable(fmt, f"{type(exc).__name__}: {str(exc)[:120]}") from exc
+
+
+def _flatten(scene: trimesh.Scene) -> RawGeometry | None:
+    """All triangles of the scene in world coordinates; the vertices only if it has none.
+
+    Returns None when the scene holds neither triangles nor points (paths are ignored).
+    """
+    meshes, clouds = [], []
+    for geometry in scene.dump():
+        if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces):
+            meshes.append((np.asarray(geometry.vertices), np.asarray(geometry.faces)))
+        elif isinstance(geometry, trimesh.Trimesh | trimesh.PointCloud) and len(geometry.vertices):
+            clouds.append(np.asarray(geometry.vertices))
+    if meshes:
+        offsets = np.cumsum([0] + [len(v) for v, _ in meshes[:-1]])
+        vertices = np.concatenate([v for v, _ in meshes])
+        faces = np.concatenate(
+            [f.reshape(-1, 3) + o for (_, f), o in zip(meshes, offsets, strict=True)]
+        )
+        return RawGeometry(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))
+    if clouds:
+        return RawGeometry(np.concatenate(clouds).astype(np.float64), np.zeros((0, 3), np.int64))
+    return None
+
+
+def _drop_bad_faces(geometry: RawGeometry) -> RawGeometry:
+    """Remove triangles that index vertices outside the file (a corrupt face list)."""
+    faces = geometry.faces
+    valid = ((faces >= 0) & (faces < len(geometry.vertices))).all(axis=1)
+    if valid.all():
+        return geometry
+    return RawGeometry(geometry.vertices, faces[valid])
+
+
+def read_mesh(data: bytes, fmt: str) -> RawGeometry:
+    """Read a mesh (or a PLY point cloud) with trimesh.
+
+    Parameters
+    ----------
+    data : bytes
+        The whole file.
+    fmt : str
+        One of ``"stl"``, ``"obj"``, ``"off"``, ``"ply"``, ``"glb"``.
+
+    Returns
+    -------
+    RawGeometry
+        ``faces`` is empty when the file holds points only.
+
+    Raises
+    ------
+    InvalidShapeError
+        ``empty_file``, ``unparsable``, ``too_large``.
+    """
+    if fmt == "stl":
+        _check_stl(data)
+    elif fmt == "ply":
+        _check_ply(data)
+    geometry = _flatten(_load_scene(data, fmt))
+    if geometry is None:
+        raise _no_geometry(fmt, data)
+    if len(geometry.vertices) > MAX_PARSED_POINTS:
+        raise InvalidShapeError(
+            "too_large",
+            f"the mesh has {len(geometry.vertices):,} vertices, more than the "
+            f"{MAX_PARSED_POINTS:,} accepted: simplify the mesh before uploading it",
+        )
+    return _drop_bad_faces(geometry)
