@@ -15,6 +15,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from core.cutoff import CutoffResult, make_cutoff
 from core.descriptor import DescriptorSpec
@@ -24,7 +25,13 @@ from core.laplacian import build_laplacian
 from core.normalise import centre, unit_area_mass, unit_bbox_scale
 from core.settings import EngineSettings
 
-__all__ = ["Description", "describe", "describe_points"]
+__all__ = [
+    "Description",
+    "describe",
+    "describe_points",
+    "descriptor_from_eigenpairs",
+    "normalised_operators",
+]
 
 
 @dataclass
@@ -137,26 +144,69 @@ def describe_points(points: np.ndarray, settings: EngineSettings | None = None) 
     return description
 
 
-def _describe_loaded(
-    shape: LoadedShape, settings: EngineSettings, timings: dict[str, float]
-) -> Description:
-    points = centre(shape.points)
+def normalised_operators(
+    points: np.ndarray, settings: EngineSettings
+) -> tuple[np.ndarray, sp.csr_matrix, sp.csr_matrix]:
+    """Centre and scale ``points : (n, 3) float`` and build the Laplacian ``(L, M)``.
+
+    Returns the normalised points, the stiffness ``L`` and the mass ``M`` (trace 1 under
+    unit-area normalisation).
+    """
+    points = centre(points)
     if settings.normalisation == "bbox":
         points = points * unit_bbox_scale(points)
-    with pin_blas_threads(), _timed(timings, "laplacian"):
+    with pin_blas_threads():
         stiffness, mass = build_laplacian(points, method=settings.laplacian)
-        if settings.normalisation == "area":
-            points, mass = unit_area_mass(points, mass)
-    with pin_blas_threads(), _timed(timings, "eigensolve"):
-        solver = SpectralSolver(stiffness, mass)
-        cutoff = make_cutoff(settings.cutoff).select(solver)
-        eigenvalues, eigenvectors = solver.solve(cutoff.n)
+    if settings.normalisation == "area":
+        points, mass = unit_area_mass(points, mass)
+    return points, stiffness, sp.csr_matrix(mass)
+
+
+def descriptor_from_eigenpairs(
+    eigenvalues: np.ndarray,
+    eigenvectors: np.ndarray,
+    areas: np.ndarray,
+    settings: EngineSettings,
+    timings: dict[str, float] | None = None,
+) -> tuple[np.ndarray, np.ndarray, str]:
+    """Signature and descriptor from eigenpairs already computed.
+
+    Parameters
+    ----------
+    eigenvalues : (k,) float
+    eigenvectors : (n, k) float
+    areas : (n,) float
+        Diagonal of the mass matrix.
+
+    Returns
+    -------
+    signature : (n, s) float
+    descriptor : (d,) float32
+    descriptor_version : str
+    """
+    timings = {} if timings is None else timings
     spec = DescriptorSpec.from_settings(settings.descriptor)
-    areas = np.asarray(mass.diagonal(), dtype=np.float64)
     with _timed(timings, "signature"):
         signature = spec.signature(eigenvalues, eigenvectors)
     with _timed(timings, "descriptor"):
         descriptor = spec.histogram(signature, areas, eigenvalues)
+    return signature, descriptor, spec.version(settings)
+
+
+def _describe_loaded(
+    shape: LoadedShape, settings: EngineSettings, timings: dict[str, float]
+) -> Description:
+    with _timed(timings, "laplacian"):
+        points, stiffness, mass = normalised_operators(shape.points, settings)
+    with pin_blas_threads(), _timed(timings, "eigensolve"):
+        # One solver per model: the cutoff's rounds continue the spectrum it already has.
+        solver = SpectralSolver(stiffness, mass)
+        cutoff = make_cutoff(settings.cutoff).select(solver)
+        eigenvalues, eigenvectors = solver.solve(cutoff.n)
+    areas = np.asarray(mass.diagonal(), dtype=np.float64)
+    signature, descriptor, version = descriptor_from_eigenpairs(
+        eigenvalues, eigenvectors, areas, settings, timings
+    )
     return Description(
         points=points,
         format=shape.format,
@@ -165,6 +215,6 @@ def _describe_loaded(
         signature=signature,
         areas=areas / areas.sum(),
         descriptor=descriptor,
-        descriptor_version=spec.version(settings),
+        descriptor_version=version,
         timings=timings,
     )

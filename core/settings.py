@@ -37,7 +37,7 @@ class CutoffSettings:
             raise ValueError("cutoff xi must lie in (0, 1)")
         if self.t <= 0:
             raise ValueError("cutoff t must be positive")
-        if not 2 <= self.seed:
+        if self.seed < 2:
             raise ValueError("cutoff seed must be at least 2 eigenpairs")
         if not 1 <= self.n_min <= self.n_max:
             raise ValueError("cutoff needs 1 <= n_min <= n_max")

@@ -36,7 +36,10 @@ def test_hks_on_complete_multiplets_is_constant_and_matches_addition_theorem(sph
     times = np.array([0.01, 0.1, 1.0])
     hks = heat_kernel_signature(eigenvalues, eigenvectors, times)
     # Addition theorem: sum_m Y_lm(x)^2 = (2l + 1) / 4 pi at every point of the sphere.
-    expected = sum((2 * l + 1) / (4 * np.pi) * np.exp(-l * (l + 1) * times) for l in range(3))
+    expected = sum(
+        (2 * degree + 1) / (4 * np.pi) * np.exp(-degree * (degree + 1) * times)
+        for degree in range(3)
+    )
     np.testing.assert_allclose(hks, np.broadcast_to(expected, hks.shape), rtol=1e-12)
 
 

@@ -1,0 +1,128 @@
+"""``describe`` end to end: the invariances a search descriptor must have.
+
+Tolerances are documented here once. Distances are L2 between unit-norm descriptors (so in
+[0, 2]); ``SAME_SHAPE`` bounds the distance between two descriptions of one shape under a
+rigid motion, scaling or re-ordering, and the distance to a different part must be many
+times larger.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from core.errors import InvalidShapeError
+from core.pipeline import describe, describe_points
+from core.settings import EngineSettings
+
+FIXTURES = Path(__file__).parent / "fixtures" / "parts"
+SAME_SHAPE = 0.02  # observed up to ~1e-6 for exact rigid copies; re-ordering perturbs ARPACK's start
+SETTINGS = EngineSettings(max_points=3000)
+
+
+def distance(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a.astype(np.float64) - b.astype(np.float64)))
+
+
+def sampled_part(name: str, count: int, seed: int = 0) -> np.ndarray:
+    mesh = trimesh.load(FIXTURES / name, force="mesh")
+    points, _ = trimesh.sample.sample_surface(mesh, count, seed=seed)
+    return np.asarray(points)
+
+
+def random_rotation(seed: int) -> np.ndarray:
+    matrix, _ = np.linalg.qr(np.random.default_rng(seed).standard_normal((3, 3)))
+    return matrix * np.sign(np.linalg.det(matrix))
+
+
+@pytest.fixture(scope="module")
+def reference() -> tuple[np.ndarray, np.ndarray]:
+    points = sampled_part("idler_riser.STL", 3000)
+    return points, describe_points(points, SETTINGS).descriptor
+
+
+@pytest.fixture(scope="module")
+def other_part() -> np.ndarray:
+    return describe_points(sampled_part("teapot.stl", 3000), SETTINGS).descriptor
+
+
+@pytest.mark.parametrize(
+    "transform",
+    [
+        pytest.param(lambda p: p @ random_rotation(1).T, id="rotation"),
+        pytest.param(lambda p: p + np.array([120.0, -40.0, 7.5]), id="translation"),
+        pytest.param(lambda p: 3.7 * p, id="uniform-scale"),
+        pytest.param(lambda p: p[np.random.default_rng(2).permutation(len(p))], id="point-order"),
+        pytest.param(lambda p: 0.01 * (p @ random_rotation(3).T) - 5.0, id="all-at-once"),
+    ],
+)
+def test_descriptor_is_invariant(reference, other_part, transform) -> None:
+    points, descriptor = reference
+    moved = describe_points(transform(points), SETTINGS).descriptor
+    assert distance(moved, descriptor) < SAME_SHAPE
+    assert distance(other_part, descriptor) > 5 * SAME_SHAPE
+
+
+def test_describe_file_matches_describe_bytes() -> None:
+    path = FIXTURES / "angle_block.STL"
+    from_path = describe(path, SETTINGS)
+    from_bytes = describe(path.read_bytes(), SETTINGS, filename="angle_block.STL")
+    np.testing.assert_array_equal(from_path.descriptor, from_bytes.descriptor)
+    assert from_path.format == "stl"
+    assert from_path.n_points == 3000
+    assert set(from_path.timings) >= {"load", "laplacian", "eigensolve", "signature", "total"}
+
+
+def test_description_is_consistent() -> None:
+    description = describe(FIXTURES / "cylinder.stl", SETTINGS)
+    cutoff = description.cutoff
+    assert SETTINGS.cutoff.n_min <= cutoff.n <= SETTINGS.cutoff.n_max
+    assert description.eigenvalues.shape == (cutoff.n,)
+    assert cutoff.eigenvalues.size >= cutoff.n
+    assert np.all(np.diff(description.eigenvalues) >= -1e-9)
+    assert abs(description.eigenvalues[0]) < 1e-6  # the constant mode
+    assert description.areas.sum() == pytest.approx(1.0)
+    assert description.signature.shape[0] == description.n_points
+    # Unit area: Weyl's law puts lambda_n near 4 pi n for any surface.
+    weyl = description.eigenvalues[-1] / (4 * np.pi * (cutoff.n - 1))
+    assert 0.6 < weyl < 1.6
+
+
+def test_resampling_keeps_cutoff_and_descriptor() -> None:
+    settings = replace(SETTINGS, max_points=20000)
+    coarse = describe_points(sampled_part("idler_riser.STL", 5000, seed=11), settings)
+    fine = describe_points(sampled_part("idler_riser.STL", 20000, seed=12), settings)
+    others = [
+        describe_points(sampled_part(name, 5000, seed=13), settings).descriptor
+        for name in ("angle_block.STL", "plate_holes.STL", "cylinder.stl")
+    ]
+    assert abs(coarse.cutoff.n - fine.cutoff.n) <= 0.15 * max(coarse.cutoff.n, fine.cutoff.n)
+    same = distance(coarse.descriptor, fine.descriptor)
+    assert all(same < 0.5 * distance(coarse.descriptor, other) for other in others)
+
+
+def test_fixed_cutoff_uses_exactly_n() -> None:
+    from core.settings import CutoffSettings
+
+    settings = replace(SETTINGS, cutoff=CutoffSettings(mode="fixed", n=60))
+    description = describe(FIXTURES / "cylinder.stl", settings)
+    assert description.cutoff.n == 60
+    assert description.cutoff.solver_calls == 1
+    assert description.eigenvalues.shape == (60,)
+
+
+@pytest.mark.parametrize("content", [b"", b"not a mesh at all", b"1 2 3\nnan 4 5\n" * 200])
+def test_bad_input_raises_the_documented_error(content: bytes) -> None:
+    with pytest.raises(InvalidShapeError):
+        describe(content, SETTINGS, filename="upload.xyz")
+
+
+def test_degenerate_points_raise_the_documented_error() -> None:
+    line = np.outer(np.linspace(0, 1, 500), [1.0, 2.0, 3.0])
+    with pytest.raises(InvalidShapeError) as raised:
+        describe_points(line, SETTINGS)
+    assert raised.value.reason == "degenerate"
