@@ -82,6 +82,19 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--variants", nargs="*", default=None)
     evaluate.add_argument("--out", default="eval-out")
     evaluate.add_argument("--limit-per-class", type=int, default=None)
+    evaluate.add_argument(
+        "--scans", nargs="*", choices=("single", "multi"), default=(),
+        help="also query simulated scans (single view, three views) against the clean models",
+    )
+    evaluate.add_argument("--scan-variants", nargs="*", default=None,
+                          help="variants scored on scans (default: baseline, default, fixed)")
+    evaluate.add_argument("--resampling", nargs="*", type=int, default=(),
+                          help="point counts of the resampling study, e.g. 5000 10000 20000")
+    evaluate.add_argument("--resampling-per-class", type=int, default=4,
+                          help="models per class in the resampling study (seeded subset)")
+    evaluate.add_argument("--timing-models", type=int, default=0,
+                          help="models on which each cutoff is also timed with its own solver")
+    evaluate.add_argument("--no-cache", action="store_true", help="do not read or write OUT/cache")
     evaluate.set_defaults(handler=_eval)
     return parser
 

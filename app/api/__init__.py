@@ -1,0 +1,1 @@
+"""The HTTP API (v1): ``create_app(settings)`` in ``app.api.main``."""

@@ -1,0 +1,43 @@
+"""What routes need from the app: its services, a database session."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Annotated
+
+from fastapi import Depends, Request
+from sqlalchemy import Engine
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.index import ShapeIndex
+from app.settings import Settings
+from core.settings import EngineSettings
+
+__all__ = ["ServicesDep", "Services", "SessionDep", "get_services", "get_session"]
+
+
+@dataclass
+class Services:
+    """Everything one app instance owns; created by its lifespan, kept on ``app.state``."""
+
+    settings: Settings
+    engine_settings: EngineSettings
+    engine: Engine
+    sessions: sessionmaker[Session]
+    index: ShapeIndex
+
+
+def get_services(request: Request) -> Services:
+    return request.app.state.services
+
+
+ServicesDep = Annotated[Services, Depends(get_services)]
+
+
+def get_session(services: ServicesDep) -> Iterator[Session]:
+    with services.sessions() as session:
+        yield session
+
+
+SessionDep = Annotated[Session, Depends(get_session)]

@@ -1,0 +1,110 @@
+"""``create_app(settings)``: one independent API instance with everything it owns.
+
+The lifespan applies the migrations, builds the search index from the database, starts the
+thread that follows the change feed and, when asked, the embedded workers; on shutdown it
+stops them (running jobs finish within the grace time or are released).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+
+from app.api import routes_health, routes_jobs, routes_models, routes_search
+from app.api.deps import Services
+from app.api.limits import BodySizeLimit
+from app.api.problems import install_problem_handlers
+from app.db.migrate import upgrade
+from app.db.session import make_engine, make_session_factory
+from app.describing import pin_blas_threads
+from app.index import ShapeIndex
+from app.settings import Settings, engine_settings
+from app.worker import JobHandler, WorkerPool, describe_handler, make_queue
+
+__all__ = ["create_app"]
+
+log = logging.getLogger("shapesearch.api")
+
+# Room for the multipart envelope and the form fields around the file itself.
+_FORM_OVERHEAD_BYTES = 64 * 1024
+
+
+def _follow_feed(index: ShapeIndex, interval: float, stop: threading.Event) -> None:
+    while not stop.wait(interval):
+        try:
+            index.sync()
+        except Exception:
+            log.exception("index sync failed; retrying")
+
+
+def create_app(
+    settings: Settings | None = None,
+    *,
+    embedded_worker: bool = False,
+    job_handler: JobHandler | None = None,
+) -> FastAPI:
+    """Build an app. ``embedded_worker`` runs ``settings.workers`` worker threads inside it;
+    ``job_handler`` replaces the describe step (tests)."""
+    settings = settings or Settings()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        pin_blas_threads()
+        engine = make_engine(settings.resolved_database_url)
+        upgrade(engine)
+        sessions = make_session_factory(engine)
+        index = ShapeIndex(sessions)
+        index.rebuild()
+        app.state.services = Services(
+            settings=settings,
+            engine_settings=engine_settings(settings),
+            engine=engine,
+            sessions=sessions,
+            index=index,
+        )
+        stop = threading.Event()
+        follower = threading.Thread(
+            target=_follow_feed,
+            args=(index, settings.index_sync_interval, stop),
+            name="index-sync",
+            daemon=True,
+        )
+        follower.start()
+        pool = None
+        if embedded_worker and settings.workers > 0:
+            pool = WorkerPool(
+                make_queue(settings, sessions),
+                job_handler or describe_handler(settings),
+                count=settings.workers,
+                poll_interval=settings.poll_interval,
+                on_done=index.sync,  # a finished job is searchable at once in this process
+            )
+            pool.start()
+        try:
+            yield
+        finally:
+            if pool is not None:
+                pool.stop(settings.shutdown_grace_seconds)
+            stop.set()
+            follower.join()
+            engine.dispose()
+
+    app = FastAPI(
+        title="shapesearch",
+        version="1",
+        summary="Shape-similarity search for engineering parts.",
+        description="Upload meshes and scans; a worker computes a spectral shape descriptor; "
+        "ask for the most similar parts. Errors are RFC 9457 application/problem+json.",
+        lifespan=lifespan,
+    )
+    install_problem_handlers(app)
+    app.add_middleware(
+        BodySizeLimit, max_body_bytes=settings.max_upload_bytes + _FORM_OVERHEAD_BYTES
+    )
+    for module in (routes_models, routes_search, routes_jobs, routes_health):
+        app.include_router(module.router)
+    return app

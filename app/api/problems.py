@@ -1,0 +1,153 @@
+"""RFC 9457 problem details for every error the API returns.
+
+``Problem`` is raised by the routes; the handlers installed by ``install_problem_handlers``
+also turn Starlette's HTTP errors (404 of unknown routes, 405, ...), FastAPI's validation
+errors (422) and unexpected exceptions (500) into ``application/problem+json`` with
+``type``, ``title``, ``status`` and ``detail``.
+
+Types: ``about:blank`` when the status code says it all, otherwise
+``urn:shapesearch:problem:<slug>`` (e.g. ``too-few-points``, ``duplicate-external-id``).
+"""
+
+from __future__ import annotations
+
+import logging
+from http import HTTPStatus
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.encoders import jsonable_encoder
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+__all__ = [
+    "PROBLEM_JSON",
+    "Problem",
+    "install_problem_handlers",
+    "problem_response",
+    "problem_responses",
+    "problem_type",
+]
+
+PROBLEM_JSON = "application/problem+json"
+
+log = logging.getLogger("shapesearch.api")
+
+
+_MEANINGS = {
+    401: "No or invalid API key",
+    404: "No such model or job (for this tenant)",
+    409: "Conflict with the current state",
+    413: "Upload larger than the limit",
+    415: "Unknown file format",
+    422: "Invalid request or shape file",
+    503: "Not ready, or the shape could not be described this time",
+}
+
+
+def problem_responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI ``responses`` entries documenting problem+json bodies for ``statuses``."""
+    schema = {
+        "type": "object",
+        "required": ["type", "title", "status", "detail"],
+        "properties": {
+            "type": {"type": "string"},
+            "title": {"type": "string"},
+            "status": {"type": "integer"},
+            "detail": {"type": "string"},
+        },
+    }
+    return {
+        status: {"description": _MEANINGS[status], "content": {PROBLEM_JSON: {"schema": schema}}}
+        for status in statuses
+    }
+
+
+def problem_type(slug: str) -> str:
+    return f"urn:shapesearch:problem:{slug}"
+
+
+class Problem(StarletteHTTPException):
+    """An error response. A Starlette ``HTTPException`` so that it passes unchanged through
+    FastAPI's request-body parsing (the upload size limit is raised from there)."""
+
+    def __init__(
+        self,
+        status: int,
+        detail: str,
+        *,
+        slug: str | None = None,
+        title: str | None = None,
+        headers: dict[str, str] | None = None,
+        **extensions: Any,
+    ) -> None:
+        super().__init__(status_code=status, detail=detail, headers=headers)
+        self.type = problem_type(slug) if slug else "about:blank"
+        self.title = title or HTTPStatus(status).phrase
+        self.extensions = extensions
+
+
+def problem_response(
+    status: int,
+    detail: str,
+    *,
+    type: str = "about:blank",
+    title: str | None = None,
+    headers: dict[str, str] | None = None,
+    **extensions: Any,
+) -> JSONResponse:
+    body = {
+        "type": type,
+        "title": title or HTTPStatus(status).phrase,
+        "status": status,
+        "detail": detail,
+        **extensions,
+    }
+    return JSONResponse(
+        jsonable_encoder(body), status_code=status, media_type=PROBLEM_JSON, headers=headers
+    )
+
+
+async def _on_problem(_request: Request, exc: Exception) -> JSONResponse:
+    assert isinstance(exc, StarletteHTTPException)
+    if isinstance(exc, Problem):
+        return problem_response(
+            exc.status_code,
+            str(exc.detail),
+            type=exc.type,
+            title=exc.title,
+            headers=exc.headers,
+            **exc.extensions,
+        )
+    detail = exc.detail if isinstance(exc.detail, str) else HTTPStatus(exc.status_code).phrase
+    return problem_response(exc.status_code, detail, headers=exc.headers)
+
+
+async def _on_validation(_request: Request, exc: Exception) -> JSONResponse:
+    assert isinstance(exc, RequestValidationError)
+    errors = [
+        {"loc": list(error.get("loc", ())), "msg": error.get("msg", ""), "type": error.get("type")}
+        for error in exc.errors()
+    ]
+    detail = "; ".join(
+        f"{'.'.join(str(part) for part in error['loc'])}: {error['msg']}" for error in errors
+    )
+    return problem_response(
+        422,
+        detail or "The request is not valid.",
+        type=problem_type("validation-error"),
+        title="Invalid request",
+        errors=errors,
+    )
+
+
+async def _on_unexpected(_request: Request, exc: Exception) -> JSONResponse:
+    log.exception("unhandled error", exc_info=exc)
+    return problem_response(500, "An unexpected error occurred; it has been logged.")
+
+
+def install_problem_handlers(app: FastAPI) -> None:
+    app.add_exception_handler(StarletteHTTPException, _on_problem)
+    app.add_exception_handler(RequestValidationError, _on_validation)
+    app.add_exception_handler(Exception, _on_unexpected)

@@ -1,0 +1,318 @@
+"""/v1/models: upload, read, list, change and delete models; /v1/models/{id}/similar."""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import json
+import uuid
+from datetime import datetime
+from typing import Annotated, Any
+
+import numpy as np
+from fastapi import APIRouter, Depends, File, Form, Query, Request, Response, UploadFile
+from sqlalchemy import and_, delete, or_, select, update
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session, undefer
+
+from app.api.auth import TenantDep
+from app.api.deps import ServicesDep, SessionDep
+from app.api.problems import Problem, problem_responses
+from app.api.schemas import (
+    ModelList,
+    ModelPatch,
+    ModelResource,
+    ModelStatus,
+    SimilarQuery,
+    SimilarResponse,
+    SimilarResult,
+    model_resource,
+    model_summary,
+)
+from app.api.uploads import read_checked_upload
+from app.db.feed import record_event
+from app.db.models import Job, Model, Upload, utcnow
+from app.similarity import find_similar
+
+__all__ = ["load_model", "metadata_filters", "router"]
+
+router = APIRouter(prefix="/v1", tags=["models"])
+
+
+def _uuid_or_none(text: str) -> uuid.UUID | None:
+    try:
+        return uuid.UUID(text)
+    except ValueError:
+        return None
+
+
+def _not_found(model_id: str) -> Problem:
+    return Problem(404, f"There is no model {model_id}.", slug="model-not-found")
+
+
+def load_model(session: Session, tenant: str, model_id: str, *, descriptor: bool = False) -> Model:
+    """The tenant's model ``model_id``, or 404 (also for ids that are not UUIDs)."""
+    parsed = _uuid_or_none(model_id)
+    query = select(Model).where(Model.id == parsed, Model.tenant == tenant)
+    if descriptor:
+        query = query.options(undefer(Model.descriptor))
+    model = session.scalar(query) if parsed is not None else None
+    if model is None:
+        raise _not_found(model_id)
+    return model
+
+
+def _parse_metadata(text: str | None) -> dict[str, Any]:
+    if text is None or text == "":
+        return {}
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise Problem(
+            422, f"metadata is not valid JSON: {error}", slug="invalid-metadata"
+        ) from error
+    if not isinstance(value, dict):
+        raise Problem(422, "metadata must be a JSON object.", slug="invalid-metadata")
+    return value
+
+
+def _duplicate(session: Session, tenant: str, external_id: str) -> Problem | None:
+    existing = session.scalar(
+        select(Model.id).where(Model.tenant == tenant, Model.external_id == external_id)
+    )
+    if existing is None:
+        return None
+    return Problem(
+        409,
+        f"external_id {external_id!r} is already used by model {existing}.",
+        slug="duplicate-external-id",
+        existing_id=str(existing),
+    )
+
+
+@router.post(
+    "/models",
+    status_code=202,
+    response_model=ModelResource,
+    responses=problem_responses(401, 409, 413, 415, 422),
+    summary="Upload a part; it is described in the background",
+)
+def create_model(
+    response: Response,
+    file: Annotated[
+        UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
+    ],
+    tenant: TenantDep,
+    services: ServicesDep,
+    external_id: Annotated[str | None, Form(max_length=500)] = None,
+    name: Annotated[str | None, Form(max_length=500)] = None,
+    metadata: Annotated[str | None, Form(description="A JSON object, as a string.")] = None,
+) -> ModelResource:
+    meta = _parse_metadata(metadata)
+    upload = read_checked_upload(file.file, file.filename, services.settings)
+    model = Model(
+        id=uuid.uuid4(),
+        tenant=tenant,
+        external_id=external_id,
+        name=name,
+        meta=meta,
+        status="queued",
+        file_name=upload.filename,
+        file_size=len(upload.content),
+        file_sha256=upload.sha256,
+        file_format=upload.format,
+    )
+    try:
+        # The model, its bytes and its job commit together: no accepted upload without a job.
+        with services.sessions.begin() as session:
+            session.add(model)
+            session.flush()
+            session.add(Upload(model_id=model.id, content=upload.content))
+            session.add(Job(model_id=model.id, tenant=tenant, status="queued", attempts=0))
+    except IntegrityError as error:  # the unique (tenant, external_id) constraint
+        with services.sessions() as session:
+            problem = _duplicate(session, tenant, external_id) if external_id else None
+        if problem is None:
+            raise
+        raise problem from error
+    response.headers["Location"] = f"/v1/models/{model.id}"
+    return model_resource(model)
+
+
+def _encode_cursor(model: Model) -> str:
+    raw = json.dumps([model.created_at.isoformat(), str(model.id)]).encode()
+    return base64.urlsafe_b64encode(raw).decode().rstrip("=")
+
+
+def _decode_cursor(cursor: str) -> tuple[datetime, uuid.UUID]:
+    try:
+        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
+        created_at, model_id = json.loads(raw)
+        return datetime.fromisoformat(created_at), uuid.UUID(model_id)
+    except (ValueError, TypeError, binascii.Error) as error:
+        raise Problem(
+            422, "cursor is not valid; pass next_cursor unchanged.", slug="invalid-cursor"
+        ) from error
+
+
+@router.get(
+    "/models",
+    response_model=ModelList,
+    responses=problem_responses(401, 422),
+    summary="List models, newest first",
+)
+def list_models(
+    tenant: TenantDep,
+    session: SessionDep,
+    status: ModelStatus | None = None,
+    external_id: str | None = None,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    cursor: Annotated[str | None, Query(description="next_cursor of the previous page")] = None,
+) -> ModelList:
+    query = select(Model).where(Model.tenant == tenant)
+    if status is not None:
+        query = query.where(Model.status == status)
+    if external_id is not None:
+        query = query.where(Model.external_id == external_id)
+    if cursor is not None:
+        created_at, model_id = _decode_cursor(cursor)
+        # Keyset pagination on (created_at, id): stable while models come and go.
+        query = query.where(
+            or_(
+                Model.created_at < created_at,
+                and_(Model.created_at == created_at, Model.id < model_id),
+            )
+        )
+    rows = session.scalars(
+        query.order_by(Model.created_at.desc(), Model.id.desc()).limit(limit + 1)
+    ).all()
+    page = rows[:limit]
+    next_cursor = _encode_cursor(page[-1]) if len(rows) > limit else None
+    return ModelList(items=[model_resource(m) for m in page], next_cursor=next_cursor)
+
+
+@router.get(
+    "/models/{model_id}",
+    response_model=ModelResource,
+    responses=problem_responses(401, 404),
+    summary="One model",
+)
+def get_model(
+    model_id: str,
+    tenant: TenantDep,
+    session: SessionDep,
+) -> ModelResource:
+    return model_resource(load_model(session, tenant, model_id))
+
+
+@router.patch(
+    "/models/{model_id}",
+    response_model=ModelResource,
+    responses=problem_responses(401, 404, 422),
+    summary="Change the name or the metadata",
+)
+def patch_model(
+    model_id: str,
+    patch: ModelPatch,
+    tenant: TenantDep,
+    services: ServicesDep,
+) -> ModelResource:
+    changes: dict[str, Any] = {"updated_at": utcnow()}
+    if "name" in patch.model_fields_set:
+        changes["name"] = patch.name
+    if "metadata" in patch.model_fields_set:
+        changes["meta"] = patch.metadata or {}
+    model_uuid = _uuid_or_none(model_id)
+    with services.sessions.begin() as session:
+        model = session.scalar(
+            update(Model)
+            .where(Model.id == model_uuid, Model.tenant == tenant)
+            .values(**changes)
+            .returning(Model)
+        )
+    if model is None:
+        raise _not_found(model_id)
+    return model_resource(model)
+
+
+@router.delete(
+    "/models/{model_id}",
+    status_code=204,
+    response_class=Response,
+    responses=problem_responses(401, 404),
+    summary="Delete a model; it leaves search results at once",
+)
+def delete_model(
+    model_id: str,
+    tenant: TenantDep,
+    services: ServicesDep,
+) -> Response:
+    model_uuid = _uuid_or_none(model_id)
+    with services.sessions.begin() as session:
+        # The upload and the job go with it (ON DELETE CASCADE).
+        index_id = session.scalar(
+            delete(Model)
+            .where(Model.id == model_uuid, Model.tenant == tenant)
+            .returning(Model.index_id)
+        )
+        if index_id is None:
+            raise _not_found(model_id)
+        record_event(session, index_id, "deleted")  # other processes follow the feed
+    services.index.remove(index_id)  # this process: at once
+    return Response(status_code=204)
+
+
+def metadata_filters(request: Request) -> dict[str, str]:
+    """``metadata.KEY=VALUE`` query parameters as {KEY: VALUE}."""
+    return {
+        key.removeprefix("metadata."): value
+        for key, value in request.query_params.items()
+        if key.startswith("metadata.") and len(key) > len("metadata.")
+    }
+
+
+@router.get(
+    "/models/{model_id}/similar",
+    response_model=SimilarResponse,
+    responses=problem_responses(401, 404, 409, 422),
+    summary="The models most similar to a ready model",
+    description="Best first, the model itself left out. Filter on metadata with query "
+    "parameters `metadata.KEY=VALUE` (string values compare as text, others by their JSON "
+    "form, e.g. `metadata.qty=3`); filters apply before the top-k cut. "
+    "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite.",
+)
+def similar_models(
+    model_id: str,
+    filters: Annotated[dict[str, str], Depends(metadata_filters)],
+    tenant: TenantDep,
+    services: ServicesDep,
+    session: SessionDep,
+    k: Annotated[int, Query(ge=1, le=100)] = 10,
+    min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
+) -> SimilarResponse:
+    model = load_model(session, tenant, model_id, descriptor=True)
+    if model.status != "ready" or model.descriptor is None or model.descriptor_version is None:
+        raise Problem(
+            409,
+            f"Model {model.id} is {model.status}; similarity needs a ready model.",
+            slug="model-not-ready",
+            model_status=model.status,
+        )
+    services.index.sync()  # pick up what other processes changed since the last poll
+    matches = find_similar(
+        services.index,
+        session,
+        (tenant, model.descriptor_version),
+        np.frombuffer(model.descriptor, dtype=np.float32),
+        k=k,
+        min_score=min_score,
+        filters=filters,
+        exclude=model.index_id,
+    )
+    return SimilarResponse(
+        query=SimilarQuery(model_id=model.id),
+        results=[
+            SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
+            for m in matches
+        ],
+    )

@@ -1,0 +1,82 @@
+"""POST /v1/search: describe an uploaded scan now and return the most similar models."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Depends, File, Query, UploadFile
+
+from app.api.auth import TenantDep
+from app.api.deps import ServicesDep, SessionDep
+from app.api.problems import Problem, problem_responses
+from app.api.routes_models import metadata_filters
+from app.api.schemas import (
+    SearchQuery,
+    SearchResponse,
+    SimilarResult,
+    cutoff_info,
+    model_summary,
+)
+from app.api.uploads import invalid_shape_problem, read_checked_upload
+from app.describing import cutoff_record, describe_upload
+from app.similarity import find_similar
+from core.errors import InvalidShapeError, SolverError
+
+__all__ = ["router"]
+
+router = APIRouter(prefix="/v1", tags=["search"])
+
+
+@router.post(
+    "/search",
+    response_model=SearchResponse,
+    responses=problem_responses(401, 413, 415, 422, 503),
+    summary="Find the models most similar to an uploaded scan (nothing is stored)",
+    description="The scan is described synchronously, which takes seconds. Same filters and "
+    "score as /v1/models/{id}/similar.",
+)
+def search(
+    file: Annotated[
+        UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
+    ],
+    filters: Annotated[dict[str, str], Depends(metadata_filters)],
+    tenant: TenantDep,
+    services: ServicesDep,
+    session: SessionDep,
+    k: Annotated[int, Query(ge=1, le=100)] = 10,
+    min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
+) -> SearchResponse:
+    upload = read_checked_upload(file.file, file.filename, services.settings)
+    try:
+        # A sync route runs in the threadpool, so describing does not block the event loop.
+        description = describe_upload(upload.content, upload.filename, services.engine_settings)
+    except InvalidShapeError as error:
+        raise invalid_shape_problem(error) from error
+    except SolverError as error:
+        raise Problem(
+            503, f"The shape could not be described this time: {error}", slug="solver-error"
+        ) from error
+    services.index.sync()
+    matches = find_similar(
+        services.index,
+        session,
+        (tenant, description.descriptor_version),
+        description.descriptor,
+        k=k,
+        min_score=min_score,
+        filters=filters,
+    )
+    cutoff = cutoff_info(cutoff_record(description))
+    assert cutoff is not None
+    return SearchResponse(
+        query=SearchQuery(
+            n_points=description.n_points,
+            cutoff=cutoff,
+            descriptor_version=description.descriptor_version,
+            format=description.format,
+        ),
+        results=[
+            SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
+            for m in matches
+        ],
+    )

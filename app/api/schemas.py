@@ -1,0 +1,207 @@
+"""Request and response bodies of the v1 API, and their construction from table rows."""
+
+from __future__ import annotations
+
+import uuid
+from datetime import datetime
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from app.db.models import Job, Model
+
+__all__ = [
+    "CutoffInfo",
+    "FileInfo",
+    "Health",
+    "JobResource",
+    "ModelError",
+    "ModelList",
+    "ModelPatch",
+    "ModelResource",
+    "ModelSummary",
+    "SearchQuery",
+    "SearchResponse",
+    "SimilarQuery",
+    "SimilarResponse",
+    "SimilarResult",
+    "cutoff_info",
+    "job_resource",
+    "model_resource",
+    "model_summary",
+]
+
+ModelStatus = Literal["queued", "processing", "ready", "failed"]
+
+
+class ModelError(BaseModel):
+    """Why a model failed: a problem type, a title and a detail a user can act on."""
+
+    type: str
+    title: str
+    detail: str
+
+
+class FileInfo(BaseModel):
+    filename: str
+    size: int = Field(description="Bytes.")
+    sha256: str
+    format: str = Field(description="Detected file format, e.g. stl, ply, obj, off.")
+
+
+class CutoffInfo(BaseModel):
+    """How many eigenpairs the model got, and how the cutoff decided."""
+
+    mode: str
+    n: int
+    solver_calls: int
+    xi: float | None = None
+    t: float | None = None
+    n_min: int | None = None
+    n_max: int | None = None
+
+
+class ModelResource(BaseModel):
+    id: uuid.UUID
+    external_id: str | None
+    name: str | None
+    metadata: dict[str, Any]
+    status: ModelStatus
+    error: ModelError | None
+    file: FileInfo
+    n_points: int | None
+    cutoff: CutoffInfo | None
+    descriptor_version: str | None
+    timings: dict[str, float] | None = Field(description="Seconds per stage of the description.")
+    created_at: datetime
+    updated_at: datetime
+
+
+class ModelList(BaseModel):
+    items: list[ModelResource]
+    next_cursor: str | None = Field(description="Pass as `cursor` for the next page; null: last.")
+
+
+class ModelPatch(BaseModel):
+    """Fields to change; absent fields stay as they are."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str | None = Field(default=None, max_length=500)
+    metadata: dict[str, Any] | None = Field(default=None, description="Replaces the metadata.")
+
+    @field_validator("metadata")
+    @classmethod
+    def _metadata_not_null(cls, value: dict[str, Any] | None) -> dict[str, Any] | None:
+        if value is None:
+            raise ValueError("metadata must be a JSON object; send {} to clear it")
+        return value
+
+
+class ModelSummary(BaseModel):
+    id: uuid.UUID
+    external_id: str | None
+    name: str | None
+    metadata: dict[str, Any]
+
+
+class SimilarResult(BaseModel):
+    model: ModelSummary
+    distance: float = Field(description="L2 distance between the unit descriptors, in [0, 2].")
+    score: float = Field(description="1 - distance^2 / 4, in [0, 1]; 1 for identical descriptors.")
+
+
+class SimilarQuery(BaseModel):
+    model_id: uuid.UUID
+
+
+class SimilarResponse(BaseModel):
+    query: SimilarQuery
+    results: list[SimilarResult] = Field(description="Best first.")
+
+
+class SearchQuery(BaseModel):
+    """The uploaded scan as described for the search (nothing is stored)."""
+
+    n_points: int
+    cutoff: CutoffInfo
+    descriptor_version: str
+    format: str
+
+
+class SearchResponse(BaseModel):
+    query: SearchQuery
+    results: list[SimilarResult] = Field(description="Best first.")
+
+
+class JobResource(BaseModel):
+    id: uuid.UUID
+    model_id: uuid.UUID
+    status: Literal["queued", "running", "done", "failed"]
+    attempts: int
+    last_error: ModelError | None
+    leased_until: datetime | None
+    created_at: datetime
+    updated_at: datetime
+
+
+class Health(BaseModel):
+    status: str
+    checks: dict[str, str] | None = None
+
+
+def cutoff_info(record: dict[str, Any] | None) -> CutoffInfo | None:
+    if not record:
+        return None
+    params = record.get("params") or {}
+    return CutoffInfo(
+        mode=record["mode"],
+        n=record["n"],
+        solver_calls=record["solver_calls"],
+        xi=params.get("xi"),
+        t=params.get("t"),
+        n_min=params.get("n_min"),
+        n_max=params.get("n_max"),
+    )
+
+
+def model_resource(model: Model) -> ModelResource:
+    return ModelResource(
+        id=model.id,
+        external_id=model.external_id,
+        name=model.name,
+        metadata=model.meta or {},
+        status=model.status,  # type: ignore[arg-type]
+        error=ModelError(**model.error) if model.error else None,
+        file=FileInfo(
+            filename=model.file_name,
+            size=model.file_size,
+            sha256=model.file_sha256,
+            format=model.file_format,
+        ),
+        n_points=model.n_points,
+        cutoff=cutoff_info(model.cutoff),
+        descriptor_version=model.descriptor_version,
+        timings=model.timings,
+        created_at=model.created_at,
+        updated_at=model.updated_at,
+    )
+
+
+def model_summary(model: Model) -> ModelSummary:
+    return ModelSummary(
+        id=model.id, external_id=model.external_id, name=model.name, metadata=model.meta or {}
+    )
+
+
+def job_resource(job: Job) -> JobResource:
+    return JobResource(
+        id=job.id,
+        model_id=job.model_id,
+        status=job.status,  # type: ignore[arg-type]
+        attempts=job.attempts,
+        last_error=ModelError(**job.last_error) if job.last_error else None,
+        leased_until=job.leased_until,
+        created_at=job.created_at,
+        updated_at=job.updated_at,
+    )

@@ -1,0 +1,54 @@
+"""Apply the Alembic migrations shipped inside the ``migrations`` package.
+
+Run at start-up by every process; on PostgreSQL an advisory lock makes concurrent
+start-ups take turns instead of racing to create the same tables.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from alembic import command
+from alembic.config import Config
+from alembic.runtime.migration import MigrationContext
+from alembic.script import ScriptDirectory
+from sqlalchemy import Engine, text
+
+import migrations
+
+__all__ = ["alembic_config", "is_at_head", "upgrade"]
+
+_MIGRATION_LOCK = 0x5348_4150  # arbitrary, constant: "SHAP"
+
+
+def alembic_config() -> Config:
+    package = Path(migrations.__file__).parent
+    config = Config(str(package / "alembic.ini"))
+    config.set_main_option("script_location", str(package))
+    return config
+
+
+def upgrade(engine: Engine) -> None:
+    """Bring the database schema to the latest revision."""
+    config = alembic_config()
+    with engine.connect() as connection:
+        postgres = connection.dialect.name == "postgresql"
+        if postgres:
+            connection.execute(text("SELECT pg_advisory_lock(:k)"), {"k": _MIGRATION_LOCK})
+            connection.commit()
+        try:
+            config.attributes["connection"] = connection
+            command.upgrade(config, "head")
+            connection.commit()
+        finally:
+            if postgres:
+                connection.execute(text("SELECT pg_advisory_unlock(:k)"), {"k": _MIGRATION_LOCK})
+                connection.commit()
+
+
+def is_at_head(engine: Engine) -> bool:
+    """Whether the database is at the newest migration this code knows."""
+    head = ScriptDirectory.from_config(alembic_config()).get_current_head()
+    with engine.connect() as connection:
+        current = MigrationContext.configure(connection).get_current_revision()
+    return current == head

@@ -1,0 +1,242 @@
+"""The job queue, kept in the ``jobs`` table of the service database.
+
+A worker *claims* a due job, which gives it a lease: ``worker_id``, the ``attempts``
+number of this claim and ``leased_until``. It renews the lease while it works and ends the
+claim with exactly one of ``complete``, ``fail``, ``retry`` or ``release``. Every one of
+those is guarded by (job id, worker id, attempts, status running): a worker whose lease
+expired and was taken over changes nothing.
+
+Claiming is one statement:
+
+    UPDATE jobs SET status='running', worker_id=:w, attempts=attempts+1, leased_until=...
+    WHERE id = (SELECT id FROM jobs
+                WHERE (status='queued' AND run_after <= :now)
+                   OR (status='running' AND leased_until < :now)     -- its worker died
+                ORDER BY run_after LIMIT 1
+                FOR UPDATE SKIP LOCKED)                              -- PostgreSQL only
+    RETURNING id, model_id, attempts
+
+On PostgreSQL ``SKIP LOCKED`` lets concurrent workers pass over each other's candidate
+rows; SQLite has a single writer, so the statement is atomic as it stands.
+
+Times come from the workers' clocks (UTC); hosts are expected to run NTP, and the lease is
+long compared with any plausible skew.
+"""
+
+from __future__ import annotations
+
+import uuid
+from dataclasses import dataclass
+from datetime import timedelta
+from typing import Any
+
+from sqlalchemy import and_, or_, select, update
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.db.feed import record_event
+from app.db.models import Job, Model, Upload, utcnow
+
+__all__ = ["Claim", "JobQueue", "backoff_seconds"]
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One worker's hold on one job."""
+
+    job_id: uuid.UUID
+    model_id: uuid.UUID
+    worker_id: str
+    attempts: int
+
+
+def backoff_seconds(attempts: int, base: float, cap: float) -> float:
+    """Delay before retry number ``attempts``: base, 2*base, 4*base, ... capped."""
+    return min(cap, base * 2 ** max(0, attempts - 1))
+
+
+class JobQueue:
+    """Claim, renew and finish jobs; every method is one short transaction."""
+
+    def __init__(
+        self,
+        sessions: sessionmaker[Session],
+        *,
+        lease_seconds: float,
+        max_attempts: int,
+        backoff_base: float = 5.0,
+        backoff_cap: float = 300.0,
+    ) -> None:
+        self.sessions = sessions
+        self.lease = timedelta(seconds=lease_seconds)
+        self.max_attempts = max_attempts
+        self.backoff_base = backoff_base
+        self.backoff_cap = backoff_cap
+
+    # --- claiming ---------------------------------------------------------------------
+
+    def claim(self, worker_id: str) -> Claim | None:
+        """Take the next due job (or one whose lease expired), or None if there is none."""
+        now = utcnow()
+        due = (
+            select(Job.id)
+            .where(
+                or_(
+                    and_(Job.status == "queued", Job.run_after <= now),
+                    and_(Job.status == "running", Job.leased_until < now),
+                )
+            )
+            .order_by(Job.run_after)
+            .limit(1)
+            .with_for_update(skip_locked=True)  # rendered on PostgreSQL, ignored by SQLite
+            .scalar_subquery()
+        )
+        with self.sessions.begin() as session:
+            row = session.execute(
+                update(Job)
+                .where(Job.id == due)
+                .values(
+                    status="running",
+                    worker_id=worker_id,
+                    attempts=Job.attempts + 1,
+                    leased_until=now + self.lease,
+                    updated_at=now,
+                )
+                .returning(Job.id, Job.model_id, Job.attempts)
+            ).one_or_none()
+            if row is None:
+                return None
+            session.execute(
+                update(Model)
+                .where(Model.id == row.model_id)
+                .values(status="processing", updated_at=now)
+            )
+        return Claim(
+            job_id=row.id, model_id=row.model_id, worker_id=worker_id, attempts=row.attempts
+        )
+
+    def _held(self, claim: Claim) -> Any:
+        """WHERE clause true only while ``claim`` still holds its job."""
+        return and_(
+            Job.id == claim.job_id,
+            Job.status == "running",
+            Job.worker_id == claim.worker_id,
+            Job.attempts == claim.attempts,
+        )
+
+    def renew(self, claim: Claim) -> bool:
+        """Extend the lease; False if the job was taken over, released or deleted."""
+        now = utcnow()
+        with self.sessions.begin() as session:
+            result = session.execute(
+                update(Job).where(self._held(claim)).values(leased_until=now + self.lease)
+            )
+            return result.rowcount == 1
+
+    # --- ending a claim ---------------------------------------------------------------
+
+    def complete(self, claim: Claim, result: dict[str, Any]) -> bool:
+        """Store the description and mark the model ready, in one transaction.
+
+        ``result`` holds the Model columns to write (descriptor, cutoff, ...). Returns False,
+        writing nothing, when the claim no longer holds the job.
+        """
+        now = utcnow()
+        with self.sessions.begin() as session:
+            done = session.execute(
+                update(Job)
+                .where(self._held(claim))
+                .values(status="done", leased_until=None, last_error=None, updated_at=now)
+            )
+            if done.rowcount != 1:
+                return False
+            index_id = session.execute(
+                update(Model)
+                .where(Model.id == claim.model_id)
+                .values(status="ready", error=None, updated_at=now, **result)
+                .returning(Model.index_id)
+            ).scalar_one()
+            record_event(session, index_id, "ready")
+        return True
+
+    def fail(self, claim: Claim, error: dict[str, Any]) -> bool:
+        """Give up on the job: the model is failed with ``error`` ({type, title, detail})."""
+        now = utcnow()
+        with self.sessions.begin() as session:
+            failed = session.execute(
+                update(Job)
+                .where(self._held(claim))
+                .values(status="failed", leased_until=None, last_error=error, updated_at=now)
+            )
+            if failed.rowcount != 1:
+                return False
+            session.execute(
+                update(Model)
+                .where(Model.id == claim.model_id)
+                .values(status="failed", error=error, updated_at=now)
+            )
+        return True
+
+    def retry(self, claim: Claim, error: dict[str, Any]) -> bool:
+        """Put the job back with exponential backoff, or fail it when attempts are spent."""
+        if claim.attempts >= self.max_attempts:
+            return self.fail(claim, error)
+        now = utcnow()
+        delay = backoff_seconds(claim.attempts, self.backoff_base, self.backoff_cap)
+        with self.sessions.begin() as session:
+            queued = session.execute(
+                update(Job)
+                .where(self._held(claim))
+                .values(
+                    status="queued",
+                    run_after=now + timedelta(seconds=delay),
+                    leased_until=None,
+                    worker_id=None,
+                    last_error=error,
+                    updated_at=now,
+                )
+            )
+            if queued.rowcount != 1:
+                return False
+            session.execute(
+                update(Model)
+                .where(Model.id == claim.model_id)
+                .values(status="queued", updated_at=now)
+            )
+        return True
+
+    def release(self, claim: Claim) -> bool:
+        """Hand the job back untouched (shutdown): due at once, this attempt not counted."""
+        now = utcnow()
+        with self.sessions.begin() as session:
+            released = session.execute(
+                update(Job)
+                .where(self._held(claim))
+                .values(
+                    status="queued",
+                    run_after=now,
+                    attempts=Job.attempts - 1,
+                    leased_until=None,
+                    worker_id=None,
+                    updated_at=now,
+                )
+            )
+            if released.rowcount != 1:
+                return False
+            session.execute(
+                update(Model)
+                .where(Model.id == claim.model_id)
+                .values(status="queued", updated_at=now)
+            )
+        return True
+
+    # --- reading ----------------------------------------------------------------------
+
+    def upload_of(self, claim: Claim) -> tuple[bytes, str] | None:
+        """The uploaded bytes and file name of the claimed model (None if it was deleted)."""
+        with self.sessions() as session:
+            row = session.execute(
+                select(Upload.content, Model.file_name)
+                .join(Model, Model.id == Upload.model_id)
+                .where(Upload.model_id == claim.model_id)
+            ).one_or_none()
+        return None if row is None else (bytes(row.content), row.file_name)

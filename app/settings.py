@@ -1,0 +1,230 @@
+"""Service settings, read from ``SHAPESEARCH_*`` environment variables.
+
+One class, ``Settings``; every field carries a description so the README table can be
+generated from it (``Settings.model_fields``). ``engine_settings`` is the single place
+where service settings become the engine's ``core.settings.EngineSettings``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+from core.settings import CutoffSettings, DescriptorSettings, EngineSettings
+
+__all__ = ["Settings", "engine_settings"]
+
+MIB = 1024 * 1024
+# Engine defaults come from core, so that the service and ``shapesearch describe`` agree.
+_ENGINE = EngineSettings()
+
+
+class Settings(BaseSettings):
+    """Everything the service reads from its environment."""
+
+    model_config = SettingsConfigDict(env_prefix="SHAPESEARCH_", extra="ignore", frozen=True)
+
+    # --- where things live -------------------------------------------------------------
+    database_url: str | None = Field(
+        default=None,
+        description="SQLAlchemy URL of the database, e.g. postgresql+psycopg://user@host/db. "
+        "Unset: a SQLite file shapesearch.db in the data directory (embedded mode).",
+    )
+    data_dir: Path = Field(
+        default=Path("data"), description="Directory for the embedded SQLite database."
+    )
+    host: str = Field(default="127.0.0.1", description="Address `shapesearch serve` binds.")
+    port: int = Field(default=8000, ge=1, le=65535, description="Port `shapesearch serve` binds.")
+
+    # --- uploads -------------------------------------------------------------------------
+    max_upload_bytes: int = Field(
+        default=64 * MIB, ge=1, description="Largest accepted upload in bytes (larger: 413)."
+    )
+    upload_check_points: int = Field(
+        default=2000,
+        ge=10,
+        description="Points sampled when an upload is parsed at once to reject bad files "
+        "with 422 (the full description runs later in a worker).",
+    )
+
+    # --- engine (mapped onto core.settings.EngineSettings by engine_settings) ----------
+    max_points: int = Field(
+        default=_ENGINE.max_points,
+        ge=10,
+        description="Points sampled from each shape before description.",
+    )
+    min_points: int = Field(
+        default=_ENGINE.min_points,
+        ge=10,
+        description="Fewer usable points than this: the shape is refused.",
+    )
+    laplacian: Literal["robust", "spcl"] = Field(
+        default=_ENGINE.laplacian, description="Point-cloud Laplacian: robust or spcl."
+    )
+    normalisation: Literal["area", "bbox"] = Field(
+        default=_ENGINE.normalisation,
+        description="Scale normalisation: unit surface area or unit bounding box.",
+    )
+    sample_seed: int = Field(default=_ENGINE.sample_seed, description="Seed of the point sampling.")
+    cutoff_mode: Literal["adaptive", "fixed"] = Field(
+        default=_ENGINE.cutoff.mode, description="adaptive (per-model eigenpair count) or fixed."
+    )
+    cutoff_xi: float = Field(
+        default=_ENGINE.cutoff.xi, gt=0, lt=1, description="Adaptive cutoff: xi."
+    )
+    cutoff_t: float = Field(
+        default=_ENGINE.cutoff.t, gt=0, description="Adaptive cutoff: diffusion time t."
+    )
+    cutoff_seed: int = Field(
+        default=_ENGINE.cutoff.seed,
+        ge=2,
+        description="Adaptive cutoff: eigenpairs of the first round.",
+    )
+    cutoff_n_min: int = Field(
+        default=_ENGINE.cutoff.n_min, ge=1, description="Adaptive cutoff: smallest n."
+    )
+    cutoff_n_max: int = Field(
+        default=_ENGINE.cutoff.n_max, ge=1, description="Adaptive cutoff: largest n."
+    )
+    cutoff_margin: int = Field(
+        default=_ENGINE.cutoff.margin,
+        ge=0,
+        description="Adaptive cutoff: extra eigenpairs per round.",
+    )
+    cutoff_n: int = Field(
+        default=_ENGINE.cutoff.n, ge=2, description="Fixed cutoff: eigenpairs per model."
+    )
+    descriptor_t_min: float = Field(
+        default=min(_ENGINE.descriptor.hks_times),
+        gt=0,
+        description="Descriptor: smallest heat-kernel time.",
+    )
+    descriptor_t_max: float = Field(
+        default=max(_ENGINE.descriptor.hks_times),
+        gt=0,
+        description="Descriptor: largest heat-kernel time.",
+    )
+    descriptor_times: int = Field(
+        default=len(_ENGINE.descriptor.hks_times),
+        ge=1,
+        description="Descriptor: number of log-spaced heat-kernel times.",
+    )
+    descriptor_hks_scaled: bool = Field(
+        default=_ENGINE.descriptor.hks_scaled,
+        description="Descriptor: use the scale-invariant heat-kernel signature.",
+    )
+    descriptor_bins: int = Field(
+        default=_ENGINE.descriptor.bins, ge=2, description="Descriptor: histogram bins."
+    )
+    descriptor_wks_energies: int = Field(
+        default=_ENGINE.descriptor.wks_energies,
+        ge=0,
+        description="Descriptor: wave-kernel energies (0: no WKS block).",
+    )
+    descriptor_wks_weight: float = Field(
+        default=_ENGINE.descriptor.wks_weight,
+        ge=0,
+        description="Descriptor: weight of the WKS block.",
+    )
+    descriptor_dna_count: int = Field(
+        default=_ENGINE.descriptor.dna_count,
+        ge=0,
+        description="Descriptor: eigenvalues in the shape-DNA block (0: none).",
+    )
+    descriptor_dna_weight: float = Field(
+        default=_ENGINE.descriptor.dna_weight,
+        ge=0,
+        description="Descriptor: weight of the shape-DNA block.",
+    )
+
+    # --- workers and the job queue -------------------------------------------------------
+    workers: int = Field(
+        default=1,
+        ge=0,
+        description="Worker threads of `serve` (embedded) or processes of `shapesearch worker`.",
+    )
+    lease_seconds: float = Field(
+        default=60.0,
+        gt=0,
+        description="How long a claimed job stays with its worker without a heartbeat; "
+        "after that another worker takes it over.",
+    )
+    max_attempts: int = Field(
+        default=5, ge=1, description="Attempts per job before it is marked failed."
+    )
+    retry_backoff_seconds: float = Field(
+        default=5.0, ge=0, description="First retry delay; doubles each attempt."
+    )
+    retry_backoff_max_seconds: float = Field(
+        default=300.0, ge=0, description="Cap of the retry delay."
+    )
+    poll_interval: float = Field(
+        default=1.0, gt=0, description="Seconds an idle worker waits before looking for jobs."
+    )
+    shutdown_grace_seconds: float = Field(
+        default=30.0,
+        ge=0,
+        description="On shutdown, how long a running job may take to finish before it is "
+        "released to other workers.",
+    )
+
+    # --- index and access ----------------------------------------------------------------
+    index_sync_interval: float = Field(
+        default=1.0,
+        gt=0,
+        description="Seconds between polls of the change feed that keeps the search index "
+        "of an API process in step with the database.",
+    )
+    require_api_keys: bool = Field(
+        default=False,
+        description="Always require an API key. Unset: keys are required as soon as one "
+        "exists (`shapesearch keys create`); with none the service is open as tenant "
+        "'default' and only binds to loopback.",
+    )
+
+    @property
+    def resolved_database_url(self) -> str:
+        """The database URL, defaulting to the embedded SQLite file."""
+        if self.database_url:
+            return self.database_url
+        return f"sqlite:///{(self.data_dir / 'shapesearch.db').as_posix()}"
+
+
+def engine_settings(settings: Settings) -> EngineSettings:
+    """Map the service settings onto the engine's (validated) settings."""
+    engine = EngineSettings(
+        max_points=settings.max_points,
+        min_points=settings.min_points,
+        laplacian=settings.laplacian,
+        normalisation=settings.normalisation,
+        sample_seed=settings.sample_seed,
+        cutoff=CutoffSettings(
+            mode=settings.cutoff_mode,
+            xi=settings.cutoff_xi,
+            t=settings.cutoff_t,
+            seed=settings.cutoff_seed,
+            n_min=settings.cutoff_n_min,
+            n_max=settings.cutoff_n_max,
+            margin=settings.cutoff_margin,
+            n=settings.cutoff_n,
+        ),
+        descriptor=DescriptorSettings(
+            hks_times=tuple(
+                np.geomspace(
+                    settings.descriptor_t_min, settings.descriptor_t_max, settings.descriptor_times
+                ).tolist()
+            ),
+            hks_scaled=settings.descriptor_hks_scaled,
+            bins=settings.descriptor_bins,
+            wks_energies=settings.descriptor_wks_energies,
+            wks_weight=settings.descriptor_wks_weight,
+            dna_count=settings.descriptor_dna_count,
+            dna_weight=settings.descriptor_dna_weight,
+        ),
+    )
+    engine.validate()
+    return engine

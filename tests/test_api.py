@@ -1,0 +1,348 @@
+"""The HTTP contract, on both backends, with an instant fake describer in the worker.
+
+What the engine computes is tested in test_api_e2e.py; here: problem+json everywhere,
+status codes, pagination, PATCH, tenants and keys, the upload limits, readiness and the
+OpenAPI snapshot.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import uuid
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from conftest import PARTS, fake_describe, make_settings, upload, wait_for_status
+from fastapi.testclient import TestClient
+from sqlalchemy import create_engine, text
+
+from app.api.main import create_app
+from app.db.session import make_session_factory
+from app.keys import create_key
+
+SNAPSHOT = Path(__file__).parent / "snapshots" / "openapi.json"
+CUBE = PARTS / "20mm-xyz-cube.stl"
+PROBLEM = "application/problem+json"
+
+ClientFactory = Callable[..., TestClient]
+
+
+@pytest.fixture
+def make_client(database_url: str) -> Iterator[ClientFactory]:
+    """``make_client(**settings)``: a started app (fake describer, embedded worker)."""
+    clients: list[TestClient] = []
+
+    def make(**overrides: Any) -> TestClient:
+        settings = make_settings(database_url, **overrides)
+        app = create_app(settings, embedded_worker=True, job_handler=fake_describe)
+        client = TestClient(app, raise_server_exceptions=False)
+        client.__enter__()
+        clients.append(client)
+        return client
+
+    yield make
+    for client in reversed(clients):
+        client.__exit__(None, None, None)
+
+
+@pytest.fixture
+def client(make_client: ClientFactory) -> TestClient:
+    return make_client()
+
+
+def assert_problem(response: Any, status: int) -> dict[str, Any]:
+    assert response.status_code == status, response.text
+    assert response.headers["content-type"].startswith(PROBLEM)
+    body = response.json()
+    assert body["status"] == status
+    for member in ("type", "title", "detail"):
+        assert isinstance(body[member], str) and body[member], body
+    return body
+
+
+# --- models ---------------------------------------------------------------------------
+
+
+def test_upload_is_accepted_and_becomes_ready(client: TestClient) -> None:
+    response = upload(client, CUBE, external_id="cube-1", name="Cube", metadata='{"a": 1}')
+    assert response.status_code == 202, response.text
+    model = response.json()
+    assert response.headers["location"] == f"/v1/models/{model['id']}"
+    assert model["status"] in ("queued", "processing", "ready")
+    assert model["external_id"] == "cube-1" and model["name"] == "Cube"
+    assert model["metadata"] == {"a": 1}
+    assert model["file"]["filename"] == CUBE.name
+    assert model["file"]["format"] == "stl"
+    assert model["file"]["size"] == CUBE.stat().st_size
+    assert len(model["file"]["sha256"]) == 64
+
+    ready = wait_for_status(client, model["id"])
+    assert ready["status"] == "ready" and ready["error"] is None
+    assert ready["cutoff"] == {
+        "mode": "adaptive",
+        "n": 10,
+        "solver_calls": 2,
+        "xi": 1e-10,
+        "t": 1e-3,
+        "n_min": 5,
+        "n_max": 20,
+    }
+    assert ready["descriptor_version"] == "fake-1"
+    assert ready["n_points"] == 100
+
+    listing = client.get("/v1/models", params={"external_id": "cube-1"}).json()
+    assert [m["id"] for m in listing["items"]] == [model["id"]]
+
+
+def test_job_resource(client: TestClient) -> None:
+    from sqlalchemy import select
+
+    from app.db.models import Job
+
+    model = upload(client, CUBE).json()
+    wait_for_status(client, model["id"])
+    services = client.app.state.services  # type: ignore[attr-defined]
+    with services.sessions() as session:
+        job_id = session.scalar(select(Job.id).where(Job.model_id == uuid.UUID(model["id"])))
+    job = client.get(f"/v1/jobs/{job_id}").json()
+    assert job["model_id"] == model["id"]
+    assert job["status"] == "done" and job["attempts"] == 1 and job["last_error"] is None
+    assert_problem(client.get(f"/v1/jobs/{uuid.uuid4()}"), 404)
+    assert_problem(client.get("/v1/jobs/not-a-uuid"), 404)
+
+
+def test_duplicate_external_id_is_409_naming_the_model(client: TestClient) -> None:
+    first = upload(client, CUBE, external_id="part-7").json()
+    body = assert_problem(upload(client, CUBE, external_id="part-7"), 409)
+    assert first["id"] in body["detail"]
+    assert body["existing_id"] == first["id"]
+    assert upload(client, CUBE).status_code == 202  # no external id: no conflict
+    assert upload(client, CUBE).status_code == 202
+
+
+def test_unknown_and_malformed_ids_are_404(client: TestClient) -> None:
+    assert_problem(client.get(f"/v1/models/{uuid.uuid4()}"), 404)
+    assert_problem(client.get("/v1/models/not-a-uuid"), 404)
+    assert_problem(client.delete("/v1/models/not-a-uuid"), 404)
+    assert_problem(client.patch("/v1/models/xyz", json={"name": "n"}), 404)
+    assert_problem(client.get(f"/v1/models/{uuid.uuid4()}/similar"), 404)
+
+
+def test_similar_needs_a_ready_model(make_client: ClientFactory) -> None:
+    client = make_client(workers=0)  # nothing gets described
+    model = upload(client, CUBE).json()
+    body = assert_problem(client.get(f"/v1/models/{model['id']}/similar"), 409)
+    assert body["model_status"] == "queued"
+
+
+def test_patch_changes_name_and_metadata_only(client: TestClient) -> None:
+    model = upload(client, CUBE, name="old", metadata='{"x": 1}').json()
+    renamed = client.patch(f"/v1/models/{model['id']}", json={"name": "new"})
+    assert renamed.status_code == 200
+    assert renamed.json()["name"] == "new" and renamed.json()["metadata"] == {"x": 1}
+    tagged = client.patch(f"/v1/models/{model['id']}", json={"metadata": {"y": [1, 2]}}).json()
+    assert tagged["name"] == "new" and tagged["metadata"] == {"y": [1, 2]}
+    assert tagged["updated_at"] >= model["updated_at"]
+    assert client.get(f"/v1/models/{model['id']}").json()["metadata"] == {"y": [1, 2]}
+    assert_problem(client.patch(f"/v1/models/{model['id']}", json={"metadata": [1]}), 422)
+    assert_problem(client.patch(f"/v1/models/{model['id']}", json={"metadata": None}), 422)
+    assert_problem(client.patch(f"/v1/models/{model['id']}", json={"colour": "red"}), 422)
+
+
+def test_pagination_visits_every_model_once_newest_first(client: TestClient) -> None:
+    ids = [upload(client, CUBE, external_id=f"p{i}").json()["id"] for i in range(7)]
+    seen: list[str] = []
+    cursor = None
+    pages = 0
+    while True:
+        params: dict[str, Any] = {"limit": 3}
+        if cursor:
+            params["cursor"] = cursor
+        page = client.get("/v1/models", params=params).json()
+        seen += [m["id"] for m in page["items"]]
+        pages += 1
+        cursor = page["next_cursor"]
+        if cursor is None:
+            break
+    assert pages == 3
+    assert seen == list(reversed(ids))
+    assert_problem(client.get("/v1/models", params={"limit": 501}), 422)
+    assert_problem(client.get("/v1/models", params={"limit": 0}), 422)
+    assert_problem(client.get("/v1/models", params={"cursor": "garbage!"}), 422)
+    ready = client.get("/v1/models", params={"status": "ready", "limit": 500}).json()
+    assert all(m["status"] == "ready" for m in ready["items"])
+
+
+def test_delete_is_204_then_404(client: TestClient) -> None:
+    model = upload(client, CUBE).json()
+    wait_for_status(client, model["id"])
+    assert client.delete(f"/v1/models/{model['id']}").status_code == 204
+    assert_problem(client.get(f"/v1/models/{model['id']}"), 404)
+    assert_problem(client.delete(f"/v1/models/{model['id']}"), 404)
+    assert len(client.app.state.services.index) == 0  # type: ignore[attr-defined]
+
+
+def test_similar_with_metadata_filters_returns_k_matches(client: TestClient) -> None:
+    parts = sorted(p for p in PARTS.iterdir() if p.is_file() and p.suffix.lower() == ".stl")
+    ids = []
+    for i, path in enumerate(parts):
+        family = "even" if i % 2 == 0 else "odd"
+        meta = json.dumps({"family": family, "i": i})
+        ids.append(upload(client, path, metadata=meta).json()["id"])
+    for model_id in ids:
+        wait_for_status(client, model_id)
+    query = ids[0]
+    unfiltered = client.get(f"/v1/models/{query}/similar", params={"k": 100}).json()
+    assert len(unfiltered["results"]) == len(ids) - 1
+    assert query not in [r["model"]["id"] for r in unfiltered["results"]]
+    scores = [r["score"] for r in unfiltered["results"]]
+    assert scores == sorted(scores, reverse=True) and all(0 <= s <= 1 for s in scores)
+
+    odd = client.get(f"/v1/models/{query}/similar", params={"k": 2, "metadata.family": "odd"})
+    results = odd.json()["results"]
+    assert len(results) == 2
+    assert all(r["model"]["metadata"]["family"] == "odd" for r in results)
+    one = client.get(f"/v1/models/{query}/similar", params={"k": 5, "metadata.i": "3"}).json()
+    assert [r["model"]["id"] for r in one["results"]] == [ids[3]]
+    none = client.get(f"/v1/models/{query}/similar", params={"metadata.family": "x"}).json()
+    assert none["results"] == []
+    high = client.get(f"/v1/models/{query}/similar", params={"k": 100, "min_score": 0.99})
+    assert all(r["score"] >= 0.99 for r in high.json()["results"])
+    assert_problem(client.get(f"/v1/models/{query}/similar", params={"k": 0}), 422)
+    assert_problem(client.get(f"/v1/models/{query}/similar", params={"k": 101}), 422)
+
+
+# --- upload refusals --------------------------------------------------------------------
+
+
+def test_413_when_the_file_is_larger_than_the_limit(make_client: ClientFactory) -> None:
+    client = make_client(max_upload_bytes=1000)
+    body = assert_problem(upload(client, CUBE), 413)  # counted while reading
+    assert "1000" in body["detail"]
+    # A declared Content-Length beyond the limit is refused before the body is read.
+    huge = client.post(
+        "/v1/models",
+        content=b"x" * 200_000,
+        headers={"content-type": "multipart/form-data; boundary=b"},
+    )
+    assert_problem(huge, 413)
+    assert client.get("/v1/models").json()["items"] == []
+
+
+def test_415_for_an_unknown_format(client: TestClient) -> None:
+    response = client.post("/v1/models", files={"file": ("part.docx", b"\x00\x01binary junk")})
+    body = assert_problem(response, 415)
+    assert body["reason"] == "unknown_format"
+
+
+def test_422_for_content_refused_at_upload(client: TestClient) -> None:
+    empty = assert_problem(client.post("/v1/models", files={"file": ("e.stl", b"")}), 422)
+    assert empty["reason"] == "empty_file"
+    few = b"".join(f"{i} {i * 2} {i * 3}\n".encode() for i in range(5))
+    assert assert_problem(client.post("/v1/models", files={"file": ("few.xyz", few)}), 422)
+    nan = b"".join(b"nan 1 2\n" for _ in range(300))
+    assert_problem(client.post("/v1/models", files={"file": ("nan.xyz", nan)}), 422)
+    assert client.get("/v1/models").json()["items"] == []
+
+
+def test_422_for_metadata_that_is_not_an_object(client: TestClient) -> None:
+    for bad in ("[1, 2]", "3", "{broken", '"text"'):
+        body = assert_problem(upload(client, CUBE, metadata=bad), 422)
+        assert "metadata" in body["detail"]
+
+
+# --- problem+json for framework errors -------------------------------------------------
+
+
+def test_framework_errors_are_problem_json(client: TestClient) -> None:
+    assert_problem(client.get("/no/such/route"), 404)
+    assert_problem(client.put("/v1/models"), 405)
+    missing_file = assert_problem(client.post("/v1/models", data={"name": "x"}), 422)
+    assert missing_file["errors"][0]["loc"][-1] == "file"
+    assert_problem(client.patch(f"/v1/models/{uuid.uuid4()}", content=b"{not json"), 422)
+
+
+# --- tenants and keys -------------------------------------------------------------------
+
+
+def test_keys_separate_tenants(make_client: ClientFactory, database_url: str) -> None:
+    client = make_client()
+    open_model = upload(client, CUBE).json()  # before any key: the open "default" tenant
+    engine = create_engine(database_url)
+    with make_session_factory(engine).begin() as session:
+        alice = {"Authorization": f"Bearer {create_key(session, 'alice')}"}
+        bob = {"Authorization": f"Bearer {create_key(session, 'bob')}"}
+    engine.dispose()
+
+    unauthenticated = assert_problem(client.get("/v1/models"), 401)
+    assert unauthenticated["type"].endswith("unauthorized")
+    assert client.get("/v1/models").headers["www-authenticate"].startswith("Bearer")
+    assert_problem(client.get("/v1/models", headers={"Authorization": "Bearer ss_wrong"}), 401)
+    assert_problem(upload(client, CUBE), 401)
+    assert client.get("/healthz").status_code == 200  # health stays open
+
+    mine = upload(client, CUBE, headers=alice, external_id="shared-name").json()
+    theirs = upload(client, CUBE, headers=bob, external_id="shared-name")
+    assert theirs.status_code == 202  # external ids are unique per tenant only
+    wait_for_status(client, mine["id"], headers=alice)
+    wait_for_status(client, theirs.json()["id"], headers=bob)
+
+    assert client.get(f"/v1/models/{mine['id']}", headers=alice).status_code == 200
+    assert_problem(client.get(f"/v1/models/{mine['id']}", headers=bob), 404)
+    assert_problem(client.delete(f"/v1/models/{mine['id']}", headers=bob), 404)
+    assert_problem(client.get(f"/v1/models/{open_model['id']}", headers=alice), 404)
+    assert [m["id"] for m in client.get("/v1/models", headers=alice).json()["items"]] == [
+        mine["id"]
+    ]
+    similar = client.get(f"/v1/models/{mine['id']}/similar", headers=alice).json()
+    assert similar["results"] == []  # bob's identical file is not alice's to see
+
+
+def test_require_api_keys_closes_the_service(make_client: ClientFactory) -> None:
+    client = make_client(require_api_keys=True)
+    assert_problem(client.get("/v1/models"), 401)
+
+
+# --- readiness --------------------------------------------------------------------------
+
+
+def test_readyz_fails_when_the_index_is_out_of_step(client: TestClient, database_url: str) -> None:
+    assert client.get("/healthz").json() == {"status": "ok"}
+    model = upload(client, CUBE).json()
+    wait_for_status(client, model["id"])
+    ready = client.get("/readyz")
+    assert ready.status_code == 200 and ready.json()["status"] == "ok"
+
+    # Remove the model behind the index's back: no change-feed event.
+    engine = create_engine(database_url)
+    with engine.begin() as connection:
+        hex_id = uuid.UUID(model["id"]).hex
+        connection.execute(text("DELETE FROM jobs"))
+        connection.execute(text("DELETE FROM uploads"))
+        connection.execute(
+            text("DELETE FROM models WHERE CAST(id AS TEXT) IN (:a, :b)"),
+            {"a": hex_id, "b": model["id"]},
+        )
+    engine.dispose()
+    body = assert_problem(client.get("/readyz"), 503)
+    assert "index" in body["detail"] and body["checks"]["index"] != "ok"
+
+
+# --- OpenAPI ----------------------------------------------------------------------------
+
+
+def test_openapi_matches_the_snapshot() -> None:
+    schema = create_app(make_settings("sqlite://")).openapi()
+    rendered = json.dumps(schema, indent=2, sort_keys=True) + "\n"
+    if os.environ.get("SHAPESEARCH_UPDATE_SNAPSHOTS") == "1":
+        SNAPSHOT.parent.mkdir(parents=True, exist_ok=True)
+        SNAPSHOT.write_text(rendered)
+    assert SNAPSHOT.exists(), "no snapshot: run with SHAPESEARCH_UPDATE_SNAPSHOTS=1"
+    assert rendered == SNAPSHOT.read_text(), (
+        "The OpenAPI schema changed. If the change is intended, refresh the snapshot with "
+        "SHAPESEARCH_UPDATE_SNAPSHOTS=1 python -m pytest tests/test_api.py -k openapi "
+        "and commit tests/snapshots/openapi.json."
+    )

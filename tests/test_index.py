@@ -1,0 +1,136 @@
+"""The FAISS cache follows the database: rebuilt at start, in step through the change feed,
+partitioned by tenant and descriptor version."""
+
+from __future__ import annotations
+
+import uuid
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+from sqlalchemy import delete
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.db.feed import record_event
+from app.db.migrate import upgrade
+from app.db.models import Model
+from app.db.session import make_engine, make_session_factory
+from app.index import ShapeIndex
+from app.similarity import find_similar, metadata_matches, score_of
+
+
+@pytest.fixture
+def sessions(database_url: str) -> Iterator[sessionmaker[Session]]:
+    engine = make_engine(database_url)
+    upgrade(engine)
+    yield make_session_factory(engine)
+    engine.dispose()
+
+
+def unit(seed: int, d: int = 8) -> np.ndarray:
+    vector = np.random.default_rng(seed).normal(size=d).astype(np.float32)
+    return vector / np.linalg.norm(vector)
+
+
+def add_ready(
+    sessions: sessionmaker[Session],
+    vector: np.ndarray,
+    *,
+    tenant: str = "t",
+    version: str = "v1",
+    meta: dict[str, object] | None = None,
+) -> int:
+    """A ready model, committed with its change-feed event, as a worker would."""
+    with sessions.begin() as session:
+        model = Model(
+            id=uuid.uuid4(),
+            tenant=tenant,
+            meta=meta or {},
+            status="ready",
+            file_name="x.stl",
+            file_size=1,
+            file_sha256="0" * 64,
+            file_format="stl",
+            descriptor=vector.astype(np.float32).tobytes(),
+            descriptor_version=version,
+        )
+        session.add(model)
+        session.flush()
+        record_event(session, model.index_id, "ready")
+        return model.index_id
+
+
+def delete_model(sessions: sessionmaker[Session], index_id: int) -> None:
+    with sessions.begin() as session:
+        session.execute(delete(Model).where(Model.index_id == index_id))
+        record_event(session, index_id, "deleted")
+
+
+def test_rebuild_loads_every_ready_descriptor(sessions: sessionmaker[Session]) -> None:
+    ids = [add_ready(sessions, unit(i)) for i in range(5)]
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    assert len(index) == 5
+    nearest = index.search(("t", "v1"), unit(3), 2)
+    assert nearest[0][0] == ids[3] and nearest[0][1] == pytest.approx(0, abs=1e-3)
+
+
+def test_sync_follows_changes_made_elsewhere(sessions: sessionmaker[Session]) -> None:
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    first = add_ready(sessions, unit(1))
+    second = add_ready(sessions, unit(2))
+    assert len(index) == 0  # not yet seen
+    assert index.sync() == 2
+    assert first in index and second in index
+    delete_model(sessions, first)
+    assert index.sync() == 1
+    assert first not in index and second in index
+    assert index.sync() == 0  # nothing new
+
+
+def test_an_event_for_a_model_deleted_meanwhile_adds_nothing(
+    sessions: sessionmaker[Session],
+) -> None:
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    doomed = add_ready(sessions, unit(1))
+    delete_model(sessions, doomed)
+    index.sync()
+    assert len(index) == 0
+
+
+def test_partitions_keep_tenants_and_versions_apart(sessions: sessionmaker[Session]) -> None:
+    mine = add_ready(sessions, unit(1), tenant="a")
+    add_ready(sessions, unit(1), tenant="b")
+    add_ready(sessions, unit(1), tenant="a", version="v2")
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    assert [i for i, _ in index.search(("a", "v1"), unit(1), 10)] == [mine]
+    assert index.partition_size(("a", "v2")) == 1
+    assert index.search(("nobody", "v1"), unit(1), 10) == []
+
+
+def test_find_similar_widens_until_k_models_pass_the_filters(
+    sessions: sessionmaker[Session],
+) -> None:
+    query = unit(0)
+    # 30 near neighbours without the tag, then 3 far ones with it.
+    for i in range(30):
+        add_ready(sessions, query + 0.01 * unit(100 + i), meta={"tag": "no"})
+    tagged = [add_ready(sessions, unit(200 + i), meta={"tag": "yes"}) for i in range(3)]
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    with sessions() as session:
+        matches = find_similar(index, session, ("t", "v1"), query, k=3, filters={"tag": "yes"})
+    assert sorted(m.model.index_id for m in matches) == sorted(tagged)
+    assert [m.distance for m in matches] == sorted(m.distance for m in matches)
+
+
+def test_scores_and_metadata_matching() -> None:
+    assert score_of(0.0) == 1.0 and score_of(2.0) == 0.0
+    assert score_of(np.sqrt(2)) == pytest.approx(0.5)
+    meta = {"material": "steel", "qty": 3, "ok": True}
+    assert metadata_matches(meta, {"material": "steel", "qty": "3", "ok": "true"})
+    assert not metadata_matches(meta, {"material": "brass"})
+    assert not metadata_matches(meta, {"colour": "red"})
