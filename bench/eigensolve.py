@@ -1,0 +1,201 @@
+"""Benchmark: stock fixed-300 eigsh vs banded SpectralSolver vs the adaptive descriptor.
+
+For each part of /work/shared/datasets/parts and each point count, in a fresh worker process
+(so that peak RSS is per run), with BLAS pinned to one thread:
+
+(a) stock  ``scipy.sparse.linalg.eigsh(L, 300, M, sigma=<small negative>)``, default settings;
+(b) banded ``SpectralSolver(L, M).solve(300)``;
+(c) adaptive ``core.pipeline.describe(path, EngineSettings(max_points=N))`` end to end
+    (load, Laplacian, adaptive cutoff eigensolve, signatures, descriptor).
+
+The worker runs (c) first and reads the peak RSS right after it, so that figure is the
+adaptive descriptor's own peak; the later peaks include (b) and (a).
+
+Usage::
+
+    /work/venv/bin/python bench/eigensolve.py                 # all parts, 20k and 50k points
+    /work/venv/bin/python bench/eigensolve.py --quick         # 3 parts, 20k points
+    /work/venv/bin/python bench/eigensolve.py --points 20000 --models bunny teapot
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+# Pin every BLAS/OpenMP pool before numpy loads (threadpoolctl below pins again).
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))
+
+PARTS = Path("/work/shared/datasets/parts")
+MESH_SUFFIXES = {".stl", ".ply", ".obj", ".off"}
+QUICK_MODELS = ("angle_block", "bunny", "teapot")
+FIXED_COUNT = 300
+
+
+def part_files(selected: list[str] | None) -> list[Path]:
+    """The part files to run, by stem (all mesh and point files when ``selected`` is None)."""
+    files = sorted(path for path in PARTS.iterdir() if path.suffix.lower() in MESH_SUFFIXES)
+    if selected:
+        files = [path for path in files if path.stem in selected]
+    return files
+
+
+def peak_rss_mb() -> float:
+    """Peak resident set size of this process so far (Linux reports KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def run_worker(path: Path, max_points: int) -> dict:
+    """All three measurements for one part at one point count (runs in a fresh process)."""
+    from scipy.sparse.linalg import eigsh
+
+    from core.eigen import SpectralSolver, default_shift, pin_blas_threads
+    from core.io import load_points
+    from core.laplacian import build_laplacian
+    from core.normalise import centre, unit_area_mass
+    from core.pipeline import describe
+    from core.settings import EngineSettings
+
+    result: dict = {"model": path.stem, "max_points": max_points}
+    with pin_blas_threads():
+        start = time.perf_counter()
+        description = describe(path, EngineSettings(max_points=max_points))
+        result["adaptive_total_s"] = time.perf_counter() - start
+        result["adaptive_eigensolve_s"] = description.timings.get("eigensolve")
+        result["adaptive_laplacian_s"] = description.timings.get("laplacian")
+        result["adaptive_n"] = description.cutoff.n
+        result["adaptive_calls"] = description.cutoff.solver_calls
+        result["adaptive_peak_mb"] = peak_rss_mb()
+
+        # Same points and normalisation as the pipeline, for (a) and (b).
+        points = centre(load_points(path, max_points=max_points).points)
+        start = time.perf_counter()
+        stiffness, mass = build_laplacian(points)
+        result["laplacian_s"] = time.perf_counter() - start
+        points, mass = unit_area_mass(points, mass)
+        result["points"] = int(points.shape[0])
+
+        start = time.perf_counter()
+        solver = SpectralSolver(stiffness, mass)
+        banded_values, _ = solver.solve(FIXED_COUNT)
+        result["banded_s"] = time.perf_counter() - start
+        result["banded_calls"] = solver.solver_calls_
+        result["banded_bands"] = len(solver.bands_)
+        result["banded_factorisations"] = solver.factorisations_
+        result["banded_factor_s"] = sum(band.factor_seconds for band in solver.bands_)
+        result["banded_retries"] = sum(band.attempts - 1 for band in solver.bands_)
+        result["banded_peak_mb"] = peak_rss_mb()
+
+        start = time.perf_counter()
+        stock_values = np.sort(
+            eigsh(stiffness, FIXED_COUNT, mass, sigma=default_shift(mass), which="LM")[0]
+        )
+        result["stock_s"] = time.perf_counter() - start
+        result["stock_peak_mb"] = peak_rss_mb()
+        result["max_relative_difference"] = float(
+            np.max(np.abs(banded_values - stock_values) / np.maximum(stock_values[-1], 1e-300))
+        )
+    return result
+
+
+def spawn_worker(path: Path, max_points: int) -> dict:
+    """Run ``run_worker`` in a child process and return its JSON result."""
+    command = [sys.executable, __file__, "--worker", str(path), str(max_points)]
+    completed = subprocess.run(command, capture_output=True, text=True, check=False)
+    if completed.returncode != 0:
+        return {"model": path.stem, "max_points": max_points, "error": completed.stderr[-400:]}
+    return json.loads(completed.stdout.strip().splitlines()[-1])
+
+
+def print_row(row: dict) -> None:
+    if "error" in row:
+        print(f"{row['model']:<22} {row['max_points']:>6}  ERROR {row['error'].splitlines()[-1]}")
+        return
+    print(
+        f"{row['model']:<22} {row['points']:>6} "
+        f"stock300 {row['stock_s']:7.2f}s  banded300 {row['banded_s']:7.2f}s "
+        f"({row['banded_bands']} bands, {row['banded_factorisations']} fact "
+        f"{row['banded_factor_s']:.2f}s, {row['banded_retries']} retries)  "
+        f"adaptive n={row['adaptive_n']:>3} calls={row['adaptive_calls']} "
+        f"eig {row['adaptive_eigensolve_s']:6.2f}s total {row['adaptive_total_s']:6.2f}s  "
+        f"stock/banded {row['stock_s'] / row['banded_s']:5.2f}x  "
+        f"stock/adaptive-eig {row['stock_s'] / row['adaptive_eigensolve_s']:5.2f}x  "
+        f"peak adaptive {row['adaptive_peak_mb']:6.0f} MB  max |dlambda|/lambda_max "
+        f"{row['max_relative_difference']:.1e}",
+        flush=True,
+    )
+
+
+def print_summary(rows: list[dict], max_points: int) -> None:
+    done = [row for row in rows if "error" not in row and row["max_points"] == max_points]
+    if not done:
+        return
+
+    def median(key: str) -> float:
+        return statistics.median(row[key] for row in done)
+
+    stock_over_banded = statistics.median(row["stock_s"] / row["banded_s"] for row in done)
+    stock_over_adaptive = statistics.median(
+        row["stock_s"] / row["adaptive_eigensolve_s"] for row in done
+    )
+    # End to end: a fixed-300 descriptor costs at least Laplacian + stock solve.
+    fixed_over_adaptive_total = statistics.median(
+        (row["laplacian_s"] + row["stock_s"]) / row["adaptive_total_s"] for row in done
+    )
+    print(
+        f"\nmedians at max_points={max_points} over {len(done)} models: "
+        f"points {median('points'):.0f}, stock300 {median('stock_s'):.2f}s, "
+        f"banded300 {median('banded_s'):.2f}s, adaptive eigensolve "
+        f"{median('adaptive_eigensolve_s'):.2f}s (n={median('adaptive_n'):.0f}, calls "
+        f"{median('adaptive_calls'):.0f}), adaptive total {median('adaptive_total_s'):.2f}s\n"
+        f"  ratio stock/banded {stock_over_banded:.2f}x, stock/adaptive-eigensolve "
+        f"{stock_over_adaptive:.2f}x, (laplacian+stock)/adaptive-total "
+        f"{fixed_over_adaptive_total:.2f}x\n"
+        f"  peak RSS adaptive: median {median('adaptive_peak_mb'):.0f} MB, max "
+        f"{max(row['adaptive_peak_mb'] for row in done):.0f} MB; whole worker max "
+        f"{max(row['stock_peak_mb'] for row in done):.0f} MB",
+        flush=True,
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--points", type=int, nargs="+", default=[20000, 50000])
+    parser.add_argument("--models", nargs="+", help="part file stems (default: all)")
+    parser.add_argument("--quick", action="store_true", help="3 models, 20k points")
+    parser.add_argument("--json", type=Path, help="also write the rows to this file")
+    parser.add_argument("--worker", nargs=2, metavar=("PATH", "POINTS"), help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.worker:
+        print(json.dumps(run_worker(Path(args.worker[0]), int(args.worker[1]))))
+        return 0
+    if args.quick:
+        args.models, args.points = list(QUICK_MODELS), [20000]
+    rows: list[dict] = []
+    for max_points in args.points:
+        print(f"== max_points {max_points} (BLAS 1 thread, one worker process per run)")
+        for path in part_files(args.models):
+            row = spawn_worker(path, max_points)
+            rows.append(row)
+            print_row(row)
+        print_summary(rows, max_points)
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
