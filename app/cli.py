@@ -68,7 +68,9 @@ def build_parser() -> argparse.ArgumentParser:
     serve.set_defaults(handler=_serve)
 
     worker = commands.add_parser("worker", help="run worker processes that describe uploads")
-    worker.add_argument("--concurrency", type=int, default=None, help="default: SHAPESEARCH_WORKERS")
+    worker.add_argument(
+        "--concurrency", type=int, default=None, help="default: SHAPESEARCH_WORKERS"
+    )
     worker.set_defaults(handler=_worker)
 
     keys = commands.add_parser("keys", help="manage API keys")
@@ -83,8 +85,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--out", default="eval-out")
     evaluate.add_argument("--limit-per-class", type=int, default=None)
     evaluate.add_argument(
-        "--scans", nargs="*", choices=("single", "multi"), default=(),
-        help="also query simulated scans (single view, three views) against the clean models",
+        "--scans", nargs="*", choices=("single", "multi", "single+sor", "multi+sor"), default=(),
+        help="also query simulated scans (single view, three views; +sor: with an outlier "
+        "filter before the engine) against the clean models",
     )
     evaluate.add_argument("--scan-variants", nargs="*", default=None,
                           help="variants scored on scans (default: baseline, default, fixed)")

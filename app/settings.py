@@ -7,6 +7,7 @@ where service settings become the engine's ``core.settings.EngineSettings``.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
@@ -14,7 +15,7 @@ import numpy as np
 from pydantic import Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from core.settings import CutoffSettings, DescriptorSettings, EngineSettings
+from core.settings import CutoffSettings, EngineSettings
 
 __all__ = ["Settings", "engine_settings"]
 
@@ -125,6 +126,16 @@ class Settings(BaseSettings):
         ge=0,
         description="Descriptor: wave-kernel energies (0: no WKS block).",
     )
+    descriptor_hks_weight: float = Field(
+        default=_ENGINE.descriptor.hks_weight,
+        ge=0,
+        description="Descriptor: weight of the heat-kernel block.",
+    )
+    descriptor_wks_slope_weight: float = Field(
+        default=_ENGINE.descriptor.wks_slope_weight,
+        ge=0,
+        description="Descriptor: weight of the WKS slope block.",
+    )
     descriptor_wks_weight: float = Field(
         default=_ENGINE.descriptor.wks_weight,
         ge=0,
@@ -212,16 +223,21 @@ def engine_settings(settings: Settings) -> EngineSettings:
             margin=settings.cutoff_margin,
             n=settings.cutoff_n,
         ),
-        descriptor=DescriptorSettings(
+        # Fields without a variable of their own (bin ranges, filter widths) keep core's
+        # measured defaults: start from them, never from a second copy of the numbers.
+        descriptor=replace(
+            _ENGINE.descriptor,
             hks_times=tuple(
                 np.geomspace(
                     settings.descriptor_t_min, settings.descriptor_t_max, settings.descriptor_times
                 ).tolist()
             ),
             hks_scaled=settings.descriptor_hks_scaled,
+            hks_weight=settings.descriptor_hks_weight,
             bins=settings.descriptor_bins,
             wks_energies=settings.descriptor_wks_energies,
             wks_weight=settings.descriptor_wks_weight,
+            wks_slope_weight=settings.descriptor_wks_slope_weight,
             dna_count=settings.descriptor_dna_count,
             dna_weight=settings.descriptor_dna_weight,
         ),

@@ -24,7 +24,7 @@ from core.signatures import heat_kernel_signature, wave_kernel_signature, zero_e
 __all__ = ["DescriptorSpec", "area_histograms"]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
-_LAYOUT = "ss1"
+_LAYOUT = "ss2"
 
 
 def area_histograms(
@@ -70,10 +70,13 @@ class DescriptorSpec:
     times: tuple[float, ...]
     scaled: bool
     hks_edges: tuple[float, ...]
+    hks_weight: float
     energies: tuple[float, ...]
     wks_sigma: float
     wks_edges: tuple[float, ...]
     wks_weight: float
+    slope_edges: tuple[float, ...]
+    slope_weight: float
     dna_count: int
     dna_weight: float
 
@@ -81,18 +84,21 @@ class DescriptorSpec:
     def from_settings(cls, settings: DescriptorSettings) -> DescriptorSpec:
         settings.validate()
         energies = np.linspace(*settings.wks_range, settings.wks_energies)
-        # Aubry et al. tie the filter width to the energy step (7 steps in their code's
-        # default); we use the same idea on the database-wide grid.
-        sigma = 7.0 * float(energies[1] - energies[0]) if energies.size > 1 else 1.0
+        # Aubry et al. tie the filter width to the energy step; on a coarse 16-step grid
+        # two steps keep neighbouring energies distinct (7 steps smeared the whole spectrum
+        # into one bump and made every model's WKS alike).
+        step = float(energies[1] - energies[0]) if energies.size > 1 else 1.0
         return cls(
             times=tuple(settings.hks_times),
             scaled=settings.hks_scaled,
             hks_edges=tuple(np.linspace(*settings.hks_range, settings.bins + 1).tolist()),
+            hks_weight=settings.hks_weight,
             energies=tuple(energies.tolist()),
-            wks_sigma=sigma,
-            # WKS is a partition of unity-like weight per point; its log spans a few units.
-            wks_edges=tuple(np.linspace(-4.0, 4.0, settings.bins + 1).tolist()),
+            wks_sigma=settings.wks_sigma * step,
+            wks_edges=tuple(np.linspace(*settings.wks_log_range, settings.bins + 1).tolist()),
             wks_weight=settings.wks_weight,
+            slope_edges=tuple(np.linspace(*settings.wks_slope_range, settings.bins + 1).tolist()),
+            slope_weight=settings.wks_slope_weight if energies.size > 1 else 0.0,
             dna_count=settings.dna_count,
             dna_weight=settings.dna_weight,
         )
@@ -100,8 +106,9 @@ class DescriptorSpec:
     def signature(self, eigenvalues: np.ndarray, eigenvectors: np.ndarray) -> np.ndarray:
         """Per-point signature, ``(n, s)``: log HKS per time, then log WKS per energy.
 
-        With unit total area the scaled HKS has area-weighted mean 1 at every time, so its
-        log is centred near 0 and one set of bin edges fits every time.
+        With unit total area and M-orthonormal eigenvectors, the scaled HKS and the WKS
+        (normalised by its filter sum) both have area-weighted mean 1 at every scale, so their
+        logs are centred near 0 and one set of bin edges fits every scale.
         """
         hks = heat_kernel_signature(
             eigenvalues, eigenvectors, np.asarray(self.times), scaled=self.scaled
@@ -111,8 +118,7 @@ class DescriptorSpec:
             wks = wave_kernel_signature(
                 eigenvalues, eigenvectors, np.asarray(self.energies), self.wks_sigma
             )
-            # Scale by the point count so the log is centred near 0 like the scaled HKS.
-            columns.append(np.log(np.maximum(wks * wks.shape[0], 1e-300)))
+            columns.append(np.log(np.maximum(wks, 1e-300)))
         return np.hstack(columns)
 
     def histogram(
@@ -128,17 +134,29 @@ class DescriptorSpec:
             Area each point stands for.
         eigenvalues : (k,) float
             Unit-area eigenvalues, for the normalised eigenvalue channel.
+
+        Notes
+        -----
+        The WKS slope block histograms ``log WKS(x, e_{j+1}) - log WKS(x, e_j)``: per-scale
+        histograms lose which values occur together at one point, and the slope keeps the
+        part of that joint information that separates classes best (measured on capod).
         """
         n_times = len(self.times)
-        blocks = [
-            _unit_block(
-                np.sqrt(area_histograms(signature[:, :n_times], areas, np.asarray(self.hks_edges)))
-            )
-        ]
+        blocks = []
+        if self.hks_weight > 0:
+            hks = area_histograms(signature[:, :n_times], areas, np.asarray(self.hks_edges))
+            blocks.append(self.hks_weight * _unit_block(np.sqrt(hks)))
         if self.energies:
-            wks = area_histograms(signature[:, n_times:], areas, np.asarray(self.wks_edges))
-            blocks.append(self.wks_weight * _unit_block(np.sqrt(wks)))
-        if self.dna_count:
+            log_wks = signature[:, n_times:]
+            if self.wks_weight > 0:
+                wks = area_histograms(log_wks, areas, np.asarray(self.wks_edges))
+                blocks.append(self.wks_weight * _unit_block(np.sqrt(wks)))
+            if self.slope_weight > 0:
+                slope = area_histograms(
+                    np.diff(log_wks, axis=1), areas, np.asarray(self.slope_edges)
+                )
+                blocks.append(self.slope_weight * _unit_block(np.sqrt(slope)))
+        if self.dna_count and self.dna_weight > 0:
             blocks.append(self.dna_weight * _unit_block(self._eigenvalue_channel(eigenvalues)))
         return _unit_block(np.concatenate(blocks)).astype(np.float32)
 
@@ -173,13 +191,13 @@ class DescriptorSpec:
             f"pts={settings.max_points}",
             f"cut={cut}",
             f"hks{'s' if self.scaled else ''}={len(self.times)}"
-            f"[{min(self.times):g},{max(self.times):g}]",
+            f"[{min(self.times):g},{max(self.times):g}]w{self.hks_weight:g}",
             f"bins={len(self.hks_edges) - 1}[{self.hks_edges[0]:g},{self.hks_edges[-1]:g}]",
         ]
         if self.energies:
             parts.append(
                 f"wks={len(self.energies)}[{self.energies[0]:g},{self.energies[-1]:g}]"
-                f"w{self.wks_weight:g}"
+                f"s{self.wks_sigma:.3g}w{self.wks_weight:g}slope{self.slope_weight:g}"
             )
         if self.dna_count:
             parts.append(f"dna={self.dna_count}w{self.dna_weight:g}")

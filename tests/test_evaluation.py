@@ -1,0 +1,198 @@
+"""Evaluation harness: scan simulator, dataset walk, eigenpair sharing and caching."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg
+import scipy.sparse as sp
+
+from core.evaluation.dataset import load_dataset, read_cla
+from core.evaluation.runner import EigenStore, VariantSolver
+from core.evaluation.scans import (
+    ScanSettings,
+    add_noise_and_outliers,
+    hidden_point_removal,
+    multi_view_scan,
+    random_rotation,
+    single_view_scan,
+    statistical_outlier_filter,
+)
+
+
+def sphere(n: int = 4000, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    points = rng.normal(size=(n, 3))
+    return points / np.linalg.norm(points, axis=1, keepdims=True)
+
+
+# -- scans ---------------------------------------------------------------------------------
+
+
+def test_hidden_point_removal_sees_the_near_cap_of_a_sphere() -> None:
+    points = sphere()
+    viewpoint = np.array([0.0, 0.0, 10.0])
+    visible = hidden_point_removal(points, viewpoint)
+    # From distance d a unit sphere shows the cap z > 1/d: (1 - 1/d) / 2 = 45 % of its area.
+    assert 0.40 < visible.size / len(points) < 0.50
+    # Nothing on the far side is seen.
+    assert np.all(points[visible, 2] > 0.0)
+
+
+def test_single_view_scan_sees_part_and_multi_view_sees_more() -> None:
+    points = sphere()
+    settings = ScanSettings(noise=0.0, outliers=0.0)
+    single = single_view_scan(points, np.random.default_rng(1), settings)
+    multi = multi_view_scan(points, np.random.default_rng(1), settings)
+    assert len(single) < len(points)
+    assert len(single) < len(multi) <= len(points)
+
+
+def test_noise_has_the_asked_standard_deviation() -> None:
+    points = sphere(20000)
+    diagonal = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+    box = (points.min(axis=0), points.max(axis=0))
+    noisy = add_noise_and_outliers(points, np.random.default_rng(2), diagonal, box, 0.005, 0.0)
+    assert noisy.shape == points.shape
+    # 0.5 % of the diagonal per coordinate, within sampling error (60000 draws).
+    assert np.std(noisy - points) == pytest.approx(0.005 * diagonal, rel=0.02)
+
+
+def test_outliers_make_up_the_asked_share() -> None:
+    points = sphere(9900)
+    box = (points.min(axis=0), points.max(axis=0))
+    scan = add_noise_and_outliers(points, np.random.default_rng(3), 1.0, box, 0.0, 0.01)
+    # 9900 inliers + 100 outliers: exactly 1 % of 10000.
+    assert len(scan) == 10000
+    stray = scan[len(points) :]
+    assert len(stray) / len(scan) == pytest.approx(0.01)
+    # Outliers lie in the box enlarged by 10 % per side, and mostly off the surface.
+    assert np.all(np.abs(stray) <= 1.2 + 1e-9)
+    assert np.mean(np.abs(np.linalg.norm(stray, axis=1) - 1.0) > 0.05) > 0.8
+
+
+def test_scans_are_deterministic_with_a_seed() -> None:
+    points = sphere()
+    first = single_view_scan(points, np.random.default_rng(7))
+    again = single_view_scan(points, np.random.default_rng(7))
+    other = single_view_scan(points, np.random.default_rng(8))
+    np.testing.assert_array_equal(first, again)
+    assert first.shape != other.shape or not np.array_equal(first, other)
+
+
+def test_random_rotation_is_a_proper_rotation() -> None:
+    rotation = random_rotation(np.random.default_rng(4))
+    np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(rotation) == pytest.approx(1.0)
+
+
+# -- dataset -------------------------------------------------------------------------------
+
+
+def test_dataset_drops_byte_identical_files_and_checks_the_cla(tmp_path: Path) -> None:
+    for label, name, text in [
+        ("Cup", "m1.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+        ("Cup", "m2.off", "OFF\n3 1 0\n0 0 0\n2 0 0\n0 1 0\n3 0 1 2\n"),
+        ("Cup", "m3.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),  # = m1
+        ("Pan", "m4.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 0 1\n3 0 1 2\n"),
+    ]:
+        (tmp_path / label).mkdir(exist_ok=True)
+        (tmp_path / label / name).write_text(text)
+    (tmp_path / "Cup" / "notes.txt.bak").write_text("ignored")
+    (tmp_path / "x.cla").write_text("PSB 1\n2 4\n\nCup 0 2\n1\n2\n\nPan 0 2\n3\n4\n")
+    assert read_cla(tmp_path / "x.cla") == {"1": "Cup", "2": "Cup", "3": "Pan", "4": "Pan"}
+    dataset = load_dataset(tmp_path)
+    assert [m.name for m in dataset.models] == ["Cup/m1.off", "Cup/m2.off", "Pan/m4.off"]
+    assert dataset.duplicates == [("Cup/m3.off", "Cup/m1.off")]
+    assert dataset.cla_mismatches == []
+
+
+# -- eigenpair sharing ---------------------------------------------------------------------
+
+
+class DenseSolver:
+    """A stand-in for core.eigen.SpectralSolver: exact pairs, bands of 10, fake timings."""
+
+    def __init__(self, stiffness: sp.spmatrix, mass: sp.spmatrix) -> None:
+        self.values, self.vectors = scipy.linalg.eigh(stiffness.toarray(), mass.toarray())
+        self.eigenvalues_ = self.values[:0]
+        self.eigenvectors_ = self.vectors[:, :0]
+        self.solver_calls_ = 0
+        self.bands_: list[dict[str, float]] = []
+
+    def solve(self, count: int) -> tuple[np.ndarray, np.ndarray]:
+        if count > self.eigenvalues_.size:
+            self.solver_calls_ += 1
+            while self.eigenvalues_.size < count:
+                self.bands_.append({"count": 10, "seconds": 1.0})
+                size = self.eigenvalues_.size + 10
+                self.eigenvalues_, self.eigenvectors_ = self.values[:size], self.vectors[:, :size]
+        return self.eigenvalues_[:count], self.eigenvectors_[:, :count]
+
+
+def path_graph(n: int = 60) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    main = np.full(n, 2.0)
+    main[[0, -1]] = 1.0
+    stiffness = sp.diags([main, -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1]).tocsr()
+    return stiffness, sp.identity(n, format="csr") / n
+
+
+def make_store(factory_calls: list[int]) -> EigenStore:
+    stiffness, mass = path_graph()
+
+    def factory() -> DenseSolver:
+        factory_calls.append(1)
+        return DenseSolver(stiffness, mass)
+
+    return EigenStore(np.empty(0), np.empty((60, 0)), mass.diagonal(), [], {}, factory)
+
+
+def test_variant_views_share_pairs_but_count_their_own_calls() -> None:
+    factories: list[int] = []
+    store = make_store(factories)
+    big = VariantSolver(store)
+    values, vectors = big.solve(25)
+    assert values.shape == (25,) and vectors.shape == (60, 25)
+    assert big.solver_calls_ == 1
+    # A second variant asking for less is served from the store, but it still counts the
+    # calls its own solver would have made.
+    small = VariantSolver(store)
+    small.solve(5)
+    small.solve(5)  # nothing new: not a call
+    small.solve(15)
+    assert small.solver_calls_ == 2
+    assert len(factories) == 1
+    # Seconds: bands of 10 pairs at 1 s each; 15 pairs need two bands, 25 need three.
+    assert store.seconds_for(15) == 2.0
+    assert store.seconds_for(25) == 3.0
+
+
+def test_store_round_trips_through_the_cache_and_grows_on_demand(tmp_path: Path) -> None:
+    factories: list[int] = []
+    store = make_store(factories)
+    VariantSolver(store).solve(20)
+    store.timings = {"load": 0.5, "laplacian": 0.25, "n_points": 60.0}
+    store.save(tmp_path / "pairs.npz")
+    loaded = EigenStore.load(tmp_path / "pairs.npz", store.factory)
+    np.testing.assert_array_equal(loaded.eigenvalues, store.eigenvalues)
+    assert loaded.timings == store.timings
+    assert loaded.seconds_for(20) == 2.0
+    # Served from the cache: no new solver.
+    VariantSolver(loaded).solve(20)
+    assert len(factories) == 1 and not loaded.changed
+    # Asking for more builds a solver again and marks the store for saving.
+    values, _ = VariantSolver(loaded).solve(35)
+    assert values.size == 35 and loaded.changed and len(factories) == 2
+
+
+def test_statistical_outlier_filter_drops_stray_points_and_keeps_the_surface() -> None:
+    points = sphere(5000)
+    box = (points.min(axis=0), points.max(axis=0))
+    scan = add_noise_and_outliers(points, np.random.default_rng(5), 2.0, box, 0.0, 0.01)
+    kept = statistical_outlier_filter(scan)
+    on_surface = np.abs(np.linalg.norm(kept, axis=1) - 1.0) < 0.05
+    # Nearly all 5000 surface points survive; at most a handful of the ~50 strays do.
+    assert np.count_nonzero(on_surface) > 0.97 * len(points)
+    assert np.count_nonzero(~on_surface) <= 10
