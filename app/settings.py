@@ -71,6 +71,11 @@ class Settings(BaseSettings):
         description="Scale normalisation: unit surface area or unit bounding box.",
     )
     sample_seed: int = Field(default=_ENGINE.sample_seed, description="Seed of the point sampling.")
+    outlier_filter: bool = Field(
+        default=_ENGINE.outlier_filter,
+        description="Drop statistical outliers (stray points) of uploaded point clouds; "
+        "meshes are never filtered.",
+    )
     cutoff_mode: Literal["adaptive", "fixed"] = Field(
         default=_ENGINE.cutoff.mode, description="adaptive (per-model eigenpair count) or fixed."
     )
@@ -213,6 +218,7 @@ def engine_settings(settings: Settings) -> EngineSettings:
         laplacian=settings.laplacian,
         normalisation=settings.normalisation,
         sample_seed=settings.sample_seed,
+        outlier_filter=settings.outlier_filter,
         cutoff=CutoffSettings(
             mode=settings.cutoff_mode,
             xi=settings.cutoff_xi,

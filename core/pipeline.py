@@ -117,6 +117,7 @@ def describe(
             max_points=settings.max_points,
             min_points=settings.min_points,
             seed=settings.sample_seed,
+            remove_outliers=settings.outlier_filter,
         )
     description = _describe_loaded(shape, settings, timings)
     timings["total"] = round(time.perf_counter() - start, 6)
@@ -137,6 +138,7 @@ def describe_points(points: np.ndarray, settings: EngineSettings | None = None) 
             max_points=settings.max_points,
             min_points=settings.min_points,
             seed=settings.sample_seed,
+            remove_outliers=settings.outlier_filter,
         )
     shape = LoadedShape(points=checked, format="array", kind="points", n_input=len(points))
     description = _describe_loaded(shape, settings, timings)

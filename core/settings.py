@@ -121,6 +121,8 @@ class EngineSettings:
     laplacian: str = "robust"
     normalisation: str = "area"
     sample_seed: int = 0
+    # Drop stray points of scanned clouds (meshes are never filtered); see core/io/_outliers.py.
+    outlier_filter: bool = True
     cutoff: CutoffSettings = field(default_factory=CutoffSettings)
     descriptor: DescriptorSettings = field(default_factory=DescriptorSettings)
 

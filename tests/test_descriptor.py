@@ -96,6 +96,7 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         replace(base, laplacian="spcl"),
         replace(base, max_points=5000),
         replace(base, normalisation="bbox"),
+        replace(base, outlier_filter=False),
         replace(base, cutoff=CutoffSettings(mode="fixed", n=300)),
         replace(base, cutoff=CutoffSettings(xi=1e-12)),
     ]
@@ -113,5 +114,5 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(dna_weight=0.3),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 16
+    assert len(versions) == 17
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)

@@ -18,8 +18,8 @@ from core.evaluation.scans import (
     multi_view_scan,
     random_rotation,
     single_view_scan,
-    statistical_outlier_filter,
 )
+from core.io import validate_points
 
 
 def sphere(n: int = 4000, seed: int = 0) -> np.ndarray:
@@ -187,11 +187,11 @@ def test_store_round_trips_through_the_cache_and_grows_on_demand(tmp_path: Path)
     assert values.size == 35 and loaded.changed and len(factories) == 2
 
 
-def test_statistical_outlier_filter_drops_stray_points_and_keeps_the_surface() -> None:
+def test_engine_outlier_filter_drops_stray_points_and_keeps_the_surface() -> None:
     points = sphere(5000)
     box = (points.min(axis=0), points.max(axis=0))
     scan = add_noise_and_outliers(points, np.random.default_rng(5), 2.0, box, 0.0, 0.01)
-    kept = statistical_outlier_filter(scan)
+    kept = validate_points(scan, max_points=len(scan), remove_outliers=True)
     on_surface = np.abs(np.linalg.norm(kept, axis=1) - 1.0) < 0.05
     # Nearly all 5000 surface points survive; at most a handful of the ~50 strays do.
     assert np.count_nonzero(on_surface) > 0.97 * len(points)

@@ -126,6 +126,18 @@ def test_resampling_keeps_cutoff_and_descriptor(resampled, name: str) -> None:
     assert same < 0.6 * min(others)
 
 
+def test_outlier_filter_keeps_scan_outliers_out_of_the_descriptor(reference, other_part) -> None:
+    points, clean = reference
+    rng = np.random.default_rng(4)
+    low, high = points.min(axis=0), points.max(axis=0)
+    strays = rng.uniform(low, high, size=(len(points) // 100, 3))  # 1 % outliers in the box
+    scan = np.vstack([points, strays])
+    filtered = describe_points(scan, SETTINGS).descriptor
+    unfiltered = describe_points(scan, replace(SETTINGS, outlier_filter=False)).descriptor
+    assert distance(filtered, clean) < 0.5 * distance(unfiltered, clean)
+    assert distance(filtered, clean) < 0.5 * distance(other_part, clean)
+
+
 def test_fixed_cutoff_uses_exactly_n() -> None:
     from core.settings import CutoffSettings
 

@@ -40,7 +40,6 @@ from core.evaluation.scans import (
     ScanSettings,
     random_rotation,
     simulate_scan,
-    statistical_outlier_filter,
 )
 from core.io import load_points, validate_points
 from core.pipeline import descriptor_from_eigenpairs, normalised_operators
@@ -248,13 +247,12 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
         kind, _, cleanup = sampling.scan.partition("+")
         views = ScanSettings().views if kind == "multi" else 1
         scanned = simulate_scan(points, rng, ScanSettings(), views=views)
-        if cleanup == "sor":
-            # Not in the service: measures what an outlier filter before the engine would give.
-            scanned = statistical_outlier_filter(scanned)
-        # The loader's own checks and even thinning, as for an uploaded scan.
+        # The loader's own checks and even thinning, as for an uploaded scan; "+sor" scans go
+        # through the engine's outlier filter (EngineSettings.outlier_filter, on by default),
+        # plain ones without it, to show what the filter is worth.
         points = validate_points(
             scanned, max_points=sampling.max_points, min_points=min_points,
-            seed=sampling.sample_seed,
+            seed=sampling.sample_seed, remove_outliers=cleanup == "sor",
         )
     return points, time.perf_counter() - start
 

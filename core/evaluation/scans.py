@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, cKDTree
+from scipy.spatial import ConvexHull
 
 __all__ = [
     "ScanSettings",
@@ -30,7 +30,6 @@ __all__ = [
     "random_viewpoint",
     "simulate_scan",
     "single_view_scan",
-    "statistical_outlier_filter",
 ]
 
 
@@ -186,29 +185,3 @@ def simulate_scan(
     return add_noise_and_outliers(
         points[seen], rng, diagonal, (low, high), settings.noise, settings.outliers
     )
-
-
-def statistical_outlier_filter(
-    points: np.ndarray, neighbours: int = 8, z: float = 2.0
-) -> np.ndarray:
-    """Drop points whose mean distance to their neighbours is unusually large.
-
-    The classic statistical outlier removal of scan pipelines (as in PCL): a point is kept
-    when its mean distance to its ``neighbours`` nearest points is below the mean of that
-    quantity plus ``z`` standard deviations. It is *not* part of the engine; the evaluation
-    uses it to measure how much of the loss on scans stray points cause.
-
-    Parameters
-    ----------
-    points : (n, 3) float
-    neighbours : int
-    z : float
-
-    Returns
-    -------
-    kept : (m, 3) float
-        The inliers, in their original order.
-    """
-    distances, _ = cKDTree(points).query(points, neighbours + 1)
-    spacing = distances[:, 1:].mean(axis=1)  # column 0 is the point itself
-    return points[spacing < spacing.mean() + z * spacing.std()]

@@ -13,6 +13,7 @@ can act on.
 
 from core.io._formats import SUPPORTED_FORMATS, detect_format
 from core.io._loader import LoadedShape, load_points
+from core.io._outliers import statistical_inliers
 from core.io._validate import MAX_PARSED_POINTS, validate_points
 
 __all__ = [
@@ -21,5 +22,6 @@ __all__ = [
     "LoadedShape",
     "detect_format",
     "load_points",
+    "statistical_inliers",
     "validate_points",
 ]

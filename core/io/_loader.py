@@ -140,6 +140,7 @@ def load_points(
     max_points: int = 20000,
     min_points: int = 100,
     seed: int = 0,
+    remove_outliers: bool = False,
 ) -> LoadedShape:
     """Load a point cloud or mesh file as checked points.
 
@@ -156,6 +157,9 @@ def load_points(
         Fewer distinct points are refused.
     seed : int
         Seed of mesh sampling and thinning: the same file always gives the same points.
+    remove_outliers : bool
+        Drop statistical outliers from point clouds (scans). Points sampled from a mesh lie
+        on its surface by construction and are never filtered.
 
     Returns
     -------
@@ -191,6 +195,10 @@ def load_points(
         points = _mesh_points(geometry, max_points=max_points, min_points=min_points, seed=seed)
         return LoadedShape(points=points, format=fmt, kind="mesh", n_input=n_input)
     points = validate_points(
-        geometry.vertices, max_points=max_points, min_points=min_points, seed=seed
+        geometry.vertices,
+        max_points=max_points,
+        min_points=min_points,
+        seed=seed,
+        remove_outliers=remove_outliers,
     )
     return LoadedShape(points=points, format=fmt, kind="points", n_input=n_input)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.errors import InvalidShapeError
+from core.io._outliers import statistical_inliers
 from core.io._sampling import voxel_downsample
 
 __all__ = ["MAX_PARSED_POINTS", "validate_points"]
@@ -144,7 +145,12 @@ def _check_not_degenerate(points: np.ndarray) -> None:
 
 
 def validate_points(
-    points: np.ndarray, *, max_points: int = 20000, min_points: int = 100, seed: int = 0
+    points: np.ndarray,
+    *,
+    max_points: int = 20000,
+    min_points: int = 100,
+    seed: int = 0,
+    remove_outliers: bool = False,
 ) -> np.ndarray:
     """Check a point cloud and thin it to at most ``max_points`` points.
 
@@ -158,6 +164,8 @@ def validate_points(
         Fewer distinct points than this are refused.
     seed : int
         Seed of the thinning; same points and seed give the same result.
+    remove_outliers : bool
+        Drop statistical outliers (stray scan points) before thinning.
 
     Returns
     -------
@@ -180,6 +188,8 @@ def validate_points(
     _check_finite(array)
     _check_span(array)
     distinct = _distinct(array) if len(array) else np.zeros(0, dtype=np.intp)
+    if remove_outliers and len(distinct) > min_points:
+        distinct = distinct[statistical_inliers(array[distinct])]
     if len(distinct) < max(min_points, 1):
         repeated = f" ({len(array):,} points with repeats)" if len(array) > len(distinct) else ""
         raise InvalidShapeError(

@@ -1,0 +1,42 @@
+"""Statistical outlier removal for scanned point clouds.
+
+Depth sensors add stray points off the surface. The robust Laplacian gives such an isolated
+point a huge area (measured on simulated capod scans: up to 110 times the median area, against
+6-8 times on clean samples), which distorts the mass matrix, the unit-area scaling and every
+area-weighted histogram; on simulated three-view scans it made retrieval no better than
+chance (docs/results.md). The classic filter of scan pipelines removes them: a point stays
+when its mean distance to its nearest neighbours is below the mean of that quantity plus
+``z`` standard deviations.
+
+It runs before thinning on purpose: even thinning keeps one point per occupied voxel, so it
+would keep every isolated outlier and raise their share.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+__all__ = ["statistical_inliers"]
+
+
+def statistical_inliers(points: np.ndarray, neighbours: int = 8, z: float = 2.0) -> np.ndarray:
+    """Mask of the points that are not statistical outliers.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    neighbours : int
+        Neighbours whose mean distance measures how isolated a point is.
+    z : float
+        Points with a mean distance above ``mean + z * std`` (over all points) are outliers.
+
+    Returns
+    -------
+    inliers : (n,) bool
+    """
+    if len(points) <= neighbours:
+        return np.ones(len(points), dtype=bool)
+    distances, _ = cKDTree(points).query(points, neighbours + 1)
+    spacing = distances[:, 1:].mean(axis=1)  # column 0 is the point itself
+    return spacing <= spacing.mean() + z * spacing.std()
