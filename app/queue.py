@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import uuid
 from dataclasses import dataclass
-from datetime import timedelta
+from datetime import datetime, timedelta
 from typing import Any
 
 from sqlalchemy import and_, or_, select, update
@@ -182,45 +182,27 @@ class JobQueue:
             return self.fail(claim, error)
         now = utcnow()
         delay = backoff_seconds(claim.attempts, self.backoff_base, self.backoff_cap)
+        return self._requeue(
+            claim, now, run_after=now + timedelta(seconds=delay), last_error=error
+        )
+
+    def release(self, claim: Claim) -> bool:
+        """Hand the job back untouched (shutdown): due at once, this attempt not counted."""
+        now = utcnow()
+        return self._requeue(claim, now, run_after=now, attempts=Job.attempts - 1)
+
+    def _requeue(self, claim: Claim, now: datetime, **job_values: Any) -> bool:
+        """Queue a held job again (its model with it); False if the lease was lost."""
         with self.sessions.begin() as session:
             queued = session.execute(
                 update(Job)
                 .where(self._held(claim))
                 .values(
-                    status="queued",
-                    run_after=now + timedelta(seconds=delay),
-                    leased_until=None,
-                    worker_id=None,
-                    last_error=error,
-                    updated_at=now,
+                    status="queued", leased_until=None, worker_id=None, updated_at=now,
+                    **job_values,
                 )
             )
             if queued.rowcount != 1:
-                return False
-            session.execute(
-                update(Model)
-                .where(Model.id == claim.model_id)
-                .values(status="queued", updated_at=now)
-            )
-        return True
-
-    def release(self, claim: Claim) -> bool:
-        """Hand the job back untouched (shutdown): due at once, this attempt not counted."""
-        now = utcnow()
-        with self.sessions.begin() as session:
-            released = session.execute(
-                update(Job)
-                .where(self._held(claim))
-                .values(
-                    status="queued",
-                    run_after=now,
-                    attempts=Job.attempts - 1,
-                    leased_until=None,
-                    worker_id=None,
-                    updated_at=now,
-                )
-            )
-            if released.rowcount != 1:
                 return False
             session.execute(
                 update(Model)
