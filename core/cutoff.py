@@ -161,7 +161,9 @@ class AdaptiveCutoff:
     def select(self, solver: EigenSolver) -> CutoffResult:
         """Run the cutoff on ``solver``; the solver keeps every eigenpair it computed."""
         calls_before = solver.solver_calls_
-        eigenvalues, _ = solver.solve(self.seed)
+        # Every fit uses all eigenvalues found so far, including any a band found beyond the
+        # count asked for: more data for the fit, at no cost.
+        eigenvalues = _all_eigenvalues(solver, solver.solve(self.seed)[0])
         predictions: list[int] = []
         n = self.n_max
         for _ in range(_MAX_ROUNDS):
@@ -171,7 +173,8 @@ class AdaptiveCutoff:
             # Done when the criterion is met inside the computed range, or the clamp decides.
             if predicted <= eigenvalues.size or n == self.n_max:
                 break
-            eigenvalues, _ = solver.solve(min(n + self.margin, self.n_max))
+            solved, _ = solver.solve(min(n + self.margin, self.n_max))
+            eigenvalues = _all_eigenvalues(solver, solved)
         eigenvalues, _ = solver.solve(n)  # no work unless a clamp asks for more
         return CutoffResult(
             mode=self.mode,
