@@ -11,11 +11,17 @@ For each part of /work/shared/datasets/parts and each point count, in a fresh wo
 The worker runs (c) first and reads the peak RSS right after it, so that figure is the
 adaptive descriptor's own peak; the later peaks include (b) and (a).
 
+``--compare`` instead times, on the same (L, M) and at the same n (the adaptive cutoff's n),
+the previous banded solver (SuperLU LDL^T per shift), the current one (QDLDL LDL^T per shift)
+and stock ``eigsh(L, n, M, sigma)``, interleaved and repeated (the medians are printed).
+
 Usage::
 
     /work/venv/bin/python bench/eigensolve.py                 # all parts, 20k and 50k points
     /work/venv/bin/python bench/eigensolve.py --quick         # 3 parts, 20k points
     /work/venv/bin/python bench/eigensolve.py --points 20000 --models bunny teapot
+    nice -n 10 .venv/bin/python bench/eigensolve.py --compare --points 3000 5000 20000 \
+        --models angle_block bunny teapot plate_holes cycloidal
 """
 
 from __future__ import annotations
@@ -111,9 +117,103 @@ def run_worker(path: Path, max_points: int) -> dict:
     return result
 
 
-def spawn_worker(path: Path, max_points: int) -> dict:
-    """Run ``run_worker`` in a child process and return its JSON result."""
+def _superlu_ldl(matrix):  # type: ignore[no-untyped-def]
+    """The previous factorisation: SuperLU without pivoting in symmetric mode (U = D L^T)."""
+    from scipy.sparse.linalg import splu
+
+    lu = splu(
+        matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+    )
+    pivots = lu.U.diagonal()
+    congruent = np.array_equal(lu.perm_r, lu.perm_c)
+    if congruent and np.all(np.isfinite(pivots)) and np.all(pivots != 0):
+        return lu, int(np.count_nonzero(pivots < 0))
+    return lu, None
+
+
+def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
+    """Old banded vs new banded vs stock at the adaptive n, on the same operators."""
+    from scipy.sparse.linalg import eigsh
+
+    import core.eigen._factor as factor_module
+    from core.cutoff import make_cutoff
+    from core.eigen import SpectralSolver, default_shift, pin_blas_threads
+    from core.io import load_points
+    from core.pipeline import normalised_operators
+    from core.settings import EngineSettings
+
+    settings = EngineSettings(max_points=max_points)
+    points = load_points(path, max_points=max_points, seed=settings.sample_seed).points
+    result: dict = {"model": path.stem, "max_points": max_points, "mode": "compare"}
+    new_ldl = factor_module._symmetric_ldl
+    with pin_blas_threads():
+        start = time.perf_counter()
+        _, stiffness, mass = normalised_operators(points, settings)
+        result["laplacian_s"] = time.perf_counter() - start
+        result["points"] = int(stiffness.shape[0])
+        solver = SpectralSolver(stiffness, mass)
+        cutoff = make_cutoff(settings.cutoff).select(solver)
+        count = cutoff.n
+        result["n"], result["adaptive_calls"] = count, cutoff.solver_calls
+        times: dict[str, list[float]] = {"old": [], "new": [], "stock": []}
+        values: dict[str, np.ndarray] = {}
+        for _ in range(repeats):
+            for name in ("old", "new"):
+                factor_module._symmetric_ldl = _superlu_ldl if name == "old" else new_ldl
+                try:
+                    start = time.perf_counter()
+                    values[name] = SpectralSolver(stiffness, mass).solve(count)[0]
+                    times[name].append(time.perf_counter() - start)
+                finally:
+                    factor_module._symmetric_ldl = new_ldl
+            start = time.perf_counter()
+            stock = eigsh(stiffness, count, mass, sigma=default_shift(mass), which="LM")[0]
+            times["stock"].append(time.perf_counter() - start)
+            values["stock"] = np.sort(stock)
+    for name, seconds in times.items():
+        result[f"{name}_s"] = statistics.median(seconds)
+    scale = values["stock"][-1]
+    result["max_rel_new_vs_stock"] = float(np.max(np.abs(values["new"] - values["stock"])) / scale)
+    result["max_rel_new_vs_old"] = float(np.max(np.abs(values["new"] - values["old"])) / scale)
+    return result
+
+
+def print_compare(row: dict) -> None:
+    if "error" in row:
+        print(f"{row['model']:<22} {row['max_points']:>6}  ERROR {row['error'].splitlines()[-1]}")
+        return
+    print(
+        f"{row['model']:<22} {row['points']:>6} n={row['n']:>3} laplacian "
+        f"{row['laplacian_s']:5.2f}s  old banded {row['old_s']:6.2f}s  new {row['new_s']:6.2f}s  "
+        f"stock {row['stock_s']:6.2f}s  old/new {row['old_s'] / row['new_s']:4.2f}x  "
+        f"stock/new {row['stock_s'] / row['new_s']:4.2f}x  max|dl|/l_n new-stock "
+        f"{row['max_rel_new_vs_stock']:.1e} new-old {row['max_rel_new_vs_old']:.1e}",
+        flush=True,
+    )
+
+
+def print_compare_summary(rows: list[dict], max_points: int) -> None:
+    done = [row for row in rows if "error" not in row and row["max_points"] == max_points]
+    if not done:
+        return
+
+    def median(key: str) -> float:
+        return statistics.median(row[key] for row in done)
+
+    print(
+        f"\nmedians at max_points={max_points} over {len(done)} models (n {median('n'):.0f}): "
+        f"laplacian {median('laplacian_s'):.2f}s, old banded {median('old_s'):.2f}s, new "
+        f"{median('new_s'):.2f}s, stock {median('stock_s'):.2f}s; ratios old/new "
+        f"{statistics.median(row['old_s'] / row['new_s'] for row in done):.2f}x, stock/new "
+        f"{statistics.median(row['stock_s'] / row['new_s'] for row in done):.2f}x",
+        flush=True,
+    )
+
+
+def spawn_worker(path: Path, max_points: int, compare: bool = False) -> dict:
+    """Run ``run_worker`` (or ``run_compare``) in a child process and return its JSON result."""
     command = [sys.executable, __file__, "--worker", str(path), str(max_points)]
+    command += ["--compare"] if compare else []
     completed = subprocess.run(command, capture_output=True, text=True, check=False)
     if completed.returncode != 0:
         return {"model": path.stem, "max_points": max_points, "error": completed.stderr[-400:]}
@@ -176,11 +276,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--points", type=int, nargs="+", default=[20000, 50000])
     parser.add_argument("--models", nargs="+", help="part file stems (default: all)")
     parser.add_argument("--quick", action="store_true", help="3 models, 20k points")
+    parser.add_argument("--compare", action="store_true", help="old vs new banded vs stock")
     parser.add_argument("--json", type=Path, help="also write the rows to this file")
     parser.add_argument("--worker", nargs=2, metavar=("PATH", "POINTS"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
-        print(json.dumps(run_worker(Path(args.worker[0]), int(args.worker[1]))))
+        run = run_compare if args.compare else run_worker
+        print(json.dumps(run(Path(args.worker[0]), int(args.worker[1]))))
         return 0
     if args.quick:
         args.models, args.points = list(QUICK_MODELS), [20000]
@@ -188,10 +290,10 @@ def main(argv: list[str] | None = None) -> int:
     for max_points in args.points:
         print(f"== max_points {max_points} (BLAS 1 thread, one worker process per run)")
         for path in part_files(args.models):
-            row = spawn_worker(path, max_points)
+            row = spawn_worker(path, max_points, args.compare)
             rows.append(row)
-            print_row(row)
-        print_summary(rows, max_points)
+            (print_compare if args.compare else print_row)(row)
+        (print_compare_summary if args.compare else print_summary)(rows, max_points)
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))
     return 0

@@ -150,3 +150,20 @@ def test_pin_blas_threads_limits_blas_pools():
     with pin_blas_threads(1):
         blas = [pool for pool in threadpool_info() if pool["user_api"] == "blas"]
         assert blas and all(pool["num_threads"] == 1 for pool in blas)
+
+
+def test_multi_component_shape_zero_eigenvalues_and_continued_rounds():
+    # Three separate spheres: three zero eigenvalues (one constant per component), then
+    # every sphere multiplet three times over; band size 5 cuts those clusters.
+    points = np.vstack([sphere_points(700, seed=s) + [4.0 * s, 0.0, 0.0] for s in range(3)])
+    stiffness, mass = build_laplacian(points, "robust")
+    reference_values, reference_vectors = smallest_eigenpairs(stiffness, mass, 60)
+    solver = SpectralSolver(stiffness, mass, band_size=5)
+    for count in (2, 20, 60):  # the first round stops inside the zero cluster
+        eigenvalues, eigenvectors = solver.solve(count)
+    scale = reference_values[-1]
+    assert np.all(np.abs(eigenvalues[:3]) < 1e-8 * scale) and eigenvalues[3] > 1e-3 * scale
+    np.testing.assert_allclose(eigenvalues, reference_values, rtol=1e-8, atol=1e-8 * scale)
+    for cluster in clusters(reference_values)[:-1]:
+        overlap = reference_vectors[:, cluster].T @ (mass @ eigenvectors[:, cluster])
+        assert np.linalg.svd(overlap, compute_uv=False).min() > 1 - 1e-6
