@@ -2,14 +2,23 @@
 
 A fixed count captures a different part of the spectrum for every model and sampling. The
 adaptive cutoff instead stops where the next eigenpair would change a heat kernel sum by
-less than ``xi``::
+less than ``xi``. The rule is a function of the spectrum alone (``window_cutoff``)::
 
-    first n with  exp(-t lambda_{n-1}) - exp(-t lambda_n) < xi
+    n* = first n with  exp(-t f_n(n-1)) - exp(-t f_n(n)) < xi
 
-It computes a seed of eigenvalues, fits a quadratic ``lambda(i)`` to them to predict the
-ones not yet computed, asks the solver for ``n + margin`` eigenpairs, refits on everything
-found and repeats until the predicted ``n`` lies inside the computed range; ``n`` is then
-clamped to ``[n_min, n_max]``. On Weyl-like spectra that is the seed plus one solver call.
+where ``f_n`` is the quadratic ``lambda(i) = a + b i + c i^2`` least-squares fitted to the
+eigenvalues ``lambda_1 .. lambda_w(n)`` of the window ``w(n) = clip(n + margin, seed, n_max)``
+(made non-decreasing), and ``n = clip(n*, n_min, n_max)``. The fit smooths the steps between
+near-degenerate eigenvalues (sphere multiplets, sampling noise) that would fake a zero
+contribution, and because its window is set by ``n`` itself, not by how many eigenvalues
+happen to be computed, the same model always gets the same ``n``.
+
+``AdaptiveCutoff.select`` computes a seed of eigenvalues (or, given a predicted ``n``, goes
+straight to ``prediction + margin``), evaluates the rule on every ``n`` whose window is
+computed, and when ``n*`` lies beyond them asks the solver for more: up to the ``n`` that the
+fit of all computed eigenvalues extrapolates, plus ``margin``. On Weyl-like spectra that is
+the seed plus one solver call, or a single call when the prediction was right. A wrong
+prediction costs calls, never changes ``n``.
 
 The solver is anything with ``solve(count) -> (eigenvalues, eigenvectors)`` and a
 ``solver_calls_`` counter, such as ``core.eigen.SpectralSolver``.
@@ -30,6 +39,7 @@ __all__ = [
     "FixedCutoff",
     "contribution_cutoff",
     "make_cutoff",
+    "window_cutoff",
 ]
 
 # Rounds after which the adaptive cutoff gives up refining and clamps; each round grows the
@@ -56,11 +66,16 @@ class CutoffResult:
     solver_calls : int
         Calls to the eigen-solver that computed something (the seed counts as one).
     predicted : list of int
-        Unclamped ``n`` predicted in each round (empty for a fixed cutoff).
+        Unclamped ``n`` extrapolated in each round that had to ask for more (empty for a
+        fixed cutoff, or when the first call already decided).
     eigenvalues : (m,) float
         Every eigenvalue computed, ``m >= n``.
     params : dict
         Parameters of the cutoff, for the record.
+    prediction : int or None
+        ``n`` predicted before the solve (``core.cutoff_predictor``), None without one.
+    prediction_held : bool or None
+        Whether the first call, to ``prediction + margin``, decided ``n`` (None without one).
     """
 
     mode: str
@@ -69,6 +84,8 @@ class CutoffResult:
     predicted: list[int] = field(default_factory=list)
     eigenvalues: np.ndarray = field(default_factory=lambda: np.empty(0))
     params: dict[str, Any] = field(default_factory=dict)
+    prediction: int | None = None
+    prediction_held: bool | None = None
 
 
 def contribution_cutoff(eigenvalues: np.ndarray, xi: float, t: float) -> int | None:
@@ -152,38 +169,164 @@ class AdaptiveCutoff:
         }
 
     def predict(self, eigenvalues: np.ndarray) -> int:
-        """Unclamped n predicted from the eigenvalues found so far (n_max * 4 if beyond)."""
+        """Unclamped n extrapolated from the fit of all ``eigenvalues`` (4 n_max if beyond)."""
         horizon = 4 * self.n_max
         predicted = _quadratic_prediction(np.asarray(eigenvalues, dtype=np.float64), horizon)
         n = contribution_cutoff(predicted, self.xi, self.t)
         return horizon if n is None else n
 
-    def select(self, solver: EigenSolver) -> CutoffResult:
-        """Run the cutoff on ``solver``; the solver keeps every eigenpair it computed."""
+    def decide(self, eigenvalues: np.ndarray, complete: bool = False) -> int | None:
+        """``n`` by the rule, or None when the computed ``eigenvalues`` do not decide it yet.
+
+        ``complete`` says there are no more eigenvalues (the whole spectrum is computed).
+        """
+        return window_cutoff(
+            eigenvalues,
+            self.xi,
+            self.t,
+            seed=self.seed,
+            margin=self.margin,
+            n_min=self.n_min,
+            n_max=self.n_max,
+            complete=complete,
+        )
+
+    def select(self, solver: EigenSolver, prediction: int | None = None) -> CutoffResult:
+        """Run the cutoff on ``solver``; the solver keeps every eigenpair it computed.
+
+        Parameters
+        ----------
+        solver : EigenSolver
+        prediction : int, optional
+            ``n`` expected for this model (``core.cutoff_predictor``): the first call asks
+            for ``prediction + margin`` instead of the seed. It changes the calls, not ``n``.
+        """
         calls_before = solver.solver_calls_
-        # Every fit uses all eigenvalues found so far, including any a band found beyond the
-        # count asked for: more data for the fit, at no cost.
-        eigenvalues = _all_eigenvalues(solver, solver.solve(self.seed)[0])
+        first = self.seed
+        if prediction is not None:
+            first = int(np.clip(int(prediction) + self.margin, self.seed, self.n_max))
+        eigenvalues, complete = self._solve(solver, first)
         predictions: list[int] = []
-        n = self.n_max
+        n = self.decide(eigenvalues, complete)
         for _ in range(_MAX_ROUNDS):
+            if n is not None:
+                break
             predicted = self.predict(eigenvalues)
             predictions.append(predicted)
-            n = int(np.clip(predicted, self.n_min, self.n_max))
-            # Done when the criterion is met inside the computed range, or the clamp decides.
-            if predicted <= eigenvalues.size or n == self.n_max:
-                break
-            solved, _ = solver.solve(min(n + self.margin, self.n_max))
-            eigenvalues = _all_eigenvalues(solver, solved)
-        eigenvalues, _ = solver.solve(n)  # no work unless a clamp asks for more
+            # Enough for the window of the extrapolated n, and always progress.
+            wanted = max(predicted + self.margin, eigenvalues.size + self.margin + 1)
+            eigenvalues, complete = self._solve(solver, min(wanted, self.n_max))
+            n = self.decide(eigenvalues, complete)
+        if n is None:  # a pathological, ever-receding spectrum: the clamp decides
+            n = self.n_max
+        eigenvalues, _ = solver.solve(n)  # no work unless n_min asks for more
+        calls = solver.solver_calls_ - calls_before
         return CutoffResult(
             mode=self.mode,
             n=n,
-            solver_calls=solver.solver_calls_ - calls_before,
+            solver_calls=calls,
             predicted=predictions,
             eigenvalues=_all_eigenvalues(solver, eigenvalues),
             params=self.params(),
+            prediction=None if prediction is None else int(prediction),
+            prediction_held=None if prediction is None else calls == 1,
         )
+
+    @staticmethod
+    def _solve(solver: EigenSolver, count: int) -> tuple[np.ndarray, bool]:
+        """All eigenvalues computed after asking for ``count``; True if that is all there are."""
+        solved, _ = solver.solve(count)
+        # Every eigenvalue the solver found counts, including any a band found beyond the
+        # count asked for: the rule's windows may use them at no cost.
+        return _all_eigenvalues(solver, solved), len(solved) < count
+
+
+def window_cutoff(
+    eigenvalues: np.ndarray,
+    xi: float,
+    t: float,
+    *,
+    seed: int,
+    margin: int,
+    n_min: int,
+    n_max: int,
+    complete: bool = False,
+) -> int | None:
+    """The adaptive rule (module docstring) on the first eigenvalues of a spectrum.
+
+    Parameters
+    ----------
+    eigenvalues : (m,) float
+        The smallest ``m`` eigenvalues, ascending.
+    xi, t, seed, margin, n_min, n_max
+        As in ``AdaptiveCutoff``.
+    complete : bool
+        The spectrum has no more eigenvalues (windows are cut at ``m``).
+
+    Returns
+    -------
+    n : int or None
+        ``clip(n*, n_min, n_max)``, or None when ``n*`` lies beyond every ``n`` whose window
+        ``eigenvalues`` covers (more eigenvalues are needed to decide).
+    """
+    values = np.asarray(eigenvalues, dtype=np.float64)
+    size = values.size
+    limit = min(n_max, size) if complete else n_max
+    candidates = np.arange(2, limit + 1)
+    windows = np.clip(candidates + margin, seed, n_max)
+    if complete:
+        windows = np.minimum(windows, size)
+    covered = windows <= size
+    # Windows grow with n, so the covered candidates are a prefix; past it, undecided.
+    checkable = int(np.count_nonzero(covered))
+    candidates, windows = candidates[:checkable], windows[:checkable]
+    usable = windows >= 3  # a quadratic needs three eigenvalues
+    steps = _windowed_steps(values, candidates[usable], windows[usable], t)
+    below = np.flatnonzero(steps < xi)
+    if below.size:
+        return int(np.clip(candidates[usable][below[0]], n_min, n_max))
+    if checkable < limit - 1:
+        return None  # n* lies beyond the computed windows: more eigenvalues are needed
+    return int(np.clip(max(limit, 2), n_min, n_max))
+
+
+def _windowed_steps(
+    values: np.ndarray, candidates: np.ndarray, windows: np.ndarray, t: float
+) -> np.ndarray:
+    """``exp(-t f(n-1)) - exp(-t f(n))`` for each candidate n, f fitted on ``values[:w(n)]``.
+
+    All the least-squares quadratics at once from cumulative sums (normal equations in the
+    scaled index i / w, well conditioned); f is made non-decreasing, as in
+    ``_quadratic_prediction``, by its running maximum over 1..n.
+    """
+    if candidates.size == 0:
+        return np.empty(0)
+    index = np.arange(1, values.size + 1, dtype=np.float64)
+    powers = np.stack([np.cumsum(index**k) for k in range(5)])  # sum i^k, k = 0..4
+    moments = np.stack([np.cumsum(values * index**k) for k in range(3)])  # sum lambda i^k
+    last = windows - 1
+    scale = windows.astype(np.float64)
+    gram = np.empty((windows.size, 3, 3))
+    for row in range(3):
+        for col in range(3):
+            gram[:, row, col] = powers[row + col, last] / scale ** (row + col)
+    rhs = np.stack([moments[k, last] / scale**k for k in range(3)], axis=1)
+    coefficients = np.linalg.solve(gram, rhs[..., None])[..., 0]  # (a, b, c) in x = i / w
+
+    def fit(at: np.ndarray) -> np.ndarray:
+        x = at / scale
+        return coefficients[:, 0] + coefficients[:, 1] * x + coefficients[:, 2] * x**2
+
+    # Running maximum over the integers 1..n - 1: the ends, or the vertex of a concave fit.
+    previous = candidates.astype(np.float64) - 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = -coefficients[:, 1] * scale / (2.0 * coefficients[:, 2])
+    vertex = np.where(np.isfinite(vertex), vertex, 1.0)
+    peak = np.maximum(fit(np.ones_like(previous)), fit(previous))
+    for rounded in (np.floor(vertex), np.ceil(vertex)):
+        peak = np.maximum(peak, fit(np.clip(rounded, 1.0, previous)))
+    current = np.maximum(peak, fit(previous + 1.0))
+    return np.exp(-t * peak) - np.exp(-t * current)
 
 
 class FixedCutoff:

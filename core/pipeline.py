@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from core.cutoff import CutoffResult, make_cutoff
+from core.cutoff import AdaptiveCutoff, CutoffResult, make_cutoff
+from core.cutoff_predictor import CutoffPredictor, shape_features
 from core.descriptor import DescriptorSpec
 from core.eigen import SpectralSolver, pin_blas_threads
 from core.io import LoadedShape, load_points
@@ -58,6 +59,8 @@ class Description:
         Layout and parameters of ``descriptor``.
     timings : dict
         Seconds per stage.
+    features : (f,) float
+        Pre-solve features (``core.cutoff_predictor.shape_features``), for cutoff predictors.
     """
 
     points: np.ndarray
@@ -69,6 +72,7 @@ class Description:
     descriptor: np.ndarray
     descriptor_version: str
     timings: dict[str, float] = field(default_factory=dict)
+    features: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     @property
     def n_points(self) -> int:
@@ -87,6 +91,7 @@ def describe(
     settings: EngineSettings | None = None,
     *,
     filename: str | None = None,
+    predictor: CutoffPredictor | None = None,
 ) -> Description:
     """Describe one shape file.
 
@@ -98,6 +103,9 @@ def describe(
         Defaults to ``EngineSettings()``.
     filename : str, optional
         Original file name, used to detect the format of ``bytes``.
+    predictor : CutoffPredictor, optional
+        Fitted on models of the same descriptor version: the adaptive cutoff then solves
+        straight to the predicted n (same n, usually fewer solver calls).
 
     Raises
     ------
@@ -119,12 +127,17 @@ def describe(
             seed=settings.sample_seed,
             remove_outliers=settings.outlier_filter,
         )
-    description = _describe_loaded(shape, settings, timings)
+    description = _describe_loaded(shape, settings, timings, predictor)
     timings["total"] = round(time.perf_counter() - start, 6)
     return description
 
 
-def describe_points(points: np.ndarray, settings: EngineSettings | None = None) -> Description:
+def describe_points(
+    points: np.ndarray,
+    settings: EngineSettings | None = None,
+    *,
+    predictor: CutoffPredictor | None = None,
+) -> Description:
     """Describe an in-memory point cloud, ``points : (n, 3) float``."""
     from core.io import validate_points
 
@@ -141,7 +154,7 @@ def describe_points(points: np.ndarray, settings: EngineSettings | None = None) 
             remove_outliers=settings.outlier_filter,
         )
     shape = LoadedShape(points=checked, format="array", kind="points", n_input=len(points))
-    description = _describe_loaded(shape, settings, timings)
+    description = _describe_loaded(shape, settings, timings, predictor)
     timings["total"] = round(time.perf_counter() - start, 6)
     return description
 
@@ -196,14 +209,23 @@ def descriptor_from_eigenpairs(
 
 
 def _describe_loaded(
-    shape: LoadedShape, settings: EngineSettings, timings: dict[str, float]
+    shape: LoadedShape,
+    settings: EngineSettings,
+    timings: dict[str, float],
+    predictor: CutoffPredictor | None = None,
 ) -> Description:
     with _timed(timings, "laplacian"):
         points, stiffness, mass = normalised_operators(shape.points, settings)
+    features = shape_features(points, mass)
     with pin_blas_threads(), _timed(timings, "eigensolve"):
         # One solver per model: the cutoff's rounds continue the spectrum it already has.
         solver = SpectralSolver(stiffness, mass)
-        cutoff = make_cutoff(settings.cutoff).select(solver)
+        rule = make_cutoff(settings.cutoff)
+        if isinstance(rule, AdaptiveCutoff):
+            prediction = None if predictor is None else predictor.predict(features)
+            cutoff = rule.select(solver, prediction=prediction)
+        else:
+            cutoff = rule.select(solver)
         eigenvalues, eigenvectors = solver.solve(cutoff.n)
     areas = np.asarray(mass.diagonal(), dtype=np.float64)
     signature, descriptor, version = descriptor_from_eigenpairs(
@@ -219,4 +241,5 @@ def _describe_loaded(
         descriptor=descriptor,
         descriptor_version=version,
         timings=timings,
+        features=features,
     )
