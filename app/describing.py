@@ -3,21 +3,30 @@ translation of its ``Description`` into stored columns and API fields."""
 
 from __future__ import annotations
 
+import logging
+import threading
+import time
 from typing import Any
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from core.cutoff_predictor import CutoffPredictor
+from core.descriptor import DescriptorSpec
 from core.pipeline import Description, describe
 from core.settings import EngineSettings
 
 __all__ = [
+    "CutoffPredictorCache",
     "cutoff_record",
     "describe_upload",
+    "descriptor_version",
     "model_columns",
     "pin_blas_threads",
     "problem_of_reason",
 ]
+
+log = logging.getLogger("shapesearch.describing")
 
 
 def pin_blas_threads() -> None:
@@ -33,13 +42,24 @@ def pin_blas_threads() -> None:
     faiss.omp_set_num_threads(1)
 
 
-def describe_upload(content: bytes, filename: str, settings: EngineSettings) -> Description:
+def describe_upload(
+    content: bytes,
+    filename: str,
+    settings: EngineSettings,
+    predictor: CutoffPredictor | None = None,
+) -> Description:
     """Describe an uploaded file (call ``pin_blas_threads`` once in the process first)."""
-    return describe(content, settings, filename=filename)
+    return describe(content, settings, filename=filename, predictor=predictor)
+
+
+def descriptor_version(settings: EngineSettings) -> str:
+    """The ``descriptor_version`` that ``settings`` give every model (no describe needed)."""
+    return DescriptorSpec.from_settings(settings.descriptor).version(settings)
 
 
 def cutoff_record(description: Description) -> dict[str, Any]:
-    """The cutoff as stored: mode, n, solver calls, parameters and the predicted n per round."""
+    """The cutoff as stored: mode, n, solver calls, parameters, the predicted n per round, and
+    the pre-solve features with the prediction made from them (``CutoffPredictorCache``)."""
     cutoff = description.cutoff
     return {
         "mode": cutoff.mode,
@@ -47,6 +67,9 @@ def cutoff_record(description: Description) -> dict[str, Any]:
         "solver_calls": int(cutoff.solver_calls),
         "params": {key: _plain(value) for key, value in cutoff.params.items()},
         "predicted": [int(n) for n in cutoff.predicted],
+        "features": [float(value) for value in np.asarray(description.features).ravel()],
+        "prediction": cutoff.prediction,
+        "prediction_held": cutoff.prediction_held,
     }
 
 
@@ -61,6 +84,78 @@ def model_columns(description: Description) -> dict[str, Any]:
         "descriptor_version": description.descriptor_version,
         "timings": {stage: float(seconds) for stage, seconds in description.timings.items()},
     }
+
+
+class CutoffPredictorCache:
+    """A ``CutoffPredictor`` fitted on the stored ready models of one descriptor version.
+
+    Refitted at most every ``refresh_seconds`` (models keep arriving), from the features and
+    n each model's cutoff record holds; with no such models ``predictor()`` gives None and the
+    cutoff runs its seed round. Safe to share between worker threads.
+
+    Parameters
+    ----------
+    sessions : sessionmaker
+        Database sessions.
+    descriptor_version : str
+        Only models described with this version (same cutoff rule and points) train it.
+    refresh_seconds : float
+        Age after which the next ``predictor()`` call refits.
+    limit : int
+        Most recent models used (bounds memory and fit time on a large catalogue).
+    """
+
+    def __init__(
+        self,
+        sessions: Any,
+        descriptor_version: str,
+        *,
+        refresh_seconds: float = 300.0,
+        limit: int = 5000,
+    ) -> None:
+        self.sessions = sessions
+        self.descriptor_version = descriptor_version
+        self.refresh_seconds = refresh_seconds
+        self.limit = limit
+        self._lock = threading.Lock()
+        self._fitted_at = -float("inf")
+        self._predictor: CutoffPredictor | None = None
+
+    def predictor(self) -> CutoffPredictor | None:
+        """The current predictor (refitted if stale), or None while there is no data."""
+        with self._lock:
+            if time.monotonic() - self._fitted_at >= self.refresh_seconds:
+                self._fitted_at = time.monotonic()
+                try:
+                    self._predictor = self._fit()
+                except Exception:  # the database is away: keep the previous predictor
+                    log.exception("cutoff predictor refit failed")
+            return self._predictor
+
+    def _fit(self) -> CutoffPredictor | None:
+        from sqlalchemy import select
+
+        from app.db.models import Model
+
+        query = (
+            select(Model.cutoff)
+            .where(Model.status == "ready", Model.descriptor_version == self.descriptor_version)
+            .order_by(Model.index_id.desc())
+            .limit(self.limit)
+        )
+        with self.sessions() as session:
+            records = [record for record in session.scalars(query) if record]
+        rows = [
+            (record["features"], record["n"])
+            for record in records
+            if record.get("mode") == "adaptive" and record.get("features")
+        ]
+        if not rows:
+            return None
+        width = len(rows[0][0])
+        rows = [(features, n) for features, n in rows if len(features) == width]
+        features = np.array([features for features, _ in rows], dtype=np.float64)
+        return CutoffPredictor().fit(features, np.array([n for _, n in rows]))
 
 
 def problem_of_reason(reason: str, message: str) -> dict[str, str]:

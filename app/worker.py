@@ -26,7 +26,14 @@ from sqlalchemy.exc import DBAPIError, OperationalError
 
 from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
-from app.describing import describe_upload, model_columns, pin_blas_threads, problem_of_reason
+from app.describing import (
+    CutoffPredictorCache,
+    describe_upload,
+    descriptor_version,
+    model_columns,
+    pin_blas_threads,
+    problem_of_reason,
+)
 from app.queue import Claim, JobQueue
 from app.settings import Settings, engine_settings
 from core.errors import InvalidShapeError, SolverError
@@ -49,12 +56,18 @@ TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
 )
 
 
-def describe_handler(settings: Settings) -> JobHandler:
-    """The production handler: run the engine with the service's settings."""
+def describe_handler(settings: Settings, sessions: Any = None) -> JobHandler:
+    """The production handler: run the engine with the service's settings.
+
+    With ``sessions`` the adaptive cutoff is predicted from the stored models of the same
+    descriptor version (refitted as they arrive); without, or with none stored, it seeds.
+    """
     engine = engine_settings(settings)
+    cache = None if sessions is None else CutoffPredictorCache(sessions, descriptor_version(engine))
 
     def handle(content: bytes, filename: str) -> dict[str, Any]:
-        return model_columns(describe_upload(content, filename, engine))
+        predictor = None if cache is None else cache.predictor()
+        return model_columns(describe_upload(content, filename, engine, predictor))
 
     return handle
 
@@ -271,7 +284,7 @@ def _worker_process(threads: int) -> int:
     sessions = make_session_factory(make_engine(settings.resolved_database_url))
     pool = WorkerPool(
         make_queue(settings, sessions),
-        describe_handler(settings),
+        describe_handler(settings, sessions),
         count=threads,
         poll_interval=settings.poll_interval,
     )

@@ -78,7 +78,7 @@ def create_app(
         if embedded_worker and settings.workers > 0:
             pool = WorkerPool(
                 make_queue(settings, sessions),
-                job_handler or describe_handler(settings),
+                job_handler or describe_handler(settings, sessions),
                 count=settings.workers,
                 poll_interval=settings.poll_interval,
                 on_done=index.sync,  # a finished job is searchable at once in this process
