@@ -52,6 +52,26 @@ class Settings(BaseSettings):
         "with 422 (the full description runs later in a worker).",
     )
 
+    max_text_length: int = Field(
+        default=500,
+        ge=1,
+        le=10000,
+        description="Longest external_id, name, filename or query parameter, in characters "
+        "(longer: 422). Text must be valid UTF-8 without NUL characters.",
+    )
+    max_metadata_bytes: int = Field(
+        default=16384,
+        ge=2,
+        description="Largest metadata object, in bytes of compact JSON (larger: 422).",
+    )
+    max_metadata_depth: int = Field(
+        default=8,
+        ge=1,
+        le=100,
+        description="Deepest nesting of objects and arrays in metadata, the top object "
+        "counting as 1 (deeper: 422). Numbers must be finite.",
+    )
+
     # --- engine (mapped onto core.settings.EngineSettings by engine_settings) ----------
     max_points: int = Field(
         default=_ENGINE.max_points,

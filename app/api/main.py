@@ -16,6 +16,7 @@ from fastapi import FastAPI
 
 from app.api import routes_health, routes_jobs, routes_models, routes_search
 from app.api.deps import Services
+from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
 from app.api.problems import install_problem_handlers
 from app.db.migrate import upgrade
@@ -103,8 +104,11 @@ def create_app(
     )
     install_problem_handlers(app)
     app.add_middleware(
-        BodySizeLimit, max_body_bytes=settings.max_upload_bytes + _FORM_OVERHEAD_BYTES
+        BodySizeLimit,
+        max_upload_bytes=settings.max_upload_bytes,
+        overhead_bytes=_FORM_OVERHEAD_BYTES,
     )
+    app.add_middleware(QueryGuard, limits=InputLimits.from_settings(settings))
     for module in (routes_models, routes_search, routes_jobs, routes_health):
         app.include_router(module.router)
     return app
