@@ -8,15 +8,18 @@ from typing import Any
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from core.io import load_points
 from core.pipeline import Description, describe
 from core.settings import EngineSettings
 
 __all__ = [
     "cutoff_record",
     "describe_upload",
+    "described_columns",
     "model_columns",
     "pin_blas_threads",
     "problem_of_reason",
+    "quick_check",
 ]
 
 
@@ -36,6 +39,16 @@ def pin_blas_threads() -> None:
 def describe_upload(content: bytes, filename: str, settings: EngineSettings) -> Description:
     """Describe an uploaded file (call ``pin_blas_threads`` once in the process first)."""
     return describe(content, settings, filename=filename)
+
+
+def described_columns(content: bytes, filename: str, settings: EngineSettings) -> dict[str, Any]:
+    """``model_columns`` of the file's description: small and picklable, for a sandbox."""
+    return model_columns(describe_upload(content, filename, settings))
+
+
+def quick_check(content: bytes, name: str, points: int, min_points: int, seed: int) -> None:
+    """Parse the file and sample ``points`` points; raises ``InvalidShapeError``."""
+    load_points(content, filename=name, max_points=points, min_points=min_points, seed=seed)
 
 
 def cutoff_record(description: Description) -> dict[str, Any]:

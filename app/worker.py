@@ -26,8 +26,9 @@ from sqlalchemy.exc import DBAPIError, OperationalError
 
 from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
-from app.describing import describe_upload, model_columns, pin_blas_threads, problem_of_reason
+from app.describing import described_columns, pin_blas_threads, problem_of_reason
 from app.queue import Claim, JobQueue
+from app.sandbox import sandbox_of
 from app.settings import Settings, engine_settings
 from core.errors import InvalidShapeError, SolverError
 
@@ -50,11 +51,14 @@ TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
 
 
 def describe_handler(settings: Settings) -> JobHandler:
-    """The production handler: run the engine with the service's settings."""
+    """The production handler: run the engine with the service's settings, in a sandbox
+    (a child process with memory and time limits), so that a bomb fails its job instead of
+    growing or killing the worker."""
     engine = engine_settings(settings)
+    sandbox = sandbox_of(settings)
 
     def handle(content: bytes, filename: str) -> dict[str, Any]:
-        return model_columns(describe_upload(content, filename, engine))
+        return sandbox.run(described_columns, content, filename, engine)
 
     return handle
 

@@ -18,10 +18,11 @@ from typing import BinaryIO
 
 from app.api.limits import too_large_problem
 from app.api.problems import Problem
-from app.describing import problem_of_reason
+from app.describing import problem_of_reason, quick_check
+from app.sandbox import sandbox_of
 from app.settings import Settings
 from core.errors import InvalidShapeError
-from core.io import check_header, detect_format, load_points
+from core.io import check_header, detect_format
 
 __all__ = ["CheckedUpload", "invalid_shape_problem", "read_checked_upload"]
 
@@ -31,6 +32,9 @@ _CHUNK = 1024 * 1024
 # Above this size only the format is checked at upload: parsing a huge mesh in the request
 # would hold an API thread for seconds; the worker refuses it later with a reason.
 FULL_CHECK_MAX_BYTES = 16 * 1024 * 1024
+# Files up to this size (of formats without instancing) hold too little geometry to hurt, and
+# are parsed in-process; anything else is parsed in the sandbox, which costs a process start.
+IN_PROCESS_CHECK_MAX_BYTES = 256 * 1024
 
 
 @dataclass(frozen=True)
@@ -67,6 +71,12 @@ def _hash_limited(stream: BinaryIO, max_bytes: int) -> str:
     return digest.hexdigest()
 
 
+def _bounded_by_size(content: bytes, fmt: str) -> bool:
+    """Whether parsing ``content`` in this process is safe: a small file of a format whose
+    geometry grows with its size (not GLB, whose scene can instance a mesh many times)."""
+    return len(content) <= IN_PROCESS_CHECK_MAX_BYTES and fmt != "glb"
+
+
 def read_checked_upload(
     stream: BinaryIO, filename: str | None, settings: Settings
 ) -> CheckedUpload:
@@ -80,13 +90,14 @@ def read_checked_upload(
         fmt = detect_format(name, content[:4096])
         check_header(content, fmt)
         if len(content) <= FULL_CHECK_MAX_BYTES:
-            load_points(
-                content,
-                filename=name,
-                max_points=settings.upload_check_points,
-                min_points=settings.min_points,
-                seed=settings.sample_seed,
+            check = (
+                content, name, settings.upload_check_points, settings.min_points,
+                settings.sample_seed,
             )
+            if _bounded_by_size(content, fmt):
+                quick_check(*check)
+            else:  # parsed in a child: a bomb cannot grow this process
+                sandbox_of(settings).run(quick_check, *check)
     except InvalidShapeError as error:
         raise invalid_shape_problem(error) from error
     except Exception as error:  # a parser bug must not become a 500 for the client
