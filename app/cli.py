@@ -27,13 +27,19 @@ def _describe(args: argparse.Namespace) -> int:
 
 def _serve(args: argparse.Namespace) -> int:
     from app.server import serve
+    from app.startup import startup_ok
 
+    if not startup_ok():
+        return 2
     return serve(host=args.host, port=args.port, embedded_worker=not args.no_worker)
 
 
 def _worker(args: argparse.Namespace) -> int:
+    from app.startup import startup_ok
     from app.worker import run_workers
 
+    if not startup_ok():
+        return 2
     return run_workers(concurrency=args.concurrency)
 
 

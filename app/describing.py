@@ -13,6 +13,7 @@ from threadpoolctl import threadpool_limits
 
 from core.cutoff_predictor import CutoffPredictor
 from core.descriptor import DescriptorSpec
+from core.io import load_points
 from core.pipeline import Description, describe
 from core.settings import EngineSettings
 
@@ -20,10 +21,12 @@ __all__ = [
     "CutoffPredictorCache",
     "cutoff_record",
     "describe_upload",
+    "described_columns",
     "descriptor_version",
     "model_columns",
     "pin_blas_threads",
     "problem_of_reason",
+    "quick_check",
 ]
 
 log = logging.getLogger("shapesearch.describing")
@@ -55,6 +58,21 @@ def describe_upload(
 def descriptor_version(settings: EngineSettings) -> str:
     """The ``descriptor_version`` that ``settings`` give every model (no describe needed)."""
     return DescriptorSpec.from_settings(settings.descriptor).version(settings)
+
+
+def described_columns(
+    content: bytes,
+    filename: str,
+    settings: EngineSettings,
+    predictor: CutoffPredictor | None = None,
+) -> dict[str, Any]:
+    """``model_columns`` of the file's description: small and picklable, for a sandbox."""
+    return model_columns(describe_upload(content, filename, settings, predictor))
+
+
+def quick_check(content: bytes, name: str, points: int, min_points: int, seed: int) -> None:
+    """Parse the file and sample ``points`` points; raises ``InvalidShapeError``."""
+    load_points(content, filename=name, max_points=points, min_points=min_points, seed=seed)
 
 
 def cutoff_record(description: Description) -> dict[str, Any]:

@@ -19,6 +19,11 @@ Claiming is one statement:
 On PostgreSQL ``SKIP LOCKED`` lets concurrent workers pass over each other's candidate
 rows; SQLite has a single writer, so the statement is atomic as it stands.
 
+A take-over counts as an attempt: the worker that held the job died (crashed, was
+OOM-killed) while describing it, perhaps *because* of it. Before claiming, the same
+transaction fails every expired job whose attempts are spent, with the reason "the worker
+died N times while describing this file", so a poison file cannot loop forever.
+
 Times come from the workers' clocks (UTC); hosts are expected to run NTP, and the lease is
 long compared with any plausible skew.
 """
@@ -36,7 +41,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db.feed import record_event
 from app.db.models import Job, Model, Upload, utcnow
 
-__all__ = ["Claim", "JobQueue", "backoff_seconds"]
+__all__ = ["Claim", "JobQueue", "backoff_seconds", "worker_died_error"]
 
 
 @dataclass(frozen=True)
@@ -52,6 +57,16 @@ class Claim:
 def backoff_seconds(attempts: int, base: float, cap: float) -> float:
     """Delay before retry number ``attempts``: base, 2*base, 4*base, ... capped."""
     return min(cap, base * 2 ** max(0, attempts - 1))
+
+
+def worker_died_error(attempts: int) -> dict[str, str]:
+    """The failure recorded for a job whose workers died on every attempt."""
+    times = "once" if attempts == 1 else f"{attempts} times"
+    return {
+        "type": "urn:shapesearch:problem:worker-died",
+        "title": "Worker died",
+        "detail": f"the worker died {times} while describing this file",
+    }
 
 
 class JobQueue:
@@ -91,6 +106,7 @@ class JobQueue:
             .scalar_subquery()
         )
         with self.sessions.begin() as session:
+            self._fail_poison_jobs(session, now)
             row = session.execute(
                 update(Job)
                 .where(Job.id == due)
@@ -113,6 +129,27 @@ class JobQueue:
         return Claim(
             job_id=row.id, model_id=row.model_id, worker_id=worker_id, attempts=row.attempts
         )
+
+    def _fail_poison_jobs(self, session: Session, now: datetime) -> None:
+        """Fail the expired jobs whose workers died on every allowed attempt."""
+        dead = session.execute(
+            update(Job)
+            .where(
+                Job.status == "running",
+                Job.leased_until < now,
+                Job.attempts >= self.max_attempts,
+            )
+            .values(status="failed", leased_until=None, updated_at=now)
+            .returning(Job.id, Job.model_id, Job.attempts)
+        ).all()
+        for job_id, model_id, attempts in dead:
+            error = worker_died_error(attempts)
+            session.execute(update(Job).where(Job.id == job_id).values(last_error=error))
+            session.execute(
+                update(Model)
+                .where(Model.id == model_id)
+                .values(status="failed", error=error, updated_at=now)
+            )
 
     def _held(self, claim: Claim) -> Any:
         """WHERE clause true only while ``claim`` still holds its job."""

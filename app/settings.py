@@ -52,6 +52,55 @@ class Settings(BaseSettings):
         "with 422 (the full description runs later in a worker).",
     )
 
+    max_text_length: int = Field(
+        default=500,
+        ge=1,
+        le=10000,
+        description="Longest external_id, name, filename or query parameter, in characters "
+        "(longer: 422). Text must be valid UTF-8 without NUL characters.",
+    )
+    max_metadata_bytes: int = Field(
+        default=16384,
+        ge=2,
+        description="Largest metadata object, in bytes of compact JSON (larger: 422).",
+    )
+    max_metadata_depth: int = Field(
+        default=8,
+        ge=1,
+        le=100,
+        description="Deepest nesting of objects and arrays in metadata, the top object "
+        "counting as 1 (deeper: 422). Numbers must be finite.",
+    )
+
+    describe_memory_bytes: int = Field(
+        default=4 * 1024 * MIB,
+        ge=256 * MIB,
+        description="Address-space limit (RLIMIT_AS) of the child process that parses and "
+        "describes each file; above it the file is refused as too large (413 or a failed job).",
+    )
+    describe_timeout_seconds: float = Field(
+        default=300.0,
+        gt=0,
+        description="Wall-clock limit of that child process; a file that takes longer is "
+        "refused as too large.",
+    )
+
+    search_max_concurrent: int = Field(
+        default=2,
+        ge=1,
+        description="Uploads POST /v1/search describes at the same time in one API process; "
+        "one more is refused with 503 and Retry-After.",
+    )
+    search_retry_after_seconds: int = Field(
+        default=5, ge=1, description="Retry-After of that 503, in seconds."
+    )
+    search_cache_size: int = Field(
+        default=128,
+        ge=0,
+        description="Recent search uploads (by sha256) whose description is kept in memory, "
+        "so that the same file is not described twice (0: no cache).",
+    )
+
     # --- engine (mapped onto core.settings.EngineSettings by engine_settings) ----------
     max_points: int = Field(
         default=_ENGINE.max_points,

@@ -28,13 +28,13 @@ from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
 from app.describing import (
     CutoffPredictorCache,
-    describe_upload,
+    described_columns,
     descriptor_version,
-    model_columns,
     pin_blas_threads,
     problem_of_reason,
 )
 from app.queue import Claim, JobQueue
+from app.sandbox import sandbox_of
 from app.settings import Settings, engine_settings
 from core.errors import InvalidShapeError, SolverError
 
@@ -57,17 +57,20 @@ TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
 
 
 def describe_handler(settings: Settings, sessions: Any = None) -> JobHandler:
-    """The production handler: run the engine with the service's settings.
+    """The production handler: run the engine with the service's settings, in a sandbox
+    (a child process with memory and time limits), so that a bomb fails its job instead of
+    growing or killing the worker.
 
     With ``sessions`` the adaptive cutoff is predicted from the stored models of the same
     descriptor version (refitted as they arrive); without, or with none stored, it seeds.
     """
     engine = engine_settings(settings)
+    sandbox = sandbox_of(settings)
     cache = None if sessions is None else CutoffPredictorCache(sessions, descriptor_version(engine))
 
     def handle(content: bytes, filename: str) -> dict[str, Any]:
         predictor = None if cache is None else cache.predictor()
-        return model_columns(describe_upload(content, filename, engine, predictor))
+        return sandbox.run(described_columns, content, filename, engine, predictor)
 
     return handle
 

@@ -214,3 +214,38 @@ def test_a_deleted_model_ends_its_claim(sessions: sessionmaker[Session]) -> None
     assert queue.upload_of(claim) is None
     assert not queue.renew(claim)
     assert not queue.complete(claim, RESULT)
+
+
+def _lapse(sessions: sessionmaker[Session], job_id: uuid.UUID) -> None:
+    """The worker holding ``job_id`` died: its lease lapses."""
+    with sessions.begin() as session:
+        session.execute(
+            update(Job).where(Job.id == job_id).values(leased_until=utcnow() - timedelta(1))
+        )
+
+
+def test_a_job_whose_worker_keeps_dying_fails_after_the_cap_and_the_next_job_runs(
+    sessions: sessionmaker[Session],
+) -> None:
+    poison, healthy = add_jobs(sessions, 2)
+    with sessions.begin() as session:  # the poison job is first in line
+        session.execute(
+            update(Job).where(Job.id == poison).values(run_after=utcnow() - timedelta(1))
+        )
+    queue = make_queue(sessions, max_attempts=5)
+    for attempt in range(1, 6):
+        claim = queue.claim(f"w{attempt}")
+        assert claim is not None and claim.job_id == poison and claim.attempts == attempt
+        _lapse(sessions, poison)  # killed while describing
+
+    nxt = queue.claim("survivor")
+    assert nxt is not None and nxt.job_id == healthy and nxt.attempts == 1
+    job = job_row(sessions, poison)
+    assert job.status == "failed" and job.attempts == 5
+    assert job.last_error["detail"] == "the worker died 5 times while describing this file"
+    with sessions() as session:
+        model = session.scalars(select(Model).where(Model.id == job.model_id)).one()
+        assert model.status == "failed"
+        assert model.error["type"] == "urn:shapesearch:problem:worker-died"
+    assert queue.complete(nxt, RESULT)
+    assert queue.claim("survivor") is None  # the poison job never comes back

@@ -11,19 +11,29 @@ from __future__ import annotations
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from app.api.problems import Problem, problem_response
+from app.api.problems import Problem, problem_response, problem_type
 
-__all__ = ["BodySizeLimit"]
+__all__ = ["BodySizeLimit", "too_large_problem"]
 
 
-def _too_large(limit: int) -> str:
-    return f"The request body is larger than the limit of {limit} bytes."
+def too_large_problem(max_upload_bytes: int) -> Problem:
+    """The 413 of an upload above ``SHAPESEARCH_MAX_UPLOAD_BYTES``, naming that limit."""
+    return Problem(
+        413,
+        f"The upload is larger than the limit of {max_upload_bytes} bytes "
+        "(SHAPESEARCH_MAX_UPLOAD_BYTES).",
+        slug="too-large",
+        limit=max_upload_bytes,
+    )
 
 
 class BodySizeLimit:
-    def __init__(self, app: ASGIApp, max_body_bytes: int) -> None:
+    """``max_upload_bytes`` for the file plus ``overhead_bytes`` for the form around it."""
+
+    def __init__(self, app: ASGIApp, max_upload_bytes: int, overhead_bytes: int = 0) -> None:
         self.app = app
-        self.max_body_bytes = max_body_bytes
+        self.max_upload_bytes = max_upload_bytes
+        self.max_body_bytes = max_upload_bytes + overhead_bytes
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -32,7 +42,14 @@ class BodySizeLimit:
         limit = self.max_body_bytes
         for name, value in scope["headers"]:
             if name == b"content-length" and value.isdigit() and int(value) > limit:
-                response = problem_response(413, _too_large(limit), headers={"Connection": "close"})
+                problem = too_large_problem(self.max_upload_bytes)
+                response = problem_response(
+                    413,
+                    str(problem.detail),
+                    type=problem_type("too-large"),
+                    headers={"Connection": "close"},
+                    **problem.extensions,
+                )
                 await response(scope, receive, send)
                 return
 
@@ -44,7 +61,7 @@ class BodySizeLimit:
             if message["type"] == "http.request":
                 received += len(message.get("body", b""))
                 if received > limit:
-                    raise Problem(413, _too_large(limit))
+                    raise too_large_problem(self.max_upload_bytes)
             return message
 
         await self.app(scope, counted_receive, send)

@@ -16,8 +16,10 @@ from fastapi import FastAPI
 
 from app.api import routes_health, routes_jobs, routes_models, routes_search
 from app.api.deps import Services
+from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
 from app.api.problems import install_problem_handlers
+from app.api.search_describer import SearchDescriber
 from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
 from app.describing import pin_blas_threads
@@ -102,9 +104,13 @@ def create_app(
         lifespan=lifespan,
     )
     install_problem_handlers(app)
+    app.state.search_describer = SearchDescriber(settings, engine_settings(settings))
     app.add_middleware(
-        BodySizeLimit, max_body_bytes=settings.max_upload_bytes + _FORM_OVERHEAD_BYTES
+        BodySizeLimit,
+        max_upload_bytes=settings.max_upload_bytes,
+        overhead_bytes=_FORM_OVERHEAD_BYTES,
     )
+    app.add_middleware(QueryGuard, limits=InputLimits.from_settings(settings))
     for module in (routes_models, routes_search, routes_jobs, routes_health):
         app.include_router(module.router)
     return app

@@ -6,7 +6,10 @@ errors (422) and unexpected exceptions (500) into ``application/problem+json`` w
 ``type``, ``title``, ``status`` and ``detail``.
 
 Types: ``about:blank`` when the status code says it all, otherwise
-``urn:shapesearch:problem:<slug>`` (e.g. ``too-few-points``, ``duplicate-external-id``).
+``urn:shapesearch:problem:<slug>`` (e.g. ``too-few-points``, ``duplicate-external-id``), one
+slug per kind of error: every refused field is ``validation-error`` (with a JSON
+``pointer``), every size limit ``too-large`` (naming the limit's setting). The title is the
+status's phrase, one per status, whatever raised the error.
 """
 
 from __future__ import annotations
@@ -97,9 +100,11 @@ def problem_response(
     headers: dict[str, str] | None = None,
     **extensions: Any,
 ) -> JSONResponse:
+    """The problem+json response. ``title`` is ignored: the title is the status's phrase, so
+    that one status has one title (the ``type`` and ``detail`` say what happened)."""
     body = {
         "type": type,
-        "title": title or HTTPStatus(status).phrase,
+        "title": HTTPStatus(status).phrase,
         "status": status,
         "detail": detail,
         **extensions,
@@ -120,6 +125,15 @@ async def _on_problem(_request: Request, exc: Exception) -> JSONResponse:
             headers=exc.headers,
             **exc.extensions,
         )
+    if exc.status_code == 400 and isinstance(exc.__cause__, RecursionError):
+        # FastAPI could not parse a JSON body because it is nested too deeply.
+        return problem_response(
+            422,
+            "the JSON body is nested too deeply to be read",
+            type=problem_type("validation-error"),
+            pointer="",
+            errors=[{"pointer": "", "detail": "nested too deeply"}],
+        )
     detail = exc.detail if isinstance(exc.detail, str) else HTTPStatus(exc.status_code).phrase
     return problem_response(exc.status_code, detail, headers=exc.headers)
 
@@ -127,7 +141,12 @@ async def _on_problem(_request: Request, exc: Exception) -> JSONResponse:
 async def _on_validation(_request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
     errors = [
-        {"loc": list(error.get("loc", ())), "msg": error.get("msg", ""), "type": error.get("type")}
+        {
+            "loc": list(error.get("loc", ())),
+            "msg": error.get("msg", ""),
+            "type": error.get("type"),
+            "pointer": _pointer(error.get("loc", ())),
+        }
         for error in exc.errors()
     ]
     detail = "; ".join(
@@ -137,9 +156,18 @@ async def _on_validation(_request: Request, exc: Exception) -> JSONResponse:
         422,
         detail or "The request is not valid.",
         type=problem_type("validation-error"),
-        title="Invalid request",
+        pointer=errors[0]["pointer"] if errors else "",
         errors=errors,
     )
+
+
+def _pointer(loc: Any) -> str:
+    """JSON pointer of a FastAPI error location: ("body", "name") -> "/name",
+    ("query", "k") -> "/query/k"."""
+    parts = [str(part) for part in loc]
+    if parts and parts[0] == "body":
+        parts = parts[1:]
+    return "".join("/" + part.replace("~", "~0").replace("/", "~1") for part in parts)
 
 
 async def _on_unexpected(_request: Request, exc: Exception) -> JSONResponse:

@@ -22,7 +22,8 @@ log = logging.getLogger("shapesearch.api")
 
 
 @router.get("/healthz", response_model=Health, response_model_exclude_none=True, summary="Liveness")
-def healthz() -> Health:
+async def healthz() -> Health:
+    # async: answered on the event loop, never queued behind describes in the threadpool
     return Health(status="ok")
 
 

@@ -17,6 +17,7 @@ from sqlalchemy.orm import Session, undefer
 
 from app.api.auth import TenantDep
 from app.api.deps import ServicesDep, SessionDep
+from app.api.inputs import InputLimits
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import (
     ModelList,
@@ -62,20 +63,6 @@ def load_model(session: Session, tenant: str, model_id: str, *, descriptor: bool
     return model
 
 
-def _parse_metadata(text: str | None) -> dict[str, Any]:
-    if text is None or text == "":
-        return {}
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise Problem(
-            422, f"metadata is not valid JSON: {error}", slug="invalid-metadata"
-        ) from error
-    if not isinstance(value, dict):
-        raise Problem(422, "metadata must be a JSON object.", slug="invalid-metadata")
-    return value
-
-
 def _duplicate(session: Session, tenant: str, external_id: str) -> Problem | None:
     existing = session.scalar(
         select(Model.id).where(Model.tenant == tenant, Model.external_id == external_id)
@@ -104,11 +91,15 @@ def create_model(
     ],
     tenant: TenantDep,
     services: ServicesDep,
-    external_id: Annotated[str | None, Form(max_length=500)] = None,
-    name: Annotated[str | None, Form(max_length=500)] = None,
+    external_id: Annotated[str | None, Form(description="Your id; unique per tenant.")] = None,
+    name: Annotated[str | None, Form()] = None,
     metadata: Annotated[str | None, Form(description="A JSON object, as a string.")] = None,
 ) -> ModelResource:
-    meta = _parse_metadata(metadata)
+    limits = InputLimits.from_settings(services.settings)
+    limits.text(external_id, "/external_id")
+    limits.text(name, "/name")
+    limits.text(file.filename, "/file/filename")
+    meta = limits.metadata_text(metadata)
     upload = read_checked_upload(file.file, file.filename, services.settings)
     model = Model(
         id=uuid.uuid4(),
@@ -174,7 +165,7 @@ def list_models(
         query = query.where(Model.status == status)
     if external_id is not None:
         query = query.where(Model.external_id == external_id)
-    if cursor is not None:
+    if cursor:  # an empty cursor is the first page
         created_at, model_id = _decode_cursor(cursor)
         # Keyset pagination on (created_at, id): stable while models come and go.
         query = query.where(
@@ -217,11 +208,12 @@ def patch_model(
     tenant: TenantDep,
     services: ServicesDep,
 ) -> ModelResource:
+    limits = InputLimits.from_settings(services.settings)
     changes: dict[str, Any] = {"updated_at": utcnow()}
     if "name" in patch.model_fields_set:
-        changes["name"] = patch.name
+        changes["name"] = limits.text(patch.name, "/name")
     if "metadata" in patch.model_fields_set:
-        changes["meta"] = patch.metadata or {}
+        changes["meta"] = limits.metadata(patch.metadata)
     model_uuid = _uuid_or_none(model_id)
     with services.sessions.begin() as session:
         model = session.scalar(

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Depends, File, Query, UploadFile
+import numpy as np
+from fastapi import APIRouter, Depends, File, Query, Request, UploadFile
 
 from app.api.auth import TenantDep
 from app.api.deps import ServicesDep, SessionDep
@@ -18,7 +19,7 @@ from app.api.schemas import (
     model_summary,
 )
 from app.api.uploads import invalid_shape_problem, read_checked_upload
-from app.describing import cutoff_record, describe_upload
+from app.sandbox import SandboxCrash
 from app.similarity import find_similar
 from core.errors import InvalidShapeError, SolverError
 
@@ -32,10 +33,13 @@ router = APIRouter(prefix="/v1", tags=["search"])
     response_model=SearchResponse,
     responses=problem_responses(401, 413, 415, 422, 503),
     summary="Find the models most similar to an uploaded scan (nothing is stored)",
-    description="The scan is described synchronously, which takes seconds. Same filters and "
+    description="The scan is described synchronously, which takes seconds; at most "
+    "SHAPESEARCH_SEARCH_MAX_CONCURRENT at a time (beyond: 503 with Retry-After). A file "
+    "seen before (same bytes) is answered without describing it again. Same filters and "
     "score as /v1/models/{id}/similar.",
 )
 def search(
+    request: Request,
     file: Annotated[
         UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
     ],
@@ -49,9 +53,15 @@ def search(
     upload = read_checked_upload(file.file, file.filename, services.settings)
     try:
         # A sync route runs in the threadpool, so describing does not block the event loop.
-        description = describe_upload(upload.content, upload.filename, services.engine_settings)
+        described = request.app.state.search_describer.describe(
+            upload.content, upload.filename, upload.sha256, session, tenant
+        )
     except InvalidShapeError as error:
         raise invalid_shape_problem(error) from error
+    except SandboxCrash as error:
+        raise invalid_shape_problem(
+            InvalidShapeError("unparsable", f"the file could not be described: {error}")
+        ) from error
     except SolverError as error:
         raise Problem(
             503, f"The shape could not be described this time: {error}", slug="solver-error"
@@ -60,20 +70,20 @@ def search(
     matches = find_similar(
         services.index,
         session,
-        (tenant, description.descriptor_version),
-        description.descriptor,
+        (tenant, described["descriptor_version"]),
+        np.frombuffer(described["descriptor"], dtype=np.float32),
         k=k,
         min_score=min_score,
         filters=filters,
     )
-    cutoff = cutoff_info(cutoff_record(description))
+    cutoff = cutoff_info(described["cutoff"])
     assert cutoff is not None
     return SearchResponse(
         query=SearchQuery(
-            n_points=description.n_points,
+            n_points=described["n_points"],
             cutoff=cutoff,
-            descriptor_version=description.descriptor_version,
-            format=description.format,
+            descriptor_version=described["descriptor_version"],
+            format=upload.format,
         ),
         results=[
             SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)

@@ -6,7 +6,7 @@ import uuid
 from datetime import datetime
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field
 
 from app.db.models import Job, Model
 
@@ -87,15 +87,11 @@ class ModelPatch(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    name: str | None = Field(default=None, max_length=500)
-    metadata: dict[str, Any] | None = Field(default=None, description="Replaces the metadata.")
-
-    @field_validator("metadata")
-    @classmethod
-    def _metadata_not_null(cls, value: dict[str, Any] | None) -> dict[str, Any] | None:
-        if value is None:
-            raise ValueError("metadata must be a JSON object; send {} to clear it")
-        return value
+    name: str | None = Field(default=None, description="null clears the name.")
+    # Not nullable, in the schema as in behaviour: send {} to clear the metadata.
+    metadata: dict[str, Any] = Field(
+        default_factory=dict, description="Replaces the metadata; {} clears it."
+    )
 
 
 class ModelSummary(BaseModel):

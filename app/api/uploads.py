@@ -1,8 +1,12 @@
 """Reading an uploaded shape file and refusing, cheaply and at once, what can never work.
 
-413 above the size limit (counted while reading), 415 for a format we do not read, 422 for
+413 above the size limit (counted while hashing), 415 for a format we do not read, 413/422
+when the header promises more than the file holds or than we accept (every size), 422 for
 content that fails a quick parse (empty, unparsable, non-finite, too few points). The quick
 parse samples only ``upload_check_points`` points; the full description runs later.
+
+The upload arrives as Starlette's spooled temporary file (on disk beyond 1 MiB); it is
+hashed in chunks from there and read into memory once, never copied twice.
 """
 
 from __future__ import annotations
@@ -12,11 +16,13 @@ import logging
 from dataclasses import dataclass
 from typing import BinaryIO
 
+from app.api.limits import too_large_problem
 from app.api.problems import Problem
-from app.describing import problem_of_reason
+from app.describing import problem_of_reason, quick_check
+from app.sandbox import sandbox_of
 from app.settings import Settings
 from core.errors import InvalidShapeError
-from core.io import detect_format, load_points
+from core.io import check_header, detect_format
 
 __all__ = ["CheckedUpload", "invalid_shape_problem", "read_checked_upload"]
 
@@ -26,6 +32,9 @@ _CHUNK = 1024 * 1024
 # Above this size only the format is checked at upload: parsing a huge mesh in the request
 # would hold an API thread for seconds; the worker refuses it later with a reason.
 FULL_CHECK_MAX_BYTES = 16 * 1024 * 1024
+# Files up to this size (of formats without instancing) hold too little geometry to hurt, and
+# are parsed in-process; anything else is parsed in the sandbox, which costs a process start.
+IN_PROCESS_CHECK_MAX_BYTES = 256 * 1024
 
 
 @dataclass(frozen=True)
@@ -49,35 +58,46 @@ def invalid_shape_problem(error: InvalidShapeError) -> Problem:
     )
 
 
-def _read_limited(stream: BinaryIO, max_bytes: int) -> bytes:
-    chunks: list[bytes] = []
+def _hash_limited(stream: BinaryIO, max_bytes: int) -> str:
+    """sha256 of the stream, read in chunks; 413 as soon as it passes ``max_bytes``."""
+    digest = hashlib.sha256()
     size = 0
     while chunk := stream.read(_CHUNK):
         size += len(chunk)
         if size > max_bytes:
-            raise Problem(413, f"The file is larger than the limit of {max_bytes} bytes.")
-        chunks.append(chunk)
-    return b"".join(chunks)
+            raise too_large_problem(max_bytes)
+        digest.update(chunk)
+    stream.seek(0)
+    return digest.hexdigest()
+
+
+def _bounded_by_size(content: bytes, fmt: str) -> bool:
+    """Whether parsing ``content`` in this process is safe: a small file of a format whose
+    geometry grows with its size (not GLB, whose scene can instance a mesh many times)."""
+    return len(content) <= IN_PROCESS_CHECK_MAX_BYTES and fmt != "glb"
 
 
 def read_checked_upload(
     stream: BinaryIO, filename: str | None, settings: Settings
 ) -> CheckedUpload:
     """Read the file (bounded) and run the quick checks; raises ``Problem`` on refusal."""
-    content = _read_limited(stream, settings.max_upload_bytes)
+    sha256 = _hash_limited(stream, settings.max_upload_bytes)
+    content = stream.read()
     name = filename or "upload"
     try:
         if not content or content.isspace():
             raise InvalidShapeError("empty_file", "file is empty: upload a point cloud or mesh")
         fmt = detect_format(name, content[:4096])
+        check_header(content, fmt)
         if len(content) <= FULL_CHECK_MAX_BYTES:
-            load_points(
-                content,
-                filename=name,
-                max_points=settings.upload_check_points,
-                min_points=settings.min_points,
-                seed=settings.sample_seed,
+            check = (
+                content, name, settings.upload_check_points, settings.min_points,
+                settings.sample_seed,
             )
+            if _bounded_by_size(content, fmt):
+                quick_check(*check)
+            else:  # parsed in a child: a bomb cannot grow this process
+                sandbox_of(settings).run(quick_check, *check)
     except InvalidShapeError as error:
         raise invalid_shape_problem(error) from error
     except Exception as error:  # a parser bug must not become a 500 for the client
@@ -85,6 +105,4 @@ def read_checked_upload(
         raise invalid_shape_problem(
             InvalidShapeError("unparsable", f"the file could not be read: {error}")
         ) from error
-    return CheckedUpload(
-        content=content, filename=name, format=fmt, sha256=hashlib.sha256(content).hexdigest()
-    )
+    return CheckedUpload(content=content, filename=name, format=fmt, sha256=sha256)

@@ -12,6 +12,7 @@ can act on.
 """
 
 from core.io._formats import SUPPORTED_FORMATS, detect_format
+from core.io._headers import check_header
 from core.io._loader import LoadedShape, load_points
 from core.io._outliers import statistical_inliers
 from core.io._validate import MAX_PARSED_POINTS, validate_points
@@ -19,6 +20,7 @@ from core.io._validate import MAX_PARSED_POINTS, validate_points
 __all__ = [
     "MAX_PARSED_POINTS",
     "SUPPORTED_FORMATS",
+    "check_header",
     "LoadedShape",
     "detect_format",
     "load_points",

@@ -19,6 +19,7 @@ import numpy as np
 
 from core.errors import InvalidShapeError
 from core.io._formats import TEXT_POINT_FORMATS, detect_format
+from core.io._headers import check_header
 from core.io._meshes import RawGeometry, read_mesh
 from core.io._pcd import read_pcd
 from core.io._pointfiles import read_npy, read_text_points
@@ -70,6 +71,7 @@ def _parse(data: bytes, fmt: str) -> RawGeometry:
         return RawGeometry(read_pcd(data), no_faces)
     if fmt == "npy":
         return RawGeometry(read_npy(data), no_faces)
+    check_header(data, fmt)  # before trimesh expands anything the header promises
     return read_mesh(data, fmt)
 
 

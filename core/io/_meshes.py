@@ -3,8 +3,9 @@
 trimesh does the parsing (with ``process=False``: merging vertices or fixing normals would only
 cost time, since the mesh is sampled anyway). Around it this module
 
-* checks cheap structural facts first (STL size, PLY header) so that empty or truncated files
-  get a precise reason instead of whatever trimesh happens to do with them;
+* provides cheap structural checks (STL size, PLY header; run by ``core.io._headers`` before
+  this reader) so that empty or truncated files get a precise reason instead of whatever
+  trimesh happens to do with them;
 * never lets an OBJ or glTF read other files (no resolver: ``mtllib`` and external buffers
   are ignored; the geometry is all we need and an upload must not reach the server's disk);
 * flattens a Scene into one set of vertices and triangles, with each node's transform applied.
@@ -23,10 +24,12 @@ import trimesh
 from core.errors import InvalidShapeError
 from core.io._validate import MAX_PARSED_POINTS
 
-__all__ = ["RawGeometry", "read_mesh"]
+__all__ = ["RawGeometry", "check_ply_header", "check_stl_header", "read_mesh"]
 
 _STL_HEADER = 80
 _STL_RECORD = 50
+_PLY_BINARY_VERTEX = 12
+_PLY_ASCII_VERTEX = 6
 # Record keywords of OBJ files; a file made only of these (and comments) is valid.
 _OBJ_KEYWORDS = frozenset(
     {"v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "mg", "usemtl", "mtllib"}
@@ -65,7 +68,7 @@ def _empty(fmt: str, what: str) -> InvalidShapeError:
     )
 
 
-def _check_stl(data: bytes) -> None:
+def check_stl_header(data: bytes) -> None:
     """Refuse empty or truncated STL files before trimesh guesses what they are.
 
     A binary STL is an 80-byte header, a uint32 triangle count and 50 bytes per triangle, so
@@ -93,7 +96,7 @@ def _check_stl(data: bytes) -> None:
         )
 
 
-def _check_ply(data: bytes) -> None:
+def check_ply_header(data: bytes) -> None:
     """Refuse PLY files whose header is missing, has no vertices, or declares too many."""
     end = data.find(b"end_header")
     if end < 0:
@@ -102,11 +105,22 @@ def _check_ply(data: bytes) -> None:
     match = re.search(r"^\s*element\s+vertex\s+(\d+)", header, re.M)
     if match is None or int(match.group(1)) == 0:
         raise _empty("ply", "vertices (its header declares none)")
-    if int(match.group(1)) > MAX_PARSED_POINTS:
+    declared = int(match.group(1))
+    if declared > MAX_PARSED_POINTS:
         raise InvalidShapeError(
             "too_large",
-            f"the PLY file declares {int(match.group(1)):,} vertices, more than the "
+            f"the PLY file declares {declared:,} vertices, more than the "
             f"{MAX_PARSED_POINTS:,} accepted: simplify the mesh or thin the cloud first",
+        )
+    # Each vertex takes at least three float32 (binary) or "0 0 0\n" (ASCII).
+    binary = re.search(r"^\s*format\s+binary", header, re.M) is not None
+    needed = declared * (_PLY_BINARY_VERTEX if binary else _PLY_ASCII_VERTEX)
+    body = len(data) - end - len(b"end_header")
+    if needed > body:
+        raise _unparsable(
+            "ply",
+            f"its header declares {declared:,} vertices (at least {needed:,} bytes) but only "
+            f"{body:,} bytes follow: the file is truncated",
         )
 
 
@@ -184,10 +198,6 @@ def read_mesh(data: bytes, fmt: str) -> RawGeometry:
     InvalidShapeError
         ``empty_file``, ``unparsable``, ``too_large``.
     """
-    if fmt == "stl":
-        _check_stl(data)
-    elif fmt == "ply":
-        _check_ply(data)
     geometry = _flatten(_load_scene(data, fmt))
     if geometry is None:
         raise _no_geometry(fmt, data)

@@ -1,0 +1,112 @@
+"""Describing the scans of ``POST /v1/search``: bounded, sandboxed, and never twice.
+
+Each search describes its upload synchronously, which costs seconds of CPU and hundreds of
+MB in a sandboxed child process. ``SearchDescriber``
+
+* admits at most ``search_max_concurrent`` describes at a time; one more is refused at once
+  with 503 and ``Retry-After`` (queueing would only hold the client, a thread and the upload
+  for longer while the machine is already busy);
+* answers an upload it has seen (same sha256 and descriptor version) without describing it:
+  from a small LRU cache of recent results, or from a ready model of the same tenant
+  uploaded with the same bytes.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session, undefer
+
+from app.api.problems import Problem
+from app.db.models import Model
+from app.describing import described_columns
+from app.sandbox import sandbox_of
+from app.settings import Settings
+from core.descriptor import DescriptorSpec
+from core.settings import EngineSettings
+
+__all__ = ["SearchDescriber"]
+
+# The columns a search answer needs (model_columns of the description).
+_COLUMNS = ("n_points", "cutoff", "descriptor", "descriptor_version")
+
+
+class SearchDescriber:
+    """Per app: the admission limit and the cache of recent descriptions."""
+
+    def __init__(self, settings: Settings, engine: EngineSettings) -> None:
+        self.settings = settings
+        self.engine = engine
+        self.version = DescriptorSpec.from_settings(engine.descriptor).version(engine)
+        self.sandbox = sandbox_of(settings)
+        self._slots = threading.BoundedSemaphore(settings.search_max_concurrent)
+        self._cache: OrderedDict[str, dict[str, Any]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def describe(
+        self, content: bytes, filename: str, sha256: str, session: Session, tenant: str
+    ) -> dict[str, Any]:
+        """The description columns of an upload (see ``app.describing.model_columns``)."""
+        known = self._cached(sha256) or self._stored(session, tenant, sha256)
+        if known is not None:
+            return known
+        with self._slot():
+            columns = self.sandbox.run(described_columns, content, filename, self.engine)
+        self._remember(sha256, {name: columns[name] for name in _COLUMNS})
+        return columns
+
+    @contextmanager
+    def _slot(self) -> Iterator[None]:
+        if not self._slots.acquire(blocking=False):
+            seconds = self.settings.search_retry_after_seconds
+            raise Problem(
+                503,
+                f"{self.settings.search_max_concurrent} searches are being described already "
+                f"(SHAPESEARCH_SEARCH_MAX_CONCURRENT); retry in {seconds} s.",
+                slug="busy",
+                headers={"Retry-After": str(seconds)},
+            )
+        try:
+            yield
+        finally:
+            self._slots.release()
+
+    def _cached(self, sha256: str) -> dict[str, Any] | None:
+        with self._lock:
+            columns = self._cache.get(sha256)
+            if columns is not None:
+                self._cache.move_to_end(sha256)
+            return columns
+
+    def _remember(self, sha256: str, columns: dict[str, Any]) -> None:
+        if self.settings.search_cache_size == 0:
+            return
+        with self._lock:
+            self._cache[sha256] = columns
+            self._cache.move_to_end(sha256)
+            while len(self._cache) > self.settings.search_cache_size:
+                self._cache.popitem(last=False)
+
+    def _stored(self, session: Session, tenant: str, sha256: str) -> dict[str, Any] | None:
+        """A ready model of this tenant made from the same bytes with the same descriptor.
+        (Only this tenant's: another tenant's copy would reveal, by the speed of the answer,
+        that it holds the file.)"""
+        model = session.scalar(
+            select(Model)
+            .options(undefer(Model.descriptor))
+            .where(
+                Model.tenant == tenant,
+                Model.file_sha256 == sha256,
+                Model.status == "ready",
+                Model.descriptor_version == self.version,
+            )
+            .limit(1)
+        )
+        if model is None or model.descriptor is None:
+            return None
+        return {name: getattr(model, name) for name in _COLUMNS}

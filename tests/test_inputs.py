@@ -1,0 +1,165 @@
+"""Input limits: every bad text field, query parameter or metadata value is a 422 that
+points at the field (never a 500 from the database driver or a RecursionError), on both
+backends; problem details are consistent (one type per kind, one title per status)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+from conftest import PARTS, fake_describe, make_settings
+from fastapi.testclient import TestClient
+
+from app.api.main import create_app
+
+CUBE = (PARTS / "20mm-xyz-cube.stl").read_bytes()
+VALIDATION = "urn:shapesearch:problem:validation-error"
+
+
+@pytest.fixture
+def client(database_url: str) -> Iterator[TestClient]:
+    settings = make_settings(database_url, max_metadata_bytes=1000, max_metadata_depth=4)
+    app = create_app(settings, embedded_worker=True, job_handler=fake_describe)
+    with TestClient(app, raise_server_exceptions=False) as client:
+        yield client
+
+
+def post_model(client: TestClient, filename: str = "cube.stl", **form: str) -> Any:
+    return client.post(
+        "/v1/models", files={"file": (filename, CUBE, "application/octet-stream")}, data=form
+    )
+
+
+def patch_model(client: TestClient, model_id: str, body: str) -> Any:
+    return client.patch(
+        f"/v1/models/{model_id}", content=body, headers={"content-type": "application/json"}
+    )
+
+
+def assert_invalid(response: Any, pointer: str) -> dict[str, Any]:
+    assert response.status_code == 422, response.text
+    assert response.headers["content-type"].startswith("application/problem+json")
+    body = response.json()
+    assert body["type"] == VALIDATION
+    assert body["title"] == "Unprocessable Entity"
+    assert body["pointer"] == pointer, body
+    return body
+
+
+def nested(depth: int) -> str:
+    return '{"a":' * depth + "1" + "}" * depth
+
+
+@pytest.mark.parametrize(
+    ("form", "filename", "pointer"),
+    [
+        ({"external_id": "a\x00b"}, "cube.stl", "/external_id"),
+        ({"name": "a\x00b"}, "cube.stl", "/name"),
+        ({"name": "x" * 501}, "cube.stl", "/name"),
+        ({"metadata": '{"x": NaN}'}, "cube.stl", "/metadata"),
+        ({"metadata": '{"x": Infinity}'}, "cube.stl", "/metadata"),
+        ({"metadata": nested(10_000)}, "cube.stl", "/metadata"),
+        ({"metadata": "[" * 10_000 + "]" * 10_000}, "cube.stl", "/metadata"),
+        ({"metadata": nested(5)}, "cube.stl", "/metadata/a/a/a/a"),
+        ({"metadata": json.dumps({"k": "v" * 2000})}, "cube.stl", "/metadata"),
+        ({"metadata": '{"k": "a\\u0000b"}'}, "cube.stl", "/metadata/k"),
+        ({"metadata": '{"k": "\\ud800"}'}, "cube.stl", "/metadata/k"),
+        ({"metadata": "[1]"}, "cube.stl", "/metadata"),
+    ],
+)
+def test_bad_upload_fields_are_422_with_a_pointer(
+    client: TestClient, form: dict[str, str], filename: str, pointer: str
+) -> None:
+    assert_invalid(post_model(client, filename, **form), pointer)
+    assert client.get("/v1/models").json()["items"] == []  # nothing was stored
+    assert client.get("/healthz").status_code == 200  # and the server is fine
+
+
+def test_a_nul_in_the_file_name_is_422(client: TestClient) -> None:
+    """Sent raw: httpx would percent-encode the NUL."""
+    body = (
+        b'--B\r\nContent-Disposition: form-data; name="file"; filename="a\x00b.stl"\r\n'
+        b"Content-Type: application/octet-stream\r\n\r\n" + CUBE + b"\r\n--B--\r\n"
+    )
+    response = client.post(
+        "/v1/models", content=body, headers={"content-type": "multipart/form-data; boundary=B"}
+    )
+    assert_invalid(response, "/file/filename")
+
+
+def test_metadata_at_the_limits_is_accepted(client: TestClient) -> None:
+    response = post_model(client, metadata=nested(3))
+    assert response.status_code == 202, response.text
+    assert response.json()["metadata"] == json.loads(nested(3))
+
+
+@pytest.mark.parametrize(
+    ("body", "pointer"),
+    [
+        ('{"name": "a\\u0000b"}', "/name"),
+        ('{"name": "\\udfff"}', "/name"),
+        ('{"metadata": {"x": NaN}}', "/metadata/x"),
+        ('{"metadata": {"x": [1, -Infinity]}}', "/metadata/x/1"),
+        ('{"metadata": ' + nested(900) + "}", "/metadata/a/a/a/a"),
+        ('{"metadata": ' + nested(10_000) + "}", ""),
+        ('{"metadata": {"k\\u0000": 1}}', "/metadata/k\x00"),
+        ('{"metadata": {"big": "' + "v" * 2000 + '"}}', "/metadata"),
+    ],
+)
+def test_bad_patches_are_422_with_a_pointer(client: TestClient, body: str, pointer: str) -> None:
+    model = post_model(client, name="kept").json()
+    assert_invalid(patch_model(client, model["id"], body), pointer)
+    assert client.get(f"/v1/models/{model['id']}").json()["name"] == "kept"
+
+
+def test_metadata_null_is_refused_as_the_schema_says(client: TestClient) -> None:
+    model = post_model(client, metadata='{"a": 1}').json()
+    assert_invalid(patch_model(client, model["id"], '{"metadata": null}'), "/metadata")
+    patch_schema = client.get("/openapi.json").json()["components"]["schemas"]["ModelPatch"]
+    assert patch_schema["properties"]["metadata"]["type"] == "object"  # not nullable
+
+
+@pytest.mark.parametrize(
+    ("path", "pointer"),
+    [
+        ("/v1/models?external_id=a%00b", "/query/external_id"),
+        ("/v1/models?cursor=%00", "/query/cursor"),
+        ("/v1/models?external_id=%ff%fe", "/query/external_id"),
+        ("/v1/models?external_id=" + "x" * 501, "/query/external_id"),
+        ("/v1/models/00000000-0000-0000-0000-000000000000/similar?metadata.a=%00",
+         "/query/metadata.a"),
+    ],
+)
+def test_bad_query_parameters_are_422_with_a_pointer(
+    client: TestClient, path: str, pointer: str
+) -> None:
+    assert_invalid(client.get(path), pointer)
+
+
+def test_an_empty_cursor_is_the_first_page(client: TestClient) -> None:
+    post_model(client)
+    response = client.get("/v1/models", params={"cursor": ""})
+    assert response.status_code == 200, response.text
+    assert len(response.json()["items"]) == 1
+
+
+def test_one_title_per_status_and_413_names_the_setting(database_url: str) -> None:
+    settings = make_settings(database_url, max_upload_bytes=1000)
+    with TestClient(create_app(settings), raise_server_exceptions=False) as client:
+        big = client.post(
+            "/v1/models", files={"file": ("cube.stl", CUBE, "application/octet-stream")}
+        )
+        assert big.status_code == 413
+        body = big.json()
+        assert body["type"] == "urn:shapesearch:problem:too-large"
+        assert "1000 bytes" in body["detail"] and "SHAPESEARCH_MAX_UPLOAD_BYTES" in body["detail"]
+        assert body["title"] == "Request Entity Too Large"
+        invalid = client.get("/v1/models", params={"limit": 0}).json()
+        shape = client.post(
+            "/v1/models", files={"file": ("x.stl", b"solid x\nendsolid", "text/plain")}
+        ).json()
+        assert invalid["status"] == shape["status"] == 422
+        assert invalid["title"] == shape["title"] == "Unprocessable Entity"
+        assert invalid["pointer"] == "/query/limit"

@@ -1,0 +1,91 @@
+"""The sandbox: a child process with an address-space and a wall-clock limit; the parent
+gets the result, the engine's own errors, or a ``too_large`` refusal, and lives on."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+from conftest import PARTS, make_settings
+
+from app.sandbox import Sandbox, SandboxCrash
+from app.worker import describe_handler
+from core.errors import InvalidShapeError, SolverError
+
+GIB = 1024**3
+
+
+def allocate(gib: float) -> int:
+    return int(np.ones(int(gib * GIB) // 8).sum())
+
+
+def sleep(seconds: float) -> None:
+    time.sleep(seconds)
+
+
+def kill_myself() -> None:
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def refuse() -> None:
+    raise InvalidShapeError("degenerate", "all points on a line")
+
+
+def fail_numerically() -> None:
+    raise SolverError("no convergence")
+
+
+def crash() -> None:
+    raise KeyError("surprise")
+
+
+def test_the_result_comes_back() -> None:
+    assert Sandbox(4 * GIB, 60).run(allocate, 0.01) == GIB // 100 // 8
+
+
+def test_the_memory_limit_refuses_the_file_as_too_large() -> None:
+    sandbox = Sandbox(2 * GIB, 60)
+    with pytest.raises(InvalidShapeError) as refused:
+        sandbox.run(allocate, 3)
+    assert refused.value.reason == "too_large"
+    assert "SHAPESEARCH_DESCRIBE_MEMORY_BYTES" in refused.value.message
+
+
+def test_the_time_limit_kills_the_child_and_refuses_the_file() -> None:
+    started = time.monotonic()
+    with pytest.raises(InvalidShapeError) as refused:
+        Sandbox(4 * GIB, 1.0).run(sleep, 60)
+    assert time.monotonic() - started < 30
+    assert refused.value.reason == "too_large"
+    assert "SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS" in refused.value.message
+
+
+def test_a_killed_child_is_a_refusal_and_other_errors_keep_their_kind() -> None:
+    sandbox = Sandbox(4 * GIB, 60)
+    with pytest.raises(InvalidShapeError, match="memory"):
+        sandbox.run(kill_myself)
+    with pytest.raises(InvalidShapeError) as refused:
+        sandbox.run(refuse)
+    assert refused.value.reason == "degenerate" and "line" in refused.value.message
+    with pytest.raises(SolverError, match="no convergence"):
+        sandbox.run(fail_numerically)
+    with pytest.raises(SandboxCrash, match="KeyError"):
+        sandbox.run(crash)
+
+
+def test_the_worker_describes_in_the_sandbox(tmp_path) -> None:
+    """The production handler describes a real part, and refuses one that needs more
+    memory than its limit without the worker process growing."""
+    settings = make_settings(f"sqlite:///{tmp_path / 'db.sqlite'}")
+    columns = describe_handler(settings)((PARTS / "cylinder.stl").read_bytes(), "cylinder.stl")
+    assert columns["n_points"] > 0 and len(columns["descriptor"]) > 0
+
+    tight = make_settings(
+        f"sqlite:///{tmp_path / 'db.sqlite'}", describe_memory_bytes=256 * 1024 * 1024
+    )
+    with pytest.raises(InvalidShapeError) as refused:
+        describe_handler(tight)((PARTS / "cylinder.stl").read_bytes(), "cylinder.stl")
+    assert refused.value.reason == "too_large"
