@@ -29,6 +29,7 @@ from app.db.session import make_engine, make_session_factory
 from app.describing import describe_upload, model_columns, pin_blas_threads, problem_of_reason
 from app.queue import Claim, JobQueue
 from app.settings import Settings, engine_settings
+from app.webhooks import start_delivery_thread
 from core.errors import InvalidShapeError, SolverError
 
 __all__ = ["JobHandler", "Worker", "WorkerPool", "describe_handler", "make_queue", "run_workers"]
@@ -287,7 +288,9 @@ def _worker_process(threads: int) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     pool.start()
+    deliveries = start_delivery_thread(settings, sessions)
     while not requested.wait(0.5):
         pass
     pool.stop(settings.shutdown_grace_seconds, abort)
+    deliveries.stop()
     return 0
