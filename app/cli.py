@@ -6,7 +6,8 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch describe FILE [--cutoff adaptive|fixed:N] [--json]
     shapesearch serve   [--host H] [--port P] [--no-worker]
     shapesearch worker  [--concurrency N]
-    shapesearch keys create --tenant NAME
+    shapesearch keys create --tenant NAME | list | revoke PREFIX
+    shapesearch redescribe [--from-version V | --all] [--wait]
     shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
 """
 
@@ -41,6 +42,25 @@ def _keys(args: argparse.Namespace) -> int:
     from app.keys import create_key_command
 
     return create_key_command(tenant=args.tenant)
+
+
+def _keys_list(args: argparse.Namespace) -> int:
+    from app.keys import list_keys_command
+
+    return list_keys_command()
+
+
+def _keys_revoke(args: argparse.Namespace) -> int:
+    from app.keys import revoke_key_command
+
+    return revoke_key_command(args.prefix)
+
+
+def _redescribe(args: argparse.Namespace) -> int:
+    from app.redescribe import redescribe_command
+
+    return redescribe_command(from_version=args.from_version, everything=args.all,
+                              wait=args.wait)
 
 
 def _eval(args: argparse.Namespace) -> int:
@@ -78,6 +98,21 @@ def build_parser() -> argparse.ArgumentParser:
     create = key_commands.add_parser("create", help="create an API key for a tenant")
     create.add_argument("--tenant", required=True)
     create.set_defaults(handler=_keys)
+    key_commands.add_parser("list", help="list keys: prefix, tenant, created").set_defaults(
+        handler=_keys_list
+    )
+    revoke = key_commands.add_parser("revoke", help="delete the key with this prefix")
+    revoke.add_argument("prefix", help="ss_ + 12 hex digits, as `keys list` shows")
+    revoke.set_defaults(handler=_keys_revoke)
+
+    redescribe = commands.add_parser(
+        "redescribe", help="queue re-describe jobs (default: models not at the current version)"
+    )
+    which = redescribe.add_mutually_exclusive_group()
+    which.add_argument("--from-version", default=None, help="models with this descriptor_version")
+    which.add_argument("--all", action="store_true", help="every model")
+    redescribe.add_argument("--wait", action="store_true", help="show progress until done")
+    redescribe.set_defaults(handler=_redescribe)
 
     evaluate = commands.add_parser("eval", help="score retrieval on a labelled CLASS/MODEL dataset")
     evaluate.add_argument("dataset")

@@ -27,6 +27,7 @@ from app.api.routes_models import _parse_metadata, _uuid_or_none, load_model
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
 from app.api.uploads import CheckedUpload, read_checked_upload
 from app.db.models import Job, Model, ModelRevision, Upload, utcnow
+from app.redescribe import descriptor_version_of
 from app.revisions import (
     add_revision,
     create_model_rows,
@@ -34,7 +35,6 @@ from app.revisions import (
     latest_jobs,
     lock_models,
 )
-from core.descriptor import DescriptorSpec
 
 __all__ = ["RevisionList", "RevisionResource", "Stats", "current_descriptor_version", "router"]
 
@@ -79,8 +79,7 @@ class Stats(BaseModel):
 
 def current_descriptor_version(services: ServicesDep) -> str:
     """The descriptor_version this service's engine settings produce."""
-    settings = services.engine_settings
-    return DescriptorSpec.from_settings(settings.descriptor).version(settings)
+    return descriptor_version_of(services.engine_settings)
 
 
 def _revision_resource(revision: ModelRevision) -> RevisionResource:
