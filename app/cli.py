@@ -8,6 +8,7 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch worker  [--concurrency N]
     shapesearch keys create --tenant NAME | list | revoke PREFIX
     shapesearch redescribe [--from-version V | --all] [--wait]
+    shapesearch duplicates [--min-score 0.98] [--format csv|json] [--tenant T]
     shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
 """
 
@@ -63,6 +64,13 @@ def _redescribe(args: argparse.Namespace) -> int:
                               wait=args.wait)
 
 
+def _duplicates(args: argparse.Namespace) -> int:
+    from app.duplicates import duplicates_command
+
+    return duplicates_command(min_score=args.min_score, output_format=args.format,
+                              tenant=args.tenant, descriptor_version=args.descriptor_version)
+
+
 def _eval(args: argparse.Namespace) -> int:
     from core.evaluation.cli import run
 
@@ -113,6 +121,14 @@ def build_parser() -> argparse.ArgumentParser:
     which.add_argument("--all", action="store_true", help="every model")
     redescribe.add_argument("--wait", action="store_true", help="show progress until done")
     redescribe.set_defaults(handler=_redescribe)
+
+    duplicates = commands.add_parser("duplicates", help="groups of near-identical parts")
+    duplicates.add_argument("--min-score", type=float, default=0.98)
+    duplicates.add_argument("--format", choices=("csv", "json"), default="csv")
+    duplicates.add_argument("--tenant", default="default")
+    duplicates.add_argument("--descriptor-version", default=None,
+                            help="default: the version of the current engine settings")
+    duplicates.set_defaults(handler=_duplicates)
 
     evaluate = commands.add_parser("eval", help="score retrieval on a labelled CLASS/MODEL dataset")
     evaluate.add_argument("dataset")

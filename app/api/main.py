@@ -15,6 +15,7 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 
 from app.api import (
+    routes_duplicates,
     routes_health,
     routes_jobs,
     routes_models,
@@ -121,6 +122,7 @@ def create_app(
         routes_search,
         routes_jobs,
         routes_webhooks,
+        routes_duplicates,
         routes_health,
     ):
         app.include_router(module.router)
