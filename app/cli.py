@@ -9,6 +9,8 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch keys create --tenant NAME | list | revoke PREFIX
     shapesearch redescribe [--from-version V | --all] [--wait]
     shapesearch duplicates [--min-score 0.98] [--format csv|json] [--tenant T]
+    shapesearch import PATH --url URL [--key KEY] [--external-id path|stem] [--metadata F]
+                       [--concurrency N] [--wait] [--report CSV]
     shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
 """
 
@@ -71,6 +73,27 @@ def _duplicates(args: argparse.Namespace) -> int:
                               tenant=args.tenant, descriptor_version=args.descriptor_version)
 
 
+def _import(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    import httpx
+
+    from app.importer import ImportOptions, run_import
+
+    options = ImportOptions(
+        url=args.url, key=args.key, external_id=args.external_id,
+        metadata=Path(args.metadata) if args.metadata else None,
+        concurrency=args.concurrency, wait=args.wait, report=Path(args.report),
+        retries=args.retries,
+    )
+    try:
+        code, _counts = run_import(Path(args.path), options)
+    except (OSError, ValueError, httpx.HTTPError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    return code
+
+
 def _eval(args: argparse.Namespace) -> int:
     from core.evaluation.cli import run
 
@@ -129,6 +152,20 @@ def build_parser() -> argparse.ArgumentParser:
     duplicates.add_argument("--descriptor-version", default=None,
                             help="default: the version of the current engine settings")
     duplicates.set_defaults(handler=_duplicates)
+
+    importer = commands.add_parser("import", help="upload a folder, .zip or .tar of parts")
+    importer.add_argument("path")
+    importer.add_argument("--url", required=True, help="the service, e.g. http://127.0.0.1:8000")
+    importer.add_argument("--key", default=None, help="API key (Bearer)")
+    importer.add_argument("--external-id", choices=("path", "stem"), default="path",
+                          help="external id: the relative path (default) or the file stem")
+    importer.add_argument("--metadata", default=None, help="sidecar .csv or .json of metadata")
+    importer.add_argument("--concurrency", type=int, default=4)
+    importer.add_argument("--wait", action="store_true", help="wait until described")
+    importer.add_argument("--report", default="import-report.csv", help="CSV of every file")
+    importer.add_argument("--retries", type=int, default=5,
+                          help="retries of a request on 429/503 or a connection error")
+    importer.set_defaults(handler=_import)
 
     evaluate = commands.add_parser("eval", help="score retrieval on a labelled CLASS/MODEL dataset")
     evaluate.add_argument("dataset")

@@ -98,7 +98,7 @@ def _revision_resource(revision: ModelRevision) -> RevisionResource:
 
 
 @router.put(
-    "/models/by-external-id/{external_id}",
+    "/models/by-external-id/{external_id:path}",
     response_model=ModelResource,
     status_code=200,
     responses={
