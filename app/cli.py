@@ -6,7 +6,11 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch describe FILE [--cutoff adaptive|fixed:N] [--json]
     shapesearch serve   [--host H] [--port P] [--no-worker]
     shapesearch worker  [--concurrency N]
-    shapesearch keys create --tenant NAME
+    shapesearch keys create --tenant NAME | list | revoke PREFIX
+    shapesearch redescribe [--from-version V | --all] [--wait]
+    shapesearch duplicates [--min-score 0.98] [--format csv|json] [--tenant T]
+    shapesearch import PATH --url URL [--key KEY] [--external-id path|stem] [--metadata F]
+                       [--concurrency N] [--wait] [--report CSV]
     shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
 """
 
@@ -49,6 +53,53 @@ def _keys(args: argparse.Namespace) -> int:
     return create_key_command(tenant=args.tenant)
 
 
+def _keys_list(args: argparse.Namespace) -> int:
+    from app.keys import list_keys_command
+
+    return list_keys_command()
+
+
+def _keys_revoke(args: argparse.Namespace) -> int:
+    from app.keys import revoke_key_command
+
+    return revoke_key_command(args.prefix)
+
+
+def _redescribe(args: argparse.Namespace) -> int:
+    from app.redescribe import redescribe_command
+
+    return redescribe_command(from_version=args.from_version, everything=args.all,
+                              wait=args.wait)
+
+
+def _duplicates(args: argparse.Namespace) -> int:
+    from app.duplicates import duplicates_command
+
+    return duplicates_command(min_score=args.min_score, output_format=args.format,
+                              tenant=args.tenant, descriptor_version=args.descriptor_version)
+
+
+def _import(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    import httpx
+
+    from app.importer import ImportOptions, run_import
+
+    options = ImportOptions(
+        url=args.url, key=args.key, external_id=args.external_id,
+        metadata=Path(args.metadata) if args.metadata else None,
+        concurrency=args.concurrency, wait=args.wait, report=Path(args.report),
+        retries=args.retries,
+    )
+    try:
+        code, _counts = run_import(Path(args.path), options)
+    except (OSError, ValueError, httpx.HTTPError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    return code
+
+
 def _eval(args: argparse.Namespace) -> int:
     from core.evaluation.cli import run
 
@@ -84,6 +135,43 @@ def build_parser() -> argparse.ArgumentParser:
     create = key_commands.add_parser("create", help="create an API key for a tenant")
     create.add_argument("--tenant", required=True)
     create.set_defaults(handler=_keys)
+    key_commands.add_parser("list", help="list keys: prefix, tenant, created").set_defaults(
+        handler=_keys_list
+    )
+    revoke = key_commands.add_parser("revoke", help="delete the key with this prefix")
+    revoke.add_argument("prefix", help="ss_ + 12 hex digits, as `keys list` shows")
+    revoke.set_defaults(handler=_keys_revoke)
+
+    redescribe = commands.add_parser(
+        "redescribe", help="queue re-describe jobs (default: models not at the current version)"
+    )
+    which = redescribe.add_mutually_exclusive_group()
+    which.add_argument("--from-version", default=None, help="models with this descriptor_version")
+    which.add_argument("--all", action="store_true", help="every model")
+    redescribe.add_argument("--wait", action="store_true", help="show progress until done")
+    redescribe.set_defaults(handler=_redescribe)
+
+    duplicates = commands.add_parser("duplicates", help="groups of near-identical parts")
+    duplicates.add_argument("--min-score", type=float, default=0.98)
+    duplicates.add_argument("--format", choices=("csv", "json"), default="csv")
+    duplicates.add_argument("--tenant", default="default")
+    duplicates.add_argument("--descriptor-version", default=None,
+                            help="default: the version of the current engine settings")
+    duplicates.set_defaults(handler=_duplicates)
+
+    importer = commands.add_parser("import", help="upload a folder, .zip or .tar of parts")
+    importer.add_argument("path")
+    importer.add_argument("--url", required=True, help="the service, e.g. http://127.0.0.1:8000")
+    importer.add_argument("--key", default=None, help="API key (Bearer)")
+    importer.add_argument("--external-id", choices=("path", "stem"), default="path",
+                          help="external id: the relative path (default) or the file stem")
+    importer.add_argument("--metadata", default=None, help="sidecar .csv or .json of metadata")
+    importer.add_argument("--concurrency", type=int, default=4)
+    importer.add_argument("--wait", action="store_true", help="wait until described")
+    importer.add_argument("--report", default="import-report.csv", help="CSV of every file")
+    importer.add_argument("--retries", type=int, default=5,
+                          help="retries of a request on 429/503 or a connection error")
+    importer.set_defaults(handler=_import)
 
     evaluate = commands.add_parser("eval", help="score retrieval on a labelled CLASS/MODEL dataset")
     evaluate.add_argument("dataset")

@@ -12,12 +12,22 @@ import hmac
 import secrets
 import sys
 
-from sqlalchemy import exists, select
+from sqlalchemy import delete, exists, select
 from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey
 
-__all__ = ["DEFAULT_TENANT", "create_key", "create_key_command", "keys_exist", "tenant_for_key"]
+__all__ = [
+    "DEFAULT_TENANT",
+    "create_key",
+    "create_key_command",
+    "keys_exist",
+    "list_keys",
+    "list_keys_command",
+    "revoke_key",
+    "revoke_key_command",
+    "tenant_for_key",
+]
 
 DEFAULT_TENANT = "default"  # the one tenant of a service without keys
 _PREFIX_LEN = 12
@@ -75,4 +85,51 @@ def create_key_command(tenant: str) -> int:
         "Send it as 'Authorization: Bearer <key>'.",
         file=sys.stderr,
     )
+    return 0
+
+
+def list_keys(session: Session) -> list[ApiKey]:
+    """Every key's row (prefix, tenant, creation time), oldest first; never the secret."""
+    return list(session.scalars(select(ApiKey).order_by(ApiKey.created_at, ApiKey.prefix)))
+
+
+def revoke_key(session: Session, prefix: str) -> int:
+    """Delete the keys with this public prefix (``ss_`` optional); returns how many."""
+    prefix = prefix.strip().removeprefix("ss_")[:_PREFIX_LEN]
+    if len(prefix) != _PREFIX_LEN:
+        return 0
+    result = session.execute(delete(ApiKey).where(ApiKey.prefix == prefix))
+    return int(result.rowcount or 0)
+
+
+def _sessions():  # type: ignore[no-untyped-def]
+    from app.db.migrate import upgrade
+    from app.db.session import make_engine, make_session_factory
+    from app.settings import Settings
+
+    engine = make_engine(Settings().resolved_database_url)
+    upgrade(engine)
+    return make_session_factory(engine)
+
+
+def list_keys_command() -> int:
+    """``shapesearch keys list``: one line per key: prefix, tenant, created."""
+    with _sessions()() as session:
+        rows = list_keys(session)
+    print(f"{'PREFIX':<16} {'TENANT':<30} CREATED")
+    for row in rows:
+        created = row.created_at.isoformat(timespec="seconds")
+        print(f"ss_{row.prefix:<13} {row.tenant:<30} {created}")
+    return 0
+
+
+def revoke_key_command(prefix: str) -> int:
+    """``shapesearch keys revoke PREFIX``: the key stops working at once."""
+    with _sessions().begin() as session:
+        count = revoke_key(session, prefix)
+    if count == 0:
+        print(f"error: no key with prefix {prefix!r} (see `shapesearch keys list`)",
+              file=sys.stderr)
+        return 1
+    print(f"revoked {count} key(s) with prefix {prefix}", file=sys.stderr)
     return 0

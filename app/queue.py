@@ -40,6 +40,8 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.feed import record_event
 from app.db.models import Job, Model, Upload, utcnow
+from app.revisions import mark_revision_failed, promote, revision_content
+from app.webhooks import record_model_event
 
 __all__ = ["Claim", "JobQueue", "backoff_seconds", "worker_died_error"]
 
@@ -123,7 +125,7 @@ class JobQueue:
                 return None
             session.execute(
                 update(Model)
-                .where(Model.id == row.model_id)
+                .where(Model.id == row.model_id, Model.status != "ready")  # keeps serving
                 .values(status="processing", updated_at=now)
             )
         return Claim(
@@ -186,6 +188,7 @@ class JobQueue:
             )
             if done.rowcount != 1:
                 return False
+            promote(session, claim.job_id, claim.model_id)  # a new revision's file, if any
             index_id = session.execute(
                 update(Model)
                 .where(Model.id == claim.model_id)
@@ -193,6 +196,7 @@ class JobQueue:
                 .returning(Model.index_id)
             ).scalar_one()
             record_event(session, index_id, "ready")
+            record_model_event(session, claim.model_id, "model.ready", claim.job_id)
         return True
 
     def fail(self, claim: Claim, error: dict[str, Any]) -> bool:
@@ -206,11 +210,14 @@ class JobQueue:
             )
             if failed.rowcount != 1:
                 return False
+            # A ready model whose re-describe failed keeps its descriptor and stays ready.
             session.execute(
                 update(Model)
-                .where(Model.id == claim.model_id)
+                .where(Model.id == claim.model_id, Model.status != "ready")
                 .values(status="failed", error=error, updated_at=now)
             )
+            mark_revision_failed(session, claim.job_id)
+            record_model_event(session, claim.model_id, "model.failed", claim.job_id)
         return True
 
     def retry(self, claim: Claim, error: dict[str, Any]) -> bool:
@@ -243,7 +250,7 @@ class JobQueue:
                 return False
             session.execute(
                 update(Model)
-                .where(Model.id == claim.model_id)
+                .where(Model.id == claim.model_id, Model.status != "ready")
                 .values(status="queued", updated_at=now)
             )
         return True
@@ -253,6 +260,9 @@ class JobQueue:
     def upload_of(self, claim: Claim) -> tuple[bytes, str] | None:
         """The uploaded bytes and file name of the claimed model (None if it was deleted)."""
         with self.sessions() as session:
+            pending = revision_content(session, claim.job_id)
+            if pending is not None:
+                return pending
             row = session.execute(
                 select(Upload.content, Model.file_name)
                 .join(Model, Model.id == Upload.model_id)

@@ -251,6 +251,25 @@ class Settings(BaseSettings):
         "'default' and only binds to loopback.",
     )
 
+    # --- webhooks ------------------------------------------------------------------------
+    webhook_allow_private: bool = Field(
+        default=False,
+        description="Allow webhook URLs on private, loopback and link-local addresses "
+        "(refused by default: a caller must not make the service probe its own network).",
+    )
+    webhook_timeout_seconds: float = Field(
+        default=10.0, gt=0, description="Timeout of one webhook delivery attempt."
+    )
+    webhook_max_attempts: int = Field(
+        default=8, ge=1, description="Delivery attempts per event before it is marked failed."
+    )
+    webhook_backoff_seconds: float = Field(
+        default=5.0, ge=0, description="Delay after the first failed delivery; doubles each time."
+    )
+    webhook_backoff_max_seconds: float = Field(
+        default=600.0, ge=0, description="Cap of the webhook retry delay."
+    )
+
     @property
     def resolved_database_url(self) -> str:
         """The database URL, defaulting to the embedded SQLite file."""

@@ -36,6 +36,7 @@ from app.describing import (
 from app.queue import Claim, JobQueue
 from app.sandbox import sandbox_of
 from app.settings import Settings, engine_settings
+from app.webhooks import start_delivery_thread
 from core.errors import InvalidShapeError, SolverError
 
 __all__ = ["JobHandler", "Worker", "WorkerPool", "describe_handler", "make_queue", "run_workers"]
@@ -303,7 +304,9 @@ def _worker_process(threads: int) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     pool.start()
+    deliveries = start_delivery_thread(settings, sessions)
     while not requested.wait(0.5):
         pass
     pool.stop(settings.shutdown_grace_seconds, abort)
+    deliveries.stop()
     return 0

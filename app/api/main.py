@@ -14,7 +14,15 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
-from app.api import routes_health, routes_jobs, routes_models, routes_search
+from app.api import (
+    routes_duplicates,
+    routes_health,
+    routes_jobs,
+    routes_models,
+    routes_revisions,
+    routes_search,
+    routes_webhooks,
+)
 from app.api.deps import Services
 from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
@@ -25,6 +33,7 @@ from app.db.session import make_engine, make_session_factory
 from app.describing import pin_blas_threads
 from app.index import ShapeIndex
 from app.settings import Settings, engine_settings
+from app.webhooks import start_delivery_thread
 from app.worker import JobHandler, WorkerPool, describe_handler, make_queue
 
 __all__ = ["create_app"]
@@ -86,11 +95,13 @@ def create_app(
                 on_done=index.sync,  # a finished job is searchable at once in this process
             )
             pool.start()
+            deliveries = start_delivery_thread(settings, sessions)  # webhooks, next to jobs
         try:
             yield
         finally:
             if pool is not None:
                 pool.stop(settings.shutdown_grace_seconds)
+                deliveries.stop()
             stop.set()
             follower.join()
             engine.dispose()
@@ -111,6 +122,14 @@ def create_app(
         overhead_bytes=_FORM_OVERHEAD_BYTES,
     )
     app.add_middleware(QueryGuard, limits=InputLimits.from_settings(settings))
-    for module in (routes_models, routes_search, routes_jobs, routes_health):
+    for module in (
+        routes_revisions,  # before routes_models: /models/by-external-id/... is not an id
+        routes_models,
+        routes_search,
+        routes_jobs,
+        routes_webhooks,
+        routes_duplicates,
+        routes_health,
+    ):
         app.include_router(module.router)
     return app

@@ -1,11 +1,17 @@
-"""GET /v1/jobs/{id}: the state of a describe job."""
+"""/v1/jobs: one describe job, and a tenant's jobs newest first."""
 
 from __future__ import annotations
 
+import base64
+import binascii
+import json
 import uuid
+from datetime import datetime
+from typing import Annotated, Literal
 
-from fastapi import APIRouter
-from sqlalchemy import select
+from fastapi import APIRouter, Query
+from pydantic import BaseModel, Field
+from sqlalchemy import and_, or_, select
 
 from app.api.auth import TenantDep
 from app.api.deps import SessionDep
@@ -13,9 +19,59 @@ from app.api.problems import Problem, problem_responses
 from app.api.schemas import JobResource, job_resource
 from app.db.models import Job
 
-__all__ = ["router"]
+__all__ = ["JobList", "router"]
 
 router = APIRouter(prefix="/v1", tags=["jobs"])
+
+
+class JobList(BaseModel):
+    items: list[JobResource]
+    next_cursor: str | None = Field(description="Pass as `cursor` for the next page; null: last.")
+
+
+def _encode_cursor(job: Job) -> str:
+    raw = json.dumps([job.created_at.isoformat(), str(job.id)]).encode()
+    return base64.urlsafe_b64encode(raw).decode().rstrip("=")
+
+
+def _decode_cursor(cursor: str) -> tuple[datetime, uuid.UUID]:
+    try:
+        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
+        created_at, job_id = json.loads(raw)
+        return datetime.fromisoformat(created_at), uuid.UUID(job_id)
+    except (ValueError, TypeError, binascii.Error) as error:
+        raise Problem(
+            422, "cursor is not valid; pass next_cursor unchanged.", slug="invalid-cursor"
+        ) from error
+
+
+@router.get(
+    "/jobs",
+    response_model=JobList,
+    responses=problem_responses(401, 422),
+    summary="List jobs, newest first",
+)
+def list_jobs(
+    tenant: TenantDep,
+    session: SessionDep,
+    status: Literal["queued", "running", "done", "failed"] | None = None,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    cursor: Annotated[str | None, Query(description="next_cursor of the previous page")] = None,
+) -> JobList:
+    query = select(Job).where(Job.tenant == tenant)
+    if status is not None:
+        query = query.where(Job.status == status)
+    if cursor is not None:
+        created_at, job_id = _decode_cursor(cursor)
+        query = query.where(
+            or_(Job.created_at < created_at, and_(Job.created_at == created_at, Job.id < job_id))
+        )
+    rows = session.scalars(
+        query.order_by(Job.created_at.desc(), Job.id.desc()).limit(limit + 1)
+    ).all()
+    page = rows[:limit]
+    next_cursor = _encode_cursor(page[-1]) if len(rows) > limit else None
+    return JobList(items=[job_resource(job) for job in page], next_cursor=next_cursor)
 
 
 @router.get(

@@ -10,13 +10,15 @@ from datetime import datetime
 from typing import Annotated, Any
 
 import numpy as np
-from fastapi import APIRouter, Depends, File, Form, Query, Request, Response, UploadFile
+from fastapi import APIRouter, Depends, File, Form, Header, Query, Request, Response, UploadFile
+from fastapi.responses import JSONResponse
 from sqlalchemy import and_, delete, or_, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, undefer
 
 from app.api.auth import TenantDep
 from app.api.deps import ServicesDep, SessionDep
+from app.api.idempotency import remember, replay_or_refuse, request_sha256
 from app.api.inputs import InputLimits
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import (
@@ -32,8 +34,10 @@ from app.api.schemas import (
 )
 from app.api.uploads import read_checked_upload
 from app.db.feed import record_event
-from app.db.models import Job, Model, Upload, utcnow
+from app.db.models import Model, utcnow
+from app.revisions import create_model_rows, latest_jobs, lock_models
 from app.similarity import find_similar
+from app.webhooks import record_model_event
 
 __all__ = ["load_model", "metadata_filters", "router"]
 
@@ -85,6 +89,7 @@ def _duplicate(session: Session, tenant: str, external_id: str) -> Problem | Non
     summary="Upload a part; it is described in the background",
 )
 def create_model(
+    request: Request,
     response: Response,
     file: Annotated[
         UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
@@ -94,13 +99,23 @@ def create_model(
     external_id: Annotated[str | None, Form(description="Your id; unique per tenant.")] = None,
     name: Annotated[str | None, Form()] = None,
     metadata: Annotated[str | None, Form(description="A JSON object, as a string.")] = None,
-) -> ModelResource:
+    idempotency_key: Annotated[
+        str | None,
+        Header(max_length=300, description="Retries with the same key and body get the "
+               "first answer back; another body with the same key gets 422."),
+    ] = None,
+) -> ModelResource | JSONResponse:
     limits = InputLimits.from_settings(services.settings)
     limits.text(external_id, "/external_id")
     limits.text(name, "/name")
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata)
     upload = read_checked_upload(file.file, file.filename, services.settings)
+    request_digest = request_sha256(upload.sha256, external_id, name, meta)
+    if idempotency_key is not None:
+        replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest)
+        if replay is not None:
+            return replay
     model = Model(
         id=uuid.uuid4(),
         tenant=tenant,
@@ -116,18 +131,22 @@ def create_model(
     try:
         # The model, its bytes and its job commit together: no accepted upload without a job.
         with services.sessions.begin() as session:
-            session.add(model)
-            session.flush()
-            session.add(Upload(model_id=model.id, content=upload.content))
-            session.add(Job(model_id=model.id, tenant=tenant, status="queued", attempts=0))
-    except IntegrityError as error:  # the unique (tenant, external_id) constraint
+            job = create_model_rows(session, model, upload.content)
+            resource = model_resource(model, job)
+            if idempotency_key is not None:
+                remember(session, tenant, idempotency_key, request_digest, 202, resource)
+    except IntegrityError as error:  # unique (tenant, external_id) or the idempotency key
+        if idempotency_key is not None:
+            replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest)
+            if replay is not None:
+                return replay
         with services.sessions() as session:
             problem = _duplicate(session, tenant, external_id) if external_id else None
         if problem is None:
             raise
         raise problem from error
     response.headers["Location"] = f"/v1/models/{model.id}"
-    return model_resource(model)
+    return resource
 
 
 def _encode_cursor(model: Model) -> str:
@@ -179,7 +198,9 @@ def list_models(
     ).all()
     page = rows[:limit]
     next_cursor = _encode_cursor(page[-1]) if len(rows) > limit else None
-    return ModelList(items=[model_resource(m) for m in page], next_cursor=next_cursor)
+    jobs = latest_jobs(session, [m.id for m in page])
+    return ModelList(items=[model_resource(m, jobs.get(m.id)) for m in page],
+                     next_cursor=next_cursor)
 
 
 @router.get(
@@ -193,7 +214,8 @@ def get_model(
     tenant: TenantDep,
     session: SessionDep,
 ) -> ModelResource:
-    return model_resource(load_model(session, tenant, model_id))
+    model = load_model(session, tenant, model_id)
+    return model_resource(model, latest_jobs(session, [model.id]).get(model.id))
 
 
 @router.patch(
@@ -222,9 +244,9 @@ def patch_model(
             .values(**changes)
             .returning(Model)
         )
-    if model is None:
-        raise _not_found(model_id)
-    return model_resource(model)
+        if model is None:
+            raise _not_found(model_id)
+        return model_resource(model, latest_jobs(session, [model.id]).get(model.id))
 
 
 @router.delete(
@@ -241,6 +263,8 @@ def delete_model(
 ) -> Response:
     model_uuid = _uuid_or_none(model_id)
     with services.sessions.begin() as session:
+        if lock_models(session, Model.id == model_uuid, Model.tenant == tenant):
+            record_model_event(session, model_uuid, "model.deleted")  # commits with the delete
         # The upload and the job go with it (ON DELETE CASCADE).
         index_id = session.scalar(
             delete(Model)

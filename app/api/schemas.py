@@ -15,6 +15,7 @@ __all__ = [
     "FileInfo",
     "Health",
     "JobResource",
+    "JobSummary",
     "ModelError",
     "ModelList",
     "ModelPatch",
@@ -27,6 +28,7 @@ __all__ = [
     "SimilarResult",
     "cutoff_info",
     "job_resource",
+    "job_summary",
     "model_resource",
     "model_summary",
 ]
@@ -61,6 +63,16 @@ class CutoffInfo(BaseModel):
     n_max: int | None = None
 
 
+class JobSummary(BaseModel):
+    """The latest job of a model; GET /v1/jobs/{id} has the rest."""
+
+    id: uuid.UUID
+    status: Literal["queued", "running", "done", "failed"]
+    attempts: int
+    created_at: datetime
+    updated_at: datetime
+
+
 class ModelResource(BaseModel):
     id: uuid.UUID
     external_id: str | None
@@ -75,6 +87,7 @@ class ModelResource(BaseModel):
     timings: dict[str, float] | None = Field(description="Seconds per stage of the description.")
     created_at: datetime
     updated_at: datetime
+    job: JobSummary | None = Field(default=None, description="The model's latest job.")
 
 
 class ModelList(BaseModel):
@@ -161,7 +174,17 @@ def cutoff_info(record: dict[str, Any] | None) -> CutoffInfo | None:
     )
 
 
-def model_resource(model: Model) -> ModelResource:
+def job_summary(job: Job) -> JobSummary:
+    return JobSummary(
+        id=job.id,
+        status=job.status,  # type: ignore[arg-type]
+        attempts=job.attempts,
+        created_at=job.created_at,
+        updated_at=job.updated_at,
+    )
+
+
+def model_resource(model: Model, job: Job | None = None) -> ModelResource:
     return ModelResource(
         id=model.id,
         external_id=model.external_id,
@@ -181,6 +204,7 @@ def model_resource(model: Model) -> ModelResource:
         timings=model.timings,
         created_at=model.created_at,
         updated_at=model.updated_at,
+        job=job_summary(job) if job is not None else None,
     )
 
 

@@ -4,6 +4,10 @@
     uploads       the original bytes of each model, apart so that listing models stays cheap
     jobs          the work queue: one describe job per model, claimed under a lease
     api_keys      hashed API keys, one tenant each
+    model_revisions  each file a model has had (by external id upserts); a pending one
+                  keeps its bytes until its job replaces the model's upload
+    webhooks, webhook_deliveries, webhook_attempts  endpoints, the event outbox, the log
+    idempotency_keys  the first answer to a POST /v1/models with an Idempotency-Key
     index_events  the change feed the search index of every API process follows
     feed_state    one row holding the last revision handed out to the change feed
 
@@ -40,7 +44,12 @@ __all__ = [
     "IndexEvent",
     "Job",
     "Model",
+    "IdempotencyKey",
+    "ModelRevision",
     "Upload",
+    "Webhook",
+    "WebhookAttempt",
+    "WebhookDelivery",
     "utcnow",
 ]
 
@@ -127,13 +136,21 @@ class Upload(Base):
 
 class Job(Base):
     __tablename__ = "jobs"
-    __table_args__ = (Index("ix_jobs_claim", "status", "run_after"),)
+    __table_args__ = (
+        Index("ix_jobs_claim", "status", "run_after"),
+        Index("ix_jobs_tenant_created", "tenant", "created_at", "id"),
+    )
 
     id: Mapped[uuid.UUID] = mapped_column(Uuid, primary_key=True, default=uuid.uuid4)
+    # Several per model since revision 0002: the first describe, re-describes, new revisions.
     model_id: Mapped[uuid.UUID] = mapped_column(
-        Uuid, ForeignKey("models.id", ondelete="CASCADE"), unique=True
+        Uuid, ForeignKey("models.id", ondelete="CASCADE"), index=True
     )
     tenant: Mapped[str] = mapped_column(String(200))
+    # describe (first description) | redescribe (stored upload or a new revision)
+    kind: Mapped[str] = mapped_column(String(20), default="describe")
+    # The revision whose file this job describes; None: the model's current upload.
+    revision_id: Mapped[uuid.UUID | None] = mapped_column(Uuid)
     # queued | running | done | failed
     status: Mapped[str] = mapped_column(String(20), default="queued")
     attempts: Mapped[int] = mapped_column(Integer, default=0)
@@ -173,3 +190,85 @@ class FeedState(Base):
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     revision: Mapped[int] = mapped_column(BigInteger, default=0)
+
+
+class ModelRevision(Base):
+    """One file of a model. ``current`` is the file the descriptor was computed from;
+    a ``pending`` revision waits for its job, holding its bytes until then."""
+
+    __tablename__ = "model_revisions"
+    __table_args__ = (UniqueConstraint("model_id", "number", name="uq_model_revisions_number"),)
+
+    id: Mapped[uuid.UUID] = mapped_column(Uuid, primary_key=True, default=uuid.uuid4)
+    model_id: Mapped[uuid.UUID] = mapped_column(
+        Uuid, ForeignKey("models.id", ondelete="CASCADE"), index=True
+    )
+    number: Mapped[int] = mapped_column(Integer)
+    # pending | current | superseded | failed
+    status: Mapped[str] = mapped_column(String(20))
+    file_name: Mapped[str] = mapped_column(String(500))
+    file_size: Mapped[int] = mapped_column(BigInteger)
+    file_sha256: Mapped[str] = mapped_column(String(64))
+    file_format: Mapped[str] = mapped_column(String(20))
+    content: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class Webhook(Base):
+    __tablename__ = "webhooks"
+
+    id: Mapped[uuid.UUID] = mapped_column(Uuid, primary_key=True, default=uuid.uuid4)
+    tenant: Mapped[str] = mapped_column(String(200), index=True)
+    url: Mapped[str] = mapped_column(String(2000))
+    events: Mapped[list[str]] = mapped_column(JSON)
+    secret: Mapped[str] = mapped_column(String(200))
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class WebhookDelivery(Base):
+    """One event for one endpoint: the outbox row, written with the change it reports,
+    and claimed by a deliverer under a lease like a job."""
+
+    __tablename__ = "webhook_deliveries"
+    __table_args__ = (Index("ix_webhook_deliveries_claim", "status", "run_after"),)
+
+    # Also the Standard Webhooks message id (``webhook-id``): retries reuse it.
+    id: Mapped[uuid.UUID] = mapped_column(Uuid, primary_key=True, default=uuid.uuid4)
+    webhook_id: Mapped[uuid.UUID] = mapped_column(
+        Uuid, ForeignKey("webhooks.id", ondelete="CASCADE"), index=True
+    )
+    event_type: Mapped[str] = mapped_column(String(50))
+    payload: Mapped[dict[str, Any]] = mapped_column(JSON)
+    # pending | delivered | failed
+    status: Mapped[str] = mapped_column(String(20), default="pending")
+    attempts: Mapped[int] = mapped_column(Integer, default=0)
+    run_after: Mapped[datetime] = mapped_column(default=utcnow)
+    leased_until: Mapped[datetime | None] = mapped_column()
+    worker_id: Mapped[str | None] = mapped_column(String(200))
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+    updated_at: Mapped[datetime] = mapped_column(default=utcnow, onupdate=utcnow)
+
+
+class WebhookAttempt(Base):
+    __tablename__ = "webhook_attempts"
+
+    id: Mapped[int] = mapped_column(BigId, primary_key=True, autoincrement=True)
+    delivery_id: Mapped[uuid.UUID] = mapped_column(
+        Uuid, ForeignKey("webhook_deliveries.id", ondelete="CASCADE"), index=True
+    )
+    attempt: Mapped[int] = mapped_column(Integer)
+    status_code: Mapped[int | None] = mapped_column(Integer)
+    error: Mapped[str | None] = mapped_column(String(2000))
+    duration_ms: Mapped[float] = mapped_column()
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class IdempotencyKey(Base):
+    __tablename__ = "idempotency_keys"
+
+    tenant: Mapped[str] = mapped_column(String(200), primary_key=True)
+    key: Mapped[str] = mapped_column(String(300), primary_key=True)
+    request_sha256: Mapped[str] = mapped_column(String(64))
+    status_code: Mapped[int] = mapped_column(Integer)
+    response: Mapped[dict[str, Any]] = mapped_column(JSON)
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)

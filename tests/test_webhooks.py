@@ -1,0 +1,172 @@
+"""Signed webhooks through HTTP with a real receiver on 127.0.0.1, on SQLite and PostgreSQL:
+signatures verify with standardwebhooks, failures are retried with backoff and logged,
+events survive a deliverer or worker that dies, and unsafe targets are refused."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+from conftest import PARTS, fake_describe, make_settings, upload, wait_for_status
+from fastapi.testclient import TestClient
+from plm_helpers import ClientFactory, Receiver, started_clients
+from standardwebhooks.webhooks import Webhook as Verifier
+
+from app.api.main import create_app
+from app.db.session import make_engine, make_session_factory
+from app.queue import JobQueue
+from app.webhooks import Deliverer
+from core.errors import InvalidShapeError
+
+CUBE = PARTS / "20mm-xyz-cube.stl"
+FAST_RETRIES = {"webhook_backoff_seconds": 0.05, "webhook_backoff_max_seconds": 0.2}
+
+
+@pytest.fixture
+def make_client(database_url: str) -> Iterator[ClientFactory]:
+    with started_clients(database_url) as make:
+        yield make
+
+
+def refuse_teapots(content: bytes, filename: str) -> dict[str, Any]:
+    if filename.startswith("teapot"):
+        raise InvalidShapeError("degenerate", "This part is a teapot.")
+    return fake_describe(content, filename)
+
+
+def register(client: TestClient, url: str, events: list[str] | None = None, **extra: Any) -> Any:
+    body = {"url": url, "events": events or ["model.ready", "model.failed", "model.deleted"]}
+    response = client.post("/v1/webhooks", json={**body, **extra})
+    assert response.status_code == 201, response.text
+    return response.json()
+
+
+def deliveries(client: TestClient, hook_id: str) -> list[dict[str, Any]]:
+    response = client.get(f"/v1/webhooks/{hook_id}/deliveries")
+    assert response.status_code == 200, response.text
+    return response.json()["items"]
+
+
+def test_ready_failed_and_deleted_events_arrive_signed(make_client: ClientFactory) -> None:
+    client = make_client(handler=refuse_teapots)
+    with Receiver() as receiver:
+        hook = register(client, receiver.url)
+        assert hook["secret"].startswith("whsec_")
+        assert [h["id"] for h in client.get("/v1/webhooks").json()["items"]] == [hook["id"]]
+        assert "secret" not in client.get(f"/v1/webhooks/{hook['id']}").json()
+
+        good = upload(client, CUBE).json()
+        wait_for_status(client, good["id"])
+        bad = upload(client, PARTS / "teapot.stl").json()
+        assert wait_for_status(client, bad["id"])["status"] == "failed"
+        assert client.delete(f"/v1/models/{good['id']}").status_code == 204
+        requests = receiver.wait_for(3)
+
+    verifier = Verifier(hook["secret"])
+    events = {}
+    for path, headers, body in requests:
+        assert path == "/hook"
+        event = verifier.verify(body, headers)  # raises unless the signature matches
+        events[event["type"]] = event
+    assert set(events) == {"model.ready", "model.failed", "model.deleted"}
+    assert events["model.ready"]["data"]["model"]["id"] == good["id"]
+    assert events["model.ready"]["data"]["model"]["status"] == "ready"
+    assert events["model.ready"]["data"]["job"]["status"] == "done"
+    assert events["model.failed"]["data"]["model"]["id"] == bad["id"]
+    assert "teapot" in events["model.failed"]["data"]["model"]["error"]["detail"]
+    assert events["model.deleted"]["data"]["model"]["id"] == good["id"]
+    # A tampered body does not verify.
+    _, headers, body = requests[0]
+    with pytest.raises(Exception, match="signature"):
+        verifier.verify(body.replace(b"model", b"modem"), headers)
+    log = deliveries(client, hook["id"])
+    assert len(log) == 3 and {d["status"] for d in log} == {"delivered"}
+
+
+def test_a_receiver_failing_twice_gets_the_event_three_times(make_client: ClientFactory) -> None:
+    client = make_client(**FAST_RETRIES)
+    with Receiver(statuses=[500, 500]) as receiver:
+        hook = register(client, receiver.url, events=["model.ready"])
+        model = upload(client, CUBE).json()
+        requests = receiver.wait_for(3)
+        time.sleep(0.3)  # a fourth request would arrive within the backoff cap
+        assert len(receiver.requests) == 3
+    ids = {headers["webhook-id"] for _, headers, _ in requests}
+    assert len(ids) == 1  # the same message each time: receivers can deduplicate
+    deadline = time.monotonic() + 10
+    while (log := deliveries(client, hook["id"]))[0]["status"] != "delivered":
+        assert time.monotonic() < deadline, log
+        time.sleep(0.05)
+    (delivery,) = log
+    assert delivery["id"] in ids and delivery["payload"]["data"]["model"]["id"] == model["id"]
+    assert [a["status_code"] for a in delivery["attempts"]] == [500, 500, 200]
+    assert [a["attempt"] for a in delivery["attempts"]] == [1, 2, 3]
+    assert delivery["attempts"][0]["error"] == "HTTP 500"
+    assert delivery["attempts"][2]["error"] is None
+
+
+def test_an_event_outlives_the_worker_that_completed_the_job(
+    make_client: ClientFactory, database_url: str
+) -> None:
+    # An API process without workers takes the upload; a "worker" completes the job and
+    # dies before delivering (no deliverer runs); the event is in the outbox all the same.
+    api = make_client(embedded_worker=False)
+    with Receiver() as receiver:
+        register(api, receiver.url, events=["model.ready"])
+        model = upload(api, CUBE).json()
+        sessions = make_session_factory(make_engine(database_url))
+        queue = JobQueue(sessions, lease_seconds=30, max_attempts=3)
+        claim = queue.claim("doomed-worker")
+        assert claim is not None and str(claim.model_id) == model["id"]
+        assert queue.complete(claim, fake_describe(CUBE.read_bytes(), CUBE.name))
+        time.sleep(0.3)
+        assert receiver.requests == []
+
+        # A deliverer claims it and dies mid-delivery: its lease runs out ...
+        dying = Deliverer(sessions, worker_id="dying", allow_private=True, timeout=0.1,
+                          max_attempts=5, backoff_base=0.05, backoff_cap=0.1,
+                          lease_seconds=0.1)
+        assert dying.claim() is not None
+        dying.close()
+        # ... and another worker process delivers it.
+        make_client()
+        (request,) = receiver.wait_for(1)
+        event = json.loads(request[2])
+        assert event["type"] == "model.ready" and event["data"]["model"]["id"] == model["id"]
+
+
+def test_unsafe_targets_are_refused_and_redirects_not_followed(
+    make_client: ClientFactory, database_url: str
+) -> None:
+    strict = TestClient(create_app(make_settings(database_url, workers=0)))
+    with strict:
+        for url in ("http://127.0.0.1:9/hook", "http://[::1]/x", "http://10.1.2.3/",
+                    "http://169.254.169.254/latest", "ftp://example.com/x", "file:///etc/passwd",
+                    "http://user:pw@example.com/"):
+            response = strict.post("/v1/webhooks", json={"url": url, "events": ["model.ready"]})
+            assert response.status_code == 422, (url, response.text)
+            assert response.headers["content-type"].startswith("application/problem+json")
+        bad_events = strict.post("/v1/webhooks", json={"url": "https://example.com",
+                                                       "events": ["model.exploded"]})
+        assert bad_events.status_code == 422
+        bad_secret = strict.post("/v1/webhooks", json={"url": "http://127.0.0.1/",
+                                                       "events": ["model.ready"], "secret": "x"})
+        assert bad_secret.status_code == 422
+
+    client = make_client(webhook_max_attempts=1)
+    with Receiver(redirect_to="/elsewhere") as receiver:
+        hook = register(client, receiver.url, events=["model.ready"])
+        upload(client, CUBE)
+        receiver.wait_for(1)
+        deadline = time.monotonic() + 10
+        while (log := deliveries(client, hook["id"]))[0]["status"] != "failed":
+            assert time.monotonic() < deadline, log
+            time.sleep(0.05)
+        assert [path for path, _, _ in receiver.requests] == ["/hook"]  # not followed
+        assert log[0]["attempts"][0]["status_code"] == 307
+    assert client.delete(f"/v1/webhooks/{hook['id']}").status_code == 204
+    assert client.get(f"/v1/webhooks/{hook['id']}").status_code == 404
+    assert client.delete(f"/v1/webhooks/{hook['id']}").status_code == 404
