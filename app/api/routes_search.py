@@ -56,7 +56,6 @@ def search(
         raise Problem(
             503, f"The shape could not be described this time: {error}", slug="solver-error"
         ) from error
-    services.index.sync()
     matches = find_similar(
         services.index,
         session,
@@ -65,6 +64,7 @@ def search(
         k=k,
         min_score=min_score,
         filters=filters,
+        pushdown_max=services.settings.filter_pushdown_max,
     )
     cutoff = cutoff_info(cutoff_record(description))
     assert cutoff is not None
