@@ -183,7 +183,7 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
     import faiss
 
     faiss.omp_set_num_threads(1)  # as in the API process (pin_blas_threads)
-    index = ShapeIndex(None, exact_max=args.exact_max)
+    index = ShapeIndex(None, exact_max=args.exact_max, nprobe=args.nprobe)
     key = ("bench", "v")
     before = rss_mb()
     start = time.perf_counter()
@@ -252,13 +252,14 @@ def drop_database(backend: str, token: object) -> None:
     admin.dispose()
 
 
-def fill(url: str, real: np.ndarray, total: int, noise: float) -> list[str]:
-    """``total`` ready models (family f0..f999, each 0.1%); returns their public ids."""
+def fill(url: str, real: np.ndarray, total: int, noise: float) -> tuple[list[str], str]:
+    """``total`` ready models (family f0..f999, each 0.1%); their public ids, an API key."""
     from sqlalchemy import insert
 
     from app.db.migrate import upgrade
     from app.db.models import Model, utcnow
-    from app.db.session import make_engine
+    from app.db.session import make_engine, make_session_factory
+    from app.keys import create_key
 
     engine = make_engine(url)
     upgrade(engine)
@@ -287,8 +288,14 @@ def fill(url: str, real: np.ndarray, total: int, noise: float) -> list[str]:
                     }
                 )
             connection.execute(insert(Model.__table__), rows)
+    if engine.dialect.name == "postgresql":
+        with engine.begin() as connection:  # statistics, as autovacuum would gather them
+            connection.exec_driver_sql("ANALYZE models")
+    # Served with an API key, as in production (the auth cache is then on the path).
+    with make_session_factory(engine).begin() as session:
+        key = create_key(session, "default")
     engine.dispose()
-    return ids
+    return ids, key
 
 
 def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None:
@@ -321,6 +328,23 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
             times.append(time.perf_counter() - t0)
             counts.append(len(matches))
         print(f"in-process {label} k={K}: {percentiles(times)}; results min {min(counts)}")
+    with sessions() as session:  # how the database selects a 0.1%-selective filter
+        from sqlalchemy import select
+
+        from app.db.models import Model
+        from app.similarity import _sql_filter
+
+        statement = select(Model.index_id).where(
+            Model.tenant == "default",
+            Model.status == "ready",
+            _sql_filter(session, {"family": "f7"}),
+        )
+        explain = "EXPLAIN QUERY PLAN " if engine.dialect.name == "sqlite" else "EXPLAIN "
+        compiled = statement.compile(engine, compile_kwargs={"literal_binds": True})
+        from sqlalchemy import text
+
+        plan = session.execute(text(explain + str(compiled))).all()
+        print("filter plan: " + " / ".join(str(row[-1]) for row in plan))
     engine.dispose()
 
 
@@ -330,7 +354,7 @@ KEY = ("default", "bench")
 def ShapeIndexFromArgs(sessions: object, args: argparse.Namespace) -> object:  # noqa: N802
     from app.index import ShapeIndex
 
-    return ShapeIndex(sessions, exact_max=args.exact_max)
+    return ShapeIndex(sessions, exact_max=args.exact_max, nprobe=args.nprobe)
 
 
 def free_port() -> int:
@@ -347,6 +371,7 @@ def start_api(url: str, args: argparse.Namespace) -> tuple[subprocess.Popen[byte
         **os.environ,
         "SHAPESEARCH_DATABASE_URL": url,
         "SHAPESEARCH_INDEX_EXACT_MAX": str(args.exact_max),
+        "SHAPESEARCH_INDEX_NPROBE": str(args.nprobe),
     }
     t0 = time.perf_counter()
     process = subprocess.Popen(
@@ -383,7 +408,7 @@ def load(
     command = [
         sys.executable, __file__, "loadgen", base, str(paths_file),
         "--concurrency", str(concurrency), "--requests", str(args.requests),
-        "--seconds", str(args.seconds), "--method", method,
+        "--seconds", str(args.seconds), "--method", method, "--key", args.key,
     ]  # fmt: skip
     return json.loads(subprocess.run(command, check=True, capture_output=True).stdout)
 
@@ -394,7 +419,8 @@ def phase_db(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
     process = None
     try:
         t0 = time.perf_counter()
-        model_ids = fill(url, real, args.models, args.noise)
+        model_ids, key = fill(url, real, args.models, args.noise)
+        args.key = key
         print(f"filled in {time.perf_counter() - t0:.0f} s")
         in_process(url, args, model_ids)
         process, base, startup = start_api(url, args)
@@ -448,7 +474,10 @@ async def _generate(base: str, paths: list[str], args: argparse.Namespace) -> di
     deadline = time.perf_counter() + args.seconds
     limits = httpx.Limits(max_connections=args.concurrency)
 
-    async with httpx.AsyncClient(base_url=base, limits=limits, timeout=30) as client:
+    headers = {"Authorization": f"Bearer {args.key}"}
+    async with httpx.AsyncClient(
+        base_url=base, limits=limits, timeout=30, headers=headers
+    ) as client:
 
         async def user() -> None:
             nonlocal errors
@@ -491,6 +520,7 @@ def loadgen(argv: list[str]) -> None:
     parser.add_argument("--requests", type=int, default=1000)
     parser.add_argument("--seconds", type=float, default=20)
     parser.add_argument("--method", default="GET")
+    parser.add_argument("--key", default="")
     args = parser.parse_args(argv)
     paths = json.loads(Path(args.paths).read_text())
     print(json.dumps(asyncio.run(_generate(args.base, paths, args))))
@@ -508,6 +538,7 @@ def main() -> None:
         "--descriptors", type=int, default=1_000_000, help="vectors in the index phase"
     )
     parser.add_argument("--exact-max", type=int, default=20_000, help="SHAPESEARCH_INDEX_EXACT_MAX")
+    parser.add_argument("--nprobe", type=int, default=16, help="SHAPESEARCH_INDEX_NPROBE")
     parser.add_argument("--real", type=int, default=40, help="real models to describe")
     parser.add_argument("--points", type=int, default=3000, help="points per real model")
     parser.add_argument("--noise", type=float, default=0.08, help="norm of the synthetic noise")
