@@ -127,6 +127,13 @@ class _Partition:
             ivf.add_with_ids(held.index.reconstruct_n(0, held.ntotal), ids)  # padded already
         self.index = ivf
 
+    def nbytes(self) -> int:
+        n = int(self.index.ntotal)
+        if not self.approximate:
+            return n * (4 * self.padded + 16)  # float32 rows, the id map both ways
+        # 8-bit codes and an id per vector, ~24 bytes of direct map, float32 centroids.
+        return n * (self.index.code_size + 8 + 24) + self.index.nlist * self.padded * 4
+
     def pad(self, vectors: np.ndarray) -> np.ndarray:
         """``vectors : (m, dim) float`` as ``(m, padded) float32``."""
         padded = np.zeros((len(vectors), self.padded), dtype=np.float32)
@@ -210,6 +217,10 @@ class ShapeIndex:
     def partition_size(self, key: PartitionKey) -> int:
         partition = self._partitions.get(key)
         return 0 if partition is None else int(partition.index.ntotal)
+
+    def nbytes(self) -> int:
+        """Bytes of vectors, codes, ids and centroids held (allocator slack not counted)."""
+        return sum(partition.nbytes() for partition in list(self._partitions.values()))
 
     def describe(self, key: PartitionKey) -> str:
         """The kind of a partition: "flat", "ivf-sq8" or "empty"."""

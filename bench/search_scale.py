@@ -190,6 +190,7 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
     index.build_partition(key, chunks(real, total, args.noise), expected=total)
     build = time.perf_counter() - start
     print(f"build {build:.1f} s; RSS +{rss_mb() - before:.0f} MB; kind {index.describe(key)}")
+    print(f"index payload (codes, ids, centroids) {index.nbytes() / 1e6:.0f} MB")
 
     q = queries(real, args.queries, args.noise)
     rerank = index.rerank_candidates(K) if index.is_approximate(key) else K

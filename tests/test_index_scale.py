@@ -45,6 +45,7 @@ def test_a_compressed_partition_answers_exactly_after_re_ranking(
     index = ShapeIndex(sessions, exact_max=100, nprobe=4)
     index.rebuild()
     assert index.describe(KEY) == "ivf-sq8" and len(index) == 300
+    assert index.nbytes() < 300 * 4 * D  # under half of what float32 rows would hold
     with sessions() as session:
         for q in range(5):
             query = vectors[list(vectors)[q * 37]]
