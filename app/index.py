@@ -1,24 +1,38 @@
 """The search index: an in-memory FAISS cache of the ready descriptors in the database.
 
 The database is the source of truth. Each process builds its index from the database at
-start-up (``rebuild``) and then follows the change feed (``index_events``, see
-``app.db.feed``) with ``sync``: it keeps the last revision it applied and reads only newer
-events, so a sync that finds nothing new is one indexed query. Deletes made in this
-process are also applied at once with ``remove``.
+start-up (``rebuild``, streamed in chunks of rows) and then follows the change feed
+(``index_events``, see ``app.db.feed``) with ``sync``, run by a background thread: it keeps
+the last revision it applied and reads only newer events, so a sync that finds nothing new
+is one indexed query. Deletes made in this process are also applied at once with ``remove``.
 
-One exact index per (tenant, descriptor_version): tenants never see each other's models
-and descriptors of different layouts are never compared. Vectors are unit-norm float32,
-stored in ``IndexIDMap2(IndexFlatL2)`` under the model's integer ``index_id``.
+One partition per (tenant, descriptor_version): tenants never see each other's models and
+descriptors of different layouts are never compared. Vectors are unit-norm float32 under
+the model's integer ``index_id``. A partition is
+
+* ``flat``: exact ``IndexIDMap2(IndexFlatL2)`` while it holds at most ``exact_max``
+  vectors (4 d bytes each: 614 MB for 10^5 vectors of 1534 dims, hence the limit);
+* ``ivf-sq8``: above that, ``IndexIVFScalarQuantizer`` with 8-bit codes (d bytes per vector,
+  4x smaller) in ``sqrt(n)`` inverted lists, ``nprobe`` of them searched per query. Its
+  distances are approximate: callers fetch ``rerank_candidates(k)`` and re-rank them
+  exactly against the full vectors in the database (``app.similarity``).
+
+Searches hold a partition's read lock and run side by side (FAISS releases the GIL);
+writes (batched per sync) take the write lock briefly. A rebuild builds new partitions
+aside and swaps them in, so searches never wait for it.
 """
 
 from __future__ import annotations
 
+import math
 import threading
-from collections.abc import Iterable
+from collections import defaultdict
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 
 import faiss
 import numpy as np
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import FeedState, IndexEvent, Model
@@ -28,77 +42,314 @@ __all__ = ["PartitionKey", "ShapeIndex"]
 PartitionKey = tuple[str, str]  # (tenant, descriptor_version)
 
 _EVENT_BATCH = 5000
+_ROW_CHUNK = 2000  # rows per query of a streamed rebuild
+_TRAIN_PER_LIST = 16  # k-means training vectors per inverted list
+_TRAIN_ITERATIONS = 8
+
+
+class _ReadWriteLock:
+    """Many readers or one writer; a waiting writer stops new readers from starving it."""
+
+    def __init__(self) -> None:
+        self._condition = threading.Condition()
+        self._readers = 0
+        self._writing = False
+        self._writers_waiting = 0
+
+    @contextmanager
+    def reading(self) -> Iterator[None]:
+        with self._condition:
+            while self._writing or self._writers_waiting:
+                self._condition.wait()
+            self._readers += 1
+        try:
+            yield
+        finally:
+            with self._condition:
+                self._readers -= 1
+                if not self._readers:
+                    self._condition.notify_all()
+
+    @contextmanager
+    def writing(self) -> Iterator[None]:
+        with self._condition:
+            self._writers_waiting += 1
+            while self._writing or self._readers:
+                self._condition.wait()
+            self._writers_waiting -= 1
+            self._writing = True
+        try:
+            yield
+        finally:
+            with self._condition:
+                self._writing = False
+                self._condition.notify_all()
+
+
+class _Partition:
+    """The vectors of one (tenant, descriptor_version), flat or IVF-SQ8."""
+
+    def __init__(self, dim: int, nprobe: int) -> None:
+        self.dim = dim
+        # Zero-padded to a multiple of 16: FAISS's SIMD scalar-quantiser kernels need it
+        # (1534 dims scan ~20x slower than 1536); L2 distances are unchanged.
+        self.padded = -(-dim // 16) * 16
+        self.nprobe = nprobe
+        self.index: faiss.Index = faiss.IndexIDMap2(faiss.IndexFlatL2(self.padded))
+        self.lock = _ReadWriteLock()
+
+    @property
+    def kind(self) -> str:
+        return "flat" if isinstance(self.index, faiss.IndexIDMap2) else "ivf-sq8"
+
+    @property
+    def approximate(self) -> bool:
+        return self.kind != "flat"
+
+    def compress(self, sample: np.ndarray, expected: int) -> None:
+        """Switch to IVF-SQ8 trained on ``sample : (m, d) float32``; moves what is held."""
+        nlist = int(np.clip(math.sqrt(expected), 16, 4096))
+        nlist = min(nlist, max(1, len(sample) // 4))
+        quantizer = faiss.IndexFlatL2(self.padded)
+        ivf = faiss.IndexIVFScalarQuantizer(
+            quantizer, self.padded, nlist, faiss.ScalarQuantizer.QT_8bit, faiss.METRIC_L2
+        )
+        ivf.cp.niter = _TRAIN_ITERATIONS
+        ivf.cp.min_points_per_centroid = 1  # a small sample is enough for coarse lists
+        training = self.pad(sample[: _TRAIN_PER_LIST * nlist])
+        ivf.train(training)
+        _reserve_lists(ivf, training, expected)
+        ivf.set_direct_map_type(faiss.DirectMap.Hashtable)  # remove_ids without a scan
+        ivf.nprobe = self.nprobe
+        held = self.index
+        if held.ntotal:
+            ids = faiss.vector_to_array(held.id_map).astype(np.int64)
+            ivf.add_with_ids(held.index.reconstruct_n(0, held.ntotal), ids)  # padded already
+        self.index = ivf
+
+    def nbytes(self) -> int:
+        n = int(self.index.ntotal)
+        if not self.approximate:
+            return n * (4 * self.padded + 16)  # float32 rows, the id map both ways
+        # 8-bit codes and an id per vector, ~24 bytes of direct map, float32 centroids.
+        return n * (self.index.code_size + 8 + 24) + self.index.nlist * self.padded * 4
+
+    def pad(self, vectors: np.ndarray) -> np.ndarray:
+        """``vectors : (m, dim) float`` as ``(m, padded) float32``."""
+        padded = np.zeros((len(vectors), self.padded), dtype=np.float32)
+        padded[:, : vectors.shape[1]] = vectors
+        return padded
+
+    def add(self, ids: np.ndarray, vectors: np.ndarray) -> None:
+        self.index.add_with_ids(self.pad(vectors), ids)
+
+    def remove(self, ids: np.ndarray) -> None:
+        # An array selector: the IVF direct map (a hashtable) then removes without a scan.
+        self.index.remove_ids(faiss.IDSelectorArray(len(ids), faiss.swig_ptr(ids)))
+
+    def search(
+        self, query: np.ndarray, k: int, allowed: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        params = None
+        if allowed is not None:
+            selector = faiss.IDSelectorBatch(allowed)
+            if self.approximate:
+                # Every list may hold an allowed id: probe them all, the selector keeps
+                # the scan to the allowed codes' distances.
+                params = faiss.SearchParametersIVF(sel=selector, nprobe=self.index.nlist)
+            else:
+                params = faiss.SearchParameters(sel=selector)
+        return self.index.search(self.pad(query), k, params=params)
+
+
+def _reserve_lists(ivf: faiss.IndexIVF, training: np.ndarray, expected: int) -> None:
+    """Reserve each inverted list's share of ``expected`` vectors (as the training sample
+    spreads over the lists, plus 15%): lists that grow by doubling would hold up to twice
+    the memory their codes need."""
+    _, lists = ivf.quantizer.search(training, 1)
+    shares = np.bincount(lists.ravel(), minlength=ivf.nlist) / len(training)
+    invlists = faiss.downcast_InvertedLists(ivf.invlists)
+    for list_no, share in enumerate(shares):
+        invlists.resize(list_no, int(math.ceil(share * expected * 1.15)) + 8)
+        invlists.resize(list_no, 0)  # keeps the capacity
 
 
 class ShapeIndex:
-    """Ready descriptors by partition, kept in step with the database."""
+    """Ready descriptors by partition, kept in step with the database.
 
-    def __init__(self, sessions: sessionmaker[Session]) -> None:
+    Parameters
+    ----------
+    sessions : sessionmaker or None
+        The database; None for an index filled only with ``build_partition`` (benchmarks).
+    exact_max : int
+        Largest partition searched exactly; larger ones are IVF-SQ8.
+    nprobe : int
+        Inverted lists searched per query in an IVF-SQ8 partition.
+    rerank_factor : int
+        Candidates per wanted result fetched from an IVF-SQ8 partition for exact re-ranking.
+    """
+
+    def __init__(
+        self,
+        sessions: sessionmaker[Session] | None,
+        *,
+        exact_max: int = 20_000,
+        nprobe: int = 16,
+        rerank_factor: int = 4,
+    ) -> None:
         self.sessions = sessions
+        self.exact_max = exact_max
+        self.nprobe = nprobe
+        self.rerank_factor = rerank_factor
         self.revision = 0  # last change-feed revision applied
-        self._partitions: dict[PartitionKey, faiss.IndexIDMap2] = {}
+        self._partitions: dict[PartitionKey, _Partition] = {}
         self._partition_of: dict[int, PartitionKey] = {}
-        self._lock = threading.Lock()  # guards the FAISS structures
-        self._sync_lock = threading.Lock()  # one sync at a time
+        self._sync_lock = threading.Lock()  # one writer of the maps at a time
 
     # --- reading ----------------------------------------------------------------------
 
     def __len__(self) -> int:
-        with self._lock:
-            return len(self._partition_of)
+        return len(self._partition_of)
 
     def __contains__(self, index_id: int) -> bool:
-        with self._lock:
-            return index_id in self._partition_of
+        return index_id in self._partition_of
 
     def partition_size(self, key: PartitionKey) -> int:
-        with self._lock:
-            partition = self._partitions.get(key)
-            return 0 if partition is None else int(partition.ntotal)
+        partition = self._partitions.get(key)
+        return 0 if partition is None else int(partition.index.ntotal)
 
-    def search(self, key: PartitionKey, vector: np.ndarray, k: int) -> list[tuple[int, float]]:
-        """The ``k`` nearest ``(index_id, L2 distance)`` in one partition, nearest first."""
+    def nbytes(self) -> int:
+        """Bytes of vectors, codes, ids and centroids held (allocator slack not counted)."""
+        return sum(partition.nbytes() for partition in list(self._partitions.values()))
+
+    def describe(self, key: PartitionKey) -> str:
+        """The kind of a partition: "flat", "ivf-sq8" or "empty"."""
+        partition = self._partitions.get(key)
+        return "empty" if partition is None else partition.kind
+
+    def is_approximate(self, key: PartitionKey) -> bool:
+        partition = self._partitions.get(key)
+        return partition is not None and partition.approximate
+
+    def rerank_candidates(self, k: int) -> int:
+        """How many candidates to fetch from an approximate partition for ``k`` results."""
+        return max(self.rerank_factor * k, k + 20)
+
+    def search(
+        self,
+        key: PartitionKey,
+        vector: np.ndarray,
+        k: int,
+        *,
+        allowed: Sequence[int] | None = None,
+    ) -> list[tuple[int, float]]:
+        """The ``k`` nearest ``(index_id, L2 distance)`` in one partition, nearest first;
+        only among ``allowed`` ids when given. Distances of an approximate partition are
+        estimates: re-rank against the full vectors."""
         query = np.ascontiguousarray(vector, dtype=np.float32).reshape(1, -1)
-        with self._lock:
-            partition = self._partitions.get(key)
-            if partition is None or partition.ntotal == 0 or partition.d != query.shape[1]:
-                return []
-            squared, ids = partition.search(query, min(k, int(partition.ntotal)))
+        return self.search_batch(key, query, k, allowed=allowed)[0]
+
+    def search_batch(
+        self,
+        key: PartitionKey,
+        queries: np.ndarray,
+        k: int,
+        *,
+        allowed: Sequence[int] | None = None,
+    ) -> list[list[tuple[int, float]]]:
+        """``search`` for each row of ``queries : (m, d) float``, in one FAISS call."""
+        queries = np.ascontiguousarray(queries, dtype=np.float32)
+        partition = self._partitions.get(key)
+        if partition is None or partition.dim != queries.shape[1]:
+            return [[] for _ in queries]
+        allowed_ids = None if allowed is None else np.asarray(allowed, dtype=np.int64)
+        with partition.lock.reading():
+            held = int(partition.index.ntotal)
+            if held == 0 or (allowed_ids is not None and len(allowed_ids) == 0):
+                return [[] for _ in queries]
+            squared, ids = partition.search(queries, min(k, held), allowed_ids)
         return [
-            (int(i), float(np.sqrt(max(0.0, d))))
-            for i, d in zip(ids[0], squared[0], strict=True)
-            if i >= 0
+            [
+                (int(i), float(np.sqrt(max(0.0, d))))
+                for i, d in zip(row_ids, row_d, strict=True)
+                if i >= 0
+            ]
+            for row_ids, row_d in zip(ids, squared, strict=True)
         ]
 
     # --- writing ----------------------------------------------------------------------
 
     def add(self, index_id: int, key: PartitionKey, vector: np.ndarray) -> None:
-        with self._lock:
-            self._add(index_id, key, vector)
+        with self._sync_lock:
+            self._apply([index_id], [(index_id, key, vector)])
 
     def remove(self, index_id: int) -> None:
-        with self._lock:
-            self._remove(index_id)
+        self.remove_many([index_id])
 
-    def _add(self, index_id: int, key: PartitionKey, vector: np.ndarray) -> None:
-        self._remove(index_id)  # re-adding replaces: applying an event twice is harmless
-        row = np.ascontiguousarray(vector, dtype=np.float32).reshape(1, -1)
-        partition = self._partitions.get(key)
-        if partition is None:
-            partition = faiss.IndexIDMap2(faiss.IndexFlatL2(row.shape[1]))
-            self._partitions[key] = partition
-        partition.add_with_ids(row, np.array([index_id], dtype=np.int64))
-        self._partition_of[index_id] = key
+    def remove_many(self, index_ids: Iterable[int]) -> None:
+        """Remove ids in one batch per partition (unknown ids are ignored)."""
+        with self._sync_lock:
+            self._apply(index_ids, [])
 
-    def _remove(self, index_id: int) -> None:
-        key = self._partition_of.pop(index_id, None)
-        if key is not None:
-            self._partitions[key].remove_ids(np.array([index_id], dtype=np.int64))
+    def build_partition(
+        self, key: PartitionKey, batches: Iterable[tuple[int, np.ndarray]], expected: int
+    ) -> None:
+        """Fill partition ``key`` from ``(first_id, (m, d) float32)`` batches whose ids run
+        on from ``first_id`` (benchmarks, and any bulk load without a database)."""
+        with self._sync_lock:
+            built = _Builder(self, expected)
+            for first, vectors in batches:
+                ids = np.arange(first, first + len(vectors), dtype=np.int64)
+                built.add(ids, vectors)
+            partition = built.finish()
+            if partition is not None:
+                self._partitions[key] = partition
+                for index_id in built.ids:
+                    self._partition_of[index_id] = key
+
+    def _apply(
+        self,
+        removed: Iterable[int],
+        added: Iterable[tuple[int, PartitionKey, np.ndarray]],
+    ) -> None:
+        """Remove, then add, grouped by partition; call with ``_sync_lock`` held."""
+        gone: dict[PartitionKey, list[int]] = defaultdict(list)
+        for index_id in removed:
+            key = self._partition_of.pop(index_id, None)
+            if key is not None:
+                gone[key].append(index_id)
+        for key, ids in gone.items():
+            partition = self._partitions[key]
+            with partition.lock.writing():
+                partition.remove(np.asarray(ids, dtype=np.int64))
+        fresh: dict[PartitionKey, list[tuple[int, np.ndarray]]] = defaultdict(list)
+        for index_id, key, vector in added:
+            if index_id in self._partition_of:  # re-adding replaces
+                self._apply([index_id], [])
+            fresh[key].append((index_id, np.asarray(vector, dtype=np.float32)))
+        for key, rows in fresh.items():
+            ids = np.array([i for i, _ in rows], dtype=np.int64)
+            vectors = np.ascontiguousarray(np.stack([v for _, v in rows]))
+            partition = self._partitions.get(key)
+            if partition is None:
+                partition = _Partition(vectors.shape[1], self.nprobe)
+                self._partitions[key] = partition
+            with partition.lock.writing():
+                if not partition.approximate and partition.index.ntotal + len(ids) > self.exact_max:
+                    flat = partition.index.index
+                    held = flat.reconstruct_n(0, flat.ntotal)[:, : partition.dim]
+                    sample = np.concatenate([held, vectors])
+                    partition.compress(sample, expected=len(sample))
+                partition.add(ids, vectors)
+            for index_id in ids.tolist():
+                self._partition_of[index_id] = key
 
     # --- following the database -------------------------------------------------------
 
     def rebuild(self) -> None:
-        """Load every ready descriptor, then catch up with the change feed."""
+        """Stream every ready descriptor from the database into new partitions, swap them
+        in, then catch up with the change feed."""
+        assert self.sessions is not None
         with self._sync_lock:
             with self.sessions() as session:
                 # Read the revision first: every change after it is replayed by sync, and
@@ -106,20 +357,56 @@ class ShapeIndex:
                 revision = session.execute(
                     select(FeedState.revision).where(FeedState.id == 1)
                 ).scalar_one()
-                rows = session.execute(
-                    select(
-                        Model.index_id, Model.tenant, Model.descriptor_version, Model.descriptor
-                    ).where(Model.status == "ready")
-                ).all()
-            with self._lock:
-                self._partitions.clear()
-                self._partition_of.clear()
-                self._load(rows)
-                self.revision = int(revision)
+                sizes = {
+                    (tenant, version): int(count)
+                    for tenant, version, count in session.execute(
+                        select(Model.tenant, Model.descriptor_version, func.count())
+                        .where(Model.status == "ready", Model.descriptor_version.is_not(None))
+                        .group_by(Model.tenant, Model.descriptor_version)
+                    )
+                }
+            builders = {key: _Builder(self, size) for key, size in sizes.items()}
+            for index_id, tenant, version, descriptor in self._ready_rows():
+                builder = builders.get((tenant, version))
+                if builder is None:  # became ready after the count: sync replays it
+                    continue
+                builder.add_one(index_id, np.frombuffer(descriptor, dtype=np.float32))
+            partitions: dict[PartitionKey, _Partition] = {}
+            partition_of: dict[int, PartitionKey] = {}
+            for key, builder in builders.items():
+                partition = builder.finish()
+                if partition is not None:
+                    partitions[key] = partition
+                    partition_of.update(dict.fromkeys(builder.ids, key))
+            self._partitions, self._partition_of = partitions, partition_of
+            self.revision = int(revision)
         self.sync()
+
+    def _ready_rows(self) -> Iterator[tuple[int, str, str, bytes]]:
+        """Every ready descriptor, ``_ROW_CHUNK`` rows per query (keyset on index_id)."""
+        assert self.sessions is not None
+        last = -1
+        while True:
+            with self.sessions() as session:
+                rows = session.execute(
+                    select(Model.index_id, Model.tenant, Model.descriptor_version, Model.descriptor)
+                    .where(
+                        Model.index_id > last,
+                        Model.status == "ready",
+                        Model.descriptor.is_not(None),
+                        Model.descriptor_version.is_not(None),
+                    )
+                    .order_by(Model.index_id)
+                    .limit(_ROW_CHUNK)
+                ).all()
+            if not rows:
+                return
+            yield from rows
+            last = rows[-1].index_id
 
     def sync(self) -> int:
         """Apply the change-feed events newer than ``revision``; returns how many."""
+        assert self.sessions is not None
         applied = 0
         with self._sync_lock:
             while True:
@@ -146,15 +433,71 @@ class ShapeIndex:
                         if wanted
                         else []
                     )
-                with self._lock:
-                    for index_id in latest:
-                        self._remove(index_id)
-                    self._load(rows)  # models deleted meanwhile are simply not found
-                    self.revision = int(events[-1].revision)
+                # Models deleted meanwhile are simply not found.
+                self._apply(
+                    latest,
+                    [
+                        (i, (tenant, version), np.frombuffer(descriptor, dtype=np.float32))
+                        for i, tenant, version, descriptor in rows
+                        if descriptor is not None and version is not None
+                    ],
+                )
+                self.revision = int(events[-1].revision)
                 applied += len(events)
 
-    def _load(self, rows: Iterable[tuple[int, str, str | None, bytes | None]]) -> None:
-        for index_id, tenant, version, descriptor in rows:
-            if descriptor is None or version is None:
-                continue
-            self._add(index_id, (tenant, version), np.frombuffer(descriptor, dtype=np.float32))
+
+class _Builder:
+    """Fills one new partition from a stream of rows: flat, or IVF-SQ8 trained on the first
+    ``_TRAIN_PER_LIST * nlist`` vectors when ``expected`` exceeds ``exact_max``."""
+
+    def __init__(self, index: ShapeIndex, expected: int) -> None:
+        self.index = index
+        self.expected = expected
+        self.partition: _Partition | None = None
+        self.ids: list[int] = []
+        self._pending: list[tuple[np.ndarray, np.ndarray]] = []
+        self._pending_count = 0
+        self._one_ids: list[int] = []
+        self._one_vectors: list[np.ndarray] = []
+
+    def add_one(self, index_id: int, vector: np.ndarray) -> None:
+        self._one_ids.append(index_id)
+        self._one_vectors.append(vector)
+        if len(self._one_ids) >= _ROW_CHUNK:
+            self._flush_ones()
+
+    def _flush_ones(self) -> None:
+        if self._one_ids:
+            ids = np.asarray(self._one_ids, dtype=np.int64)
+            self._one_ids, vectors, self._one_vectors = [], np.stack(self._one_vectors), []
+            self.add(ids, vectors)
+
+    def add(self, ids: np.ndarray, vectors: np.ndarray) -> None:
+        vectors = np.ascontiguousarray(vectors, dtype=np.float32)
+        self.ids.extend(ids.tolist())
+        if self.partition is None:
+            self._pending.append((ids, vectors))
+            self._pending_count += len(ids)
+            nlist = math.sqrt(max(self.expected, 1))
+            enough = self.expected <= self.index.exact_max or (
+                self._pending_count >= _TRAIN_PER_LIST * nlist
+            )
+            if enough:
+                self._start()
+            return
+        self.partition.add(ids, vectors)
+
+    def _start(self) -> None:
+        ids = np.concatenate([i for i, _ in self._pending])
+        vectors = np.concatenate([v for _, v in self._pending])
+        self._pending, self._pending_count = [], 0
+        self.partition = _Partition(vectors.shape[1], self.index.nprobe)
+        if self.expected > self.index.exact_max:
+            self.partition.compress(vectors, self.expected)
+        self.partition.add(ids, vectors)
+
+    def finish(self) -> _Partition | None:
+        self._flush_ones()
+        if self.partition is None and self._pending:
+            self._start()
+        return self.partition

@@ -244,6 +244,41 @@ class Settings(BaseSettings):
         description="Seconds between polls of the change feed that keeps the search index "
         "of an API process in step with the database.",
     )
+    index_exact_max: int = Field(
+        default=20_000,
+        ge=1,
+        description="Largest index partition (tenant, descriptor version) searched exactly; "
+        "larger ones are IVF with 8-bit scalar-quantised vectors (4x smaller), re-ranked "
+        "exactly from the stored descriptors.",
+    )
+    index_nprobe: int = Field(
+        default=16, ge=1, description="Inverted lists searched per query in an IVF partition."
+    )
+    index_rerank_factor: int = Field(
+        default=4,
+        ge=1,
+        description="Candidates per wanted result that an IVF partition returns for exact "
+        "re-ranking (at least k + 20).",
+    )
+    filter_pushdown_max: int = Field(
+        default=10_000,
+        ge=0,
+        description="A metadata filter matching at most this many models is selected in SQL "
+        "first and only those models are searched; broader filters are applied to widening "
+        "index results.",
+    )
+    auth_cache_seconds: float = Field(
+        default=5.0,
+        ge=0,
+        description="How long an API process trusts a key lookup; a revoked key stops "
+        "working within this time.",
+    )
+    readyz_count_seconds: float = Field(
+        default=30.0,
+        ge=0,
+        description="/readyz compares the index with the change feed on every probe, and "
+        "counts the ready models (a table scan) at most this often.",
+    )
     require_api_keys: bool = Field(
         default=False,
         description="Always require an API key. Unset: keys are required as soon as one "

@@ -1,14 +1,25 @@
-"""Similarity queries: nearest descriptors from the index, confirmed and filtered by the
-database, scored.
+"""Similarity queries: nearest descriptors from the index, confirmed, re-ranked and filtered
+by the database, scored.
 
 Score: descriptors are unit vectors, so the L2 distance ``d`` lies in [0, 2] and
 ``score = 1 - d**2 / 4`` (clipped to [0, 1]) equals ``(1 + cos) / 2``: 1 for identical
 descriptors, 0.5 for orthogonal ones, 0 for opposite ones.
 
-Metadata filters are applied before the top-k cut: the index is searched for more and
-more candidates (x4 each round) until ``k`` of them pass the filters or the partition is
-exhausted. Every candidate is re-read from the database, which is the source of truth: a
-model deleted by another process a moment ago is never returned.
+Every candidate is re-read from the database, the source of truth: a model deleted by
+another process a moment ago is never returned. When the partition is approximate
+(IVF-SQ8, see ``app.index``) the same query reads the candidates' full descriptors and the
+distances are recomputed exactly, so scores never carry quantisation error.
+
+Metadata filters, two ways, and either way "k results whenever k matching models exist":
+
+* selective (at most ``pushdown_max`` models match): the matching ids are selected in SQL
+  (``jsonb @>`` on PostgreSQL, served by a GIN index; ``json_extract`` on SQLite) and only
+  those ids are searched (a FAISS ``IDSelectorBatch``);
+* otherwise the index is searched for more and more candidates (x4 each round) until ``k``
+  of them pass the filters or the partition is exhausted; matches are then common, so few
+  rounds are needed.
+
+SQL only narrows the candidates; ``metadata_matches`` decides, so both ways agree exactly.
 """
 
 from __future__ import annotations
@@ -18,13 +29,16 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from sqlalchemy import select
-from sqlalchemy.orm import Session
+from sqlalchemy import ColumnElement, and_, cast, false, func, literal, or_, select
+from sqlalchemy.dialects.postgresql import JSONB
+from sqlalchemy.orm import Session, undefer
 
 from app.db.models import Model
 from app.index import PartitionKey, ShapeIndex
 
-__all__ = ["Match", "find_similar", "metadata_matches", "score_of"]
+__all__ = ["Match", "find_similar", "matching_ids", "metadata_matches", "score_of"]
+
+PUSHDOWN_MAX = 10_000
 
 
 @dataclass(frozen=True)
@@ -50,6 +64,61 @@ def metadata_matches(metadata: dict[str, Any], filters: dict[str, str]) -> bool:
     return True
 
 
+def _values_written_as(wanted: str) -> list[Any]:
+    """The JSON values whose filter text is ``wanted``: the string itself and, when
+    ``wanted`` is the exact JSON text of a non-string, that value."""
+    values: list[Any] = [wanted]
+    try:
+        parsed = json.loads(wanted)
+    except ValueError:
+        return values
+    if not isinstance(parsed, str) and json.dumps(parsed) == wanted:
+        values.append(parsed)
+    return values
+
+
+def _sql_filter(session: Session, filters: dict[str, str]) -> ColumnElement[bool]:
+    """A SQL condition true for every model that ``metadata_matches`` (perhaps a few more)."""
+    conditions = []
+    postgres = session.get_bind().dialect.name == "postgresql"
+    for key, wanted in filters.items():
+        values = _values_written_as(wanted)
+        if postgres:
+            document = cast(Model.meta, JSONB)
+            options = [
+                document.op("@>")(cast(literal(json.dumps({key: v})), JSONB)) for v in values
+            ]
+        else:
+            path = '$."' + key.replace("\\", "\\\\").replace('"', '\\"') + '"'
+            extracted = func.json_extract(Model.meta, path)
+            options = [
+                extracted == (json.dumps(v) if isinstance(v, list | dict) else v)
+                for v in values
+                if v is not None
+            ] or [false()]
+        conditions.append(or_(*options))
+    return and_(*conditions)
+
+
+def matching_ids(
+    session: Session, key: PartitionKey, filters: dict[str, str], limit: int
+) -> list[int] | None:
+    """The ids of the ready models of partition ``key`` that pass ``filters``, or None when
+    more than ``limit`` do (the filter is not selective)."""
+    tenant, version = key
+    ids = session.scalars(
+        select(Model.index_id)
+        .where(
+            Model.tenant == tenant,
+            Model.descriptor_version == version,
+            Model.status == "ready",
+            _sql_filter(session, filters),
+        )
+        .limit(limit + 1)
+    ).all()
+    return None if len(ids) > limit else list(ids)
+
+
 def find_similar(
     index: ShapeIndex,
     session: Session,
@@ -60,39 +129,65 @@ def find_similar(
     min_score: float | None = None,
     filters: dict[str, str] | None = None,
     exclude: int | None = None,
+    pushdown_max: int = PUSHDOWN_MAX,
 ) -> list[Match]:
     """The ``k`` best matches in partition ``key`` (tenant, descriptor version)."""
-    tenant = key[0]
     filters = filters or {}
+    vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
+    allowed = matching_ids(session, key, filters, pushdown_max) if filters else None
+    if allowed is not None:
+        allowed = [i for i in allowed if i != exclude]
+    approximate = index.is_approximate(key)
+    wanted = k + 1 if exclude is not None else k
+    fetch = index.rerank_candidates(wanted) if approximate else wanted
+    if filters and allowed is None:
+        fetch *= 4
     matches: list[Match] = []
     seen: set[int] = set()
-    fetch = k + 1 if not filters else 4 * (k + 1)
     while True:
-        hits = index.search(key, vector, fetch)
-        fresh = [(i, d) for i, d in hits if i not in seen and i != exclude]
+        hits = index.search(key, vector, fetch, allowed=allowed)
+        fresh = [i for i, _ in hits if i not in seen and i != exclude]
         seen.update(i for i, _ in hits)
-        below_min = False
+        for model, distance in _confirmed(session, key[0], fresh, vector, dict(hits), approximate):
+            if metadata_matches(model.meta or {}, filters):
+                matches.append(Match(model, distance, score_of(distance)))
+        matches.sort(key=lambda match: (match.distance, match.model.index_id))
         if min_score is not None:
-            kept = [(i, d) for i, d in fresh if score_of(d) >= min_score]
-            below_min = len(kept) < len(fresh)  # sorted: nothing further can qualify
-            fresh = kept
-        if fresh:
-            rows = session.scalars(
-                select(Model).where(
-                    Model.index_id.in_([i for i, _ in fresh]),
-                    Model.tenant == tenant,
-                    Model.status == "ready",
-                )
-            ).all()
-            models = {model.index_id: model for model in rows}
-            for index_id, distance in fresh:
-                model = models.get(index_id)
-                if model is not None and metadata_matches(model.meta or {}, filters):
-                    matches.append(Match(model, distance, score_of(distance)))
+            matches = [m for m in matches if m.score >= min_score]
         exhausted = len(hits) < fetch or fetch >= index.partition_size(key)
-        if len(matches) >= k or below_min or exhausted:
+        # Hits come nearest first: past min_score, nothing further can qualify.
+        below_min = min_score is not None and bool(hits) and score_of(hits[-1][1]) < min_score
+        if len(matches) >= k or exhausted or below_min or (allowed is not None and not approximate):
             # Equal distances (identical files) in upload order, whatever order the index
             # happened to insert them in: every process answers alike.
-            matches.sort(key=lambda match: (match.distance, match.model.index_id))
             return matches[:k]
         fetch *= 4
+
+
+def _confirmed(
+    session: Session,
+    tenant: str,
+    ids: list[int],
+    query: np.ndarray,
+    distances: dict[int, float],
+    exact: bool,
+) -> list[tuple[Model, float]]:
+    """The candidates still ready in the database, with exact distances when ``exact``
+    (read from their stored descriptors) and the index's own otherwise."""
+    if not ids:
+        return []
+    statement = select(Model).where(
+        Model.index_id.in_(ids), Model.tenant == tenant, Model.status == "ready"
+    )
+    if exact:
+        statement = statement.options(undefer(Model.descriptor))
+    confirmed = []
+    for model in session.scalars(statement):
+        distance = distances[model.index_id]
+        if exact and model.descriptor is not None:
+            stored = np.frombuffer(model.descriptor, dtype=np.float32)
+            distance = (
+                float(np.linalg.norm(stored - query)) if len(stored) == len(query) else distance
+            )
+        confirmed.append((model, distance))
+    return confirmed

@@ -309,7 +309,10 @@ def test_require_api_keys_closes_the_service(make_client: ClientFactory) -> None
 # --- readiness --------------------------------------------------------------------------
 
 
-def test_readyz_fails_when_the_index_is_out_of_step(client: TestClient, database_url: str) -> None:
+def test_readyz_fails_when_the_index_is_out_of_step(
+    make_client: ClientFactory, database_url: str
+) -> None:
+    client = make_client(readyz_count_seconds=0)  # count on every probe
     assert client.get("/healthz").json() == {"status": "ok"}
     model = upload(client, CUBE).json()
     wait_for_status(client, model["id"])

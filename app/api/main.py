@@ -68,7 +68,12 @@ def create_app(
         engine = make_engine(settings.resolved_database_url)
         upgrade(engine)
         sessions = make_session_factory(engine)
-        index = ShapeIndex(sessions)
+        index = ShapeIndex(
+            sessions,
+            exact_max=settings.index_exact_max,
+            nprobe=settings.index_nprobe,
+            rerank_factor=settings.index_rerank_factor,
+        )
         index.rebuild()
         app.state.services = Services(
             settings=settings,

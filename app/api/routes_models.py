@@ -11,13 +11,14 @@ from typing import Annotated, Any
 
 import numpy as np
 from fastapi import APIRouter, Depends, File, Form, Header, Query, Request, Response, UploadFile
+from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse
 from sqlalchemy import and_, delete, or_, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, undefer
 
 from app.api.auth import TenantDep
-from app.api.deps import ServicesDep, SessionDep
+from app.api.deps import Services, ServicesDep, SessionDep
 from app.api.idempotency import remember, replay_or_refuse, request_sha256
 from app.api.inputs import InputLimits
 from app.api.problems import Problem, problem_responses
@@ -297,38 +298,53 @@ def metadata_filters(request: Request) -> dict[str, str]:
     "form, e.g. `metadata.qty=3`); filters apply before the top-k cut. "
     "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite.",
 )
-def similar_models(
+async def similar_models(
     model_id: str,
     filters: Annotated[dict[str, str], Depends(metadata_filters)],
     tenant: TenantDep,
     services: ServicesDep,
-    session: SessionDep,
     k: Annotated[int, Query(ge=1, le=100)] = 10,
     min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
 ) -> SimilarResponse:
-    model = load_model(session, tenant, model_id, descriptor=True)
-    if model.status != "ready" or model.descriptor is None or model.descriptor_version is None:
-        raise Problem(
-            409,
-            f"Model {model.id} is {model.status}; similarity needs a ready model.",
-            slug="model-not-ready",
-            model_status=model.status,
+    # One hop to the thread pool for the whole query (database and FAISS); the index is
+    # kept in step by the background sync, not polled per request.
+    return await run_in_threadpool(
+        _similar_models, services, tenant, model_id, k, min_score, filters
+    )
+
+
+def _similar_models(
+    services: Services,
+    tenant: str,
+    model_id: str,
+    k: int,
+    min_score: float | None,
+    filters: dict[str, str],
+) -> SimilarResponse:
+    with services.sessions() as session:
+        model = load_model(session, tenant, model_id, descriptor=True)
+        if model.status != "ready" or model.descriptor is None or model.descriptor_version is None:
+            raise Problem(
+                409,
+                f"Model {model.id} is {model.status}; similarity needs a ready model.",
+                slug="model-not-ready",
+                model_status=model.status,
+            )
+        matches = find_similar(
+            services.index,
+            session,
+            (tenant, model.descriptor_version),
+            np.frombuffer(model.descriptor, dtype=np.float32),
+            k=k,
+            min_score=min_score,
+            filters=filters,
+            exclude=model.index_id,
+            pushdown_max=services.settings.filter_pushdown_max,
         )
-    services.index.sync()  # pick up what other processes changed since the last poll
-    matches = find_similar(
-        services.index,
-        session,
-        (tenant, model.descriptor_version),
-        np.frombuffer(model.descriptor, dtype=np.float32),
-        k=k,
-        min_score=min_score,
-        filters=filters,
-        exclude=model.index_id,
-    )
-    return SimilarResponse(
-        query=SimilarQuery(model_id=model.id),
-        results=[
-            SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
-            for m in matches
-        ],
-    )
+        return SimilarResponse(
+            query=SimilarQuery(model_id=model.id),
+            results=[
+                SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
+                for m in matches
+            ],
+        )

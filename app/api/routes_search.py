@@ -66,7 +66,6 @@ def search(
         raise Problem(
             503, f"The shape could not be described this time: {error}", slug="solver-error"
         ) from error
-    services.index.sync()
     matches = find_similar(
         services.index,
         session,
@@ -75,6 +74,7 @@ def search(
         k=k,
         min_score=min_score,
         filters=filters,
+        pushdown_max=services.settings.filter_pushdown_max,
     )
     cutoff = cutoff_info(described["cutoff"])
     assert cutoff is not None

@@ -1,0 +1,119 @@
+"""The index at scale, in miniature: compressed (IVF-SQ8) partitions re-ranked exactly,
+batched removals, growth past the exact limit, and metadata filters pushed down to SQL."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.db.migrate import upgrade
+from app.db.session import make_engine, make_session_factory
+from app.index import ShapeIndex
+from app.similarity import find_similar, matching_ids
+from tests.test_index import add_ready, delete_model, unit
+
+D = 40
+KEY = ("t", "v1")
+
+
+@pytest.fixture
+def sessions(database_url: str) -> Iterator[sessionmaker[Session]]:
+    engine = make_engine(database_url)
+    upgrade(engine)
+    yield make_session_factory(engine)
+    engine.dispose()
+
+
+def exact_order(vectors: dict[int, np.ndarray], query: np.ndarray) -> list[int]:
+    """Ids by exact L2 distance to ``query``, ties by id (the service's order)."""
+    return sorted(vectors, key=lambda i: (float(np.linalg.norm(vectors[i] - query)), i))
+
+
+def test_a_compressed_partition_answers_exactly_after_re_ranking(
+    sessions: sessionmaker[Session],
+) -> None:
+    rng = np.random.default_rng(0)
+    centres = [unit(1000 + c, D) for c in range(6)]
+    vectors = {}
+    for i in range(300):
+        vector = centres[i % 6] + 0.15 * rng.normal(size=D).astype(np.float32) / np.sqrt(D)
+        vector /= np.linalg.norm(vector)
+        vectors[add_ready(sessions, vector)] = vector
+    index = ShapeIndex(sessions, exact_max=100, nprobe=4)
+    index.rebuild()
+    assert index.describe(KEY) == "ivf-sq8" and len(index) == 300
+    assert index.nbytes() < 300 * 4 * D  # under half of what float32 rows would hold
+    with sessions() as session:
+        for q in range(5):
+            query = vectors[list(vectors)[q * 37]]
+            matches = find_similar(index, session, KEY, query, k=10)
+            assert [m.model.index_id for m in matches] == exact_order(vectors, query)[:10]
+            # Distances are exact (from the stored vectors), not quantised estimates.
+            for m in matches:
+                exact = float(np.linalg.norm(vectors[m.model.index_id] - query))
+                assert m.distance == pytest.approx(exact, abs=1e-5)
+
+
+def test_removals_are_batched_and_growth_past_the_limit_compresses(
+    sessions: sessionmaker[Session],
+) -> None:
+    index = ShapeIndex(sessions, exact_max=50, nprobe=64)
+    index.rebuild()
+    ids = [add_ready(sessions, unit(i, D)) for i in range(40)]
+    index.sync()
+    assert index.describe(KEY) == "flat"
+    ids += [add_ready(sessions, unit(i, D)) for i in range(40, 120)]
+    index.sync()
+    assert index.describe(KEY) == "ivf-sq8" and index.partition_size(KEY) == 120
+    index.remove_many(ids[:60] + [10**9])  # an unknown id is ignored
+    assert index.partition_size(KEY) == 60 and ids[0] not in index and ids[60] in index
+    for doomed in ids[60:70]:
+        delete_model(sessions, doomed)
+    index.sync()
+    assert index.partition_size(KEY) == 50
+    hits = index.search(KEY, unit(100, D), 5)
+    assert hits[0][0] == ids[100]
+    assert not set(ids[:70]) & {i for i, _ in index.search(KEY, unit(100, D), 50)}
+
+
+def test_search_batch_answers_each_query_like_search(sessions: sessionmaker[Session]) -> None:
+    for i in range(30):
+        add_ready(sessions, unit(i, D))
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    queries = np.stack([unit(i, D) for i in (3, 17)])
+    batch = index.search_batch(KEY, queries, 4)
+    assert batch == [index.search(KEY, q, 4) for q in queries]
+
+
+@pytest.mark.parametrize("exact_max", [10_000, 20])
+def test_a_selective_filter_is_pushed_down_and_still_returns_k(
+    sessions: sessionmaker[Session], exact_max: int
+) -> None:
+    query = unit(0, D)
+    # 60 near neighbours of other families, then 4 far models of the rare family, one of
+    # them with a number as its value.
+    for i in range(60):
+        near = query + 0.01 * unit(100 + i, D)
+        add_ready(sessions, near / np.linalg.norm(near), meta={"family": "common", "qty": 3})
+    rare = [add_ready(sessions, unit(200 + i, D), meta={"family": "rare"}) for i in range(3)]
+    numeric = add_ready(sessions, unit(300, D), meta={"family": 7})
+    index = ShapeIndex(sessions, exact_max=exact_max)
+    index.rebuild()
+    with sessions() as session:
+        assert sorted(matching_ids(session, KEY, {"family": "rare"}, limit=10) or []) == rare
+        assert matching_ids(session, KEY, {"family": "common"}, limit=10) is None  # broad
+        assert matching_ids(session, KEY, {"family": "7"}, limit=10) == [numeric]
+        assert matching_ids(session, KEY, {"qty": "3", "family": "rare"}, limit=10) == []
+        pushed = find_similar(index, session, KEY, query, k=3, filters={"family": "rare"})
+        widened = find_similar(
+            index, session, KEY, query, k=3, filters={"family": "rare"}, pushdown_max=0
+        )
+        assert [m.model.index_id for m in pushed] == [m.model.index_id for m in widened]
+        assert sorted(m.model.index_id for m in pushed) == rare
+        # Fewer matching models than k: all of them, nothing else.
+        seven = find_similar(index, session, KEY, query, k=5, filters={"family": "7"})
+        assert [m.model.index_id for m in seven] == [numeric]

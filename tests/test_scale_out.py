@@ -1,0 +1,139 @@
+"""Scale-out on the real PostgreSQL: two API processes (``shapesearch serve --no-worker``) and
+two workers (``shapesearch worker``), one shared database, each API process holding its
+own index. A model described by a worker is found by both API processes within the sync
+interval, and a delete through one API process leaves the other's answers within it."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.conftest import PARTS, SMALL_ENGINE
+
+SYNC_INTERVAL = 0.5
+# The bound checked: the sync interval, plus room for one sync and a request on a shared,
+# noisy 2-core machine.
+SLACK = 3.0
+SHAPESEARCH = str(Path(sys.executable).parent / "shapesearch")
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def wait_until(condition: Callable[[], bool], timeout: float, what: str) -> float:
+    """Poll ``condition``; seconds it took, or fail after ``timeout``."""
+    start = time.monotonic()
+    while not condition():
+        if time.monotonic() - start > timeout:
+            pytest.fail(f"{what}: not within {timeout:.1f} s")
+        time.sleep(0.05)
+    return time.monotonic() - start
+
+
+class Cluster:
+    """The processes of one deployment; stopped (and waited for) at the end."""
+
+    def __init__(self, database_url: str) -> None:
+        self.env = {
+            **os.environ,
+            "SHAPESEARCH_DATABASE_URL": database_url,
+            "SHAPESEARCH_INDEX_SYNC_INTERVAL": str(SYNC_INTERVAL),
+            "SHAPESEARCH_POLL_INTERVAL": "0.1",
+            "SHAPESEARCH_SHUTDOWN_GRACE_SECONDS": "5",
+            **{f"SHAPESEARCH_{name.upper()}": str(value) for name, value in SMALL_ENGINE.items()},
+        }
+        self.processes: list[subprocess.Popen[bytes]] = []
+
+    def start(self, *args: str) -> subprocess.Popen[bytes]:
+        process = subprocess.Popen(
+            [SHAPESEARCH, *args], env=self.env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+        )
+        self.processes.append(process)
+        return process
+
+    def api(self) -> httpx.Client:
+        port = free_port()
+        process = self.start("serve", "--no-worker", "--port", str(port))
+        client = httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30)
+
+        def ready() -> bool:
+            if process.poll() is not None:
+                stderr = process.stderr.read().decode() if process.stderr else ""
+                pytest.fail(f"API process exited: {stderr[-2000:]}")
+            try:
+                return client.get("/readyz").status_code == 200
+            except httpx.HTTPError:
+                return False
+
+        wait_until(ready, 60, "API process ready")
+        return client
+
+    def stop(self) -> None:
+        for process in self.processes:
+            process.terminate()
+        for process in self.processes:
+            try:
+                process.wait(20)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+
+
+@pytest.fixture
+def cluster(new_database_url: Callable[[str], str]) -> Iterator[Cluster]:
+    deployment = Cluster(new_database_url("postgresql"))
+    try:
+        yield deployment
+    finally:
+        deployment.stop()
+
+
+def similar_ids(client: httpx.Client, model_id: str) -> set[str]:
+    response = client.get(f"/v1/models/{model_id}/similar", params={"k": 10})
+    assert response.status_code == 200, response.text
+    return {result["model"]["id"] for result in response.json()["results"]}
+
+
+def test_two_apis_and_two_workers_share_one_postgresql(cluster: Cluster) -> None:
+    first = cluster.api()  # migrates the schema before the others start
+    second = cluster.api()
+    cluster.start("worker", "--concurrency", "1")
+    cluster.start("worker", "--concurrency", "1")
+
+    ids = []
+    for name in ("20mm-xyz-cube.stl", "cylinder.stl"):
+        path = PARTS / name
+        response = first.post(
+            "/v1/models", files={"file": (name, path.read_bytes(), "application/octet-stream")}
+        )
+        assert response.status_code == 202, response.text
+        ids.append(response.json()["id"])
+    anchor, other = ids
+
+    def described() -> bool:
+        return all(first.get(f"/v1/models/{i}").json()["status"] == "ready" for i in ids)
+
+    wait_until(described, 120, "both models described by the workers")
+    # Found by both API processes within the sync interval (plus slack).
+    for api in (first, second):
+        wait_until(lambda api=api: other in similar_ids(api, anchor), SYNC_INTERVAL + SLACK,
+                   "the new model in the similar answers of each API process")  # fmt: skip
+
+    assert first.delete(f"/v1/models/{other}").status_code == 204
+    assert other not in similar_ids(first, anchor)  # the deleting process: at once
+    wait_until(lambda: other not in similar_ids(second, anchor), SYNC_INTERVAL + SLACK,
+               "the deleted model gone from the other API process")  # fmt: skip
+    assert second.get(f"/v1/models/{other}").status_code == 404
+    for api in (first, second):
+        assert api.get("/readyz").status_code == 200
