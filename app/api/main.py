@@ -13,6 +13,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
+from fastapi_offline import FastAPIOffline
 
 from app.api import routes_health, routes_jobs, routes_models, routes_search
 from app.api.deps import Services
@@ -93,7 +94,8 @@ def create_app(
             follower.join()
             engine.dispose()
 
-    app = FastAPI(
+    # Swagger UI and ReDoc from assets shipped in a wheel: the docs work without internet.
+    app = FastAPIOffline(
         title="shapesearch",
         version="1",
         summary="Shape-similarity search for engineering parts.",
