@@ -3,11 +3,13 @@ translation of its ``Description`` into stored columns and API fields."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from app.previews import encode_preview
 from core.pipeline import Description, describe
 from core.settings import EngineSettings
 
@@ -50,8 +52,9 @@ def cutoff_record(description: Description) -> dict[str, Any]:
     }
 
 
-def model_columns(description: Description) -> dict[str, Any]:
-    """The Model columns a finished description fills in."""
+def model_columns(description: Description, hks_times: Sequence[float]) -> dict[str, Any]:
+    """The Model columns a finished description fills in; ``hks_times`` is the descriptor's
+    time grid, the first columns of ``description.signature`` (its log scaled HKS)."""
     descriptor = np.ascontiguousarray(description.descriptor, dtype=np.float32)
     return {
         "n_points": description.n_points,
@@ -60,6 +63,12 @@ def model_columns(description: Description) -> dict[str, Any]:
         "descriptor": descriptor.tobytes(),
         "descriptor_version": description.descriptor_version,
         "timings": {stage: float(seconds) for stage, seconds in description.timings.items()},
+        "preview": encode_preview(
+            description.points,
+            description.signature[:, : len(hks_times)],
+            np.asarray(hks_times),
+            description.eigenvalues,
+        ),
     }
 
 

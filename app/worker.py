@@ -54,7 +54,8 @@ def describe_handler(settings: Settings) -> JobHandler:
     engine = engine_settings(settings)
 
     def handle(content: bytes, filename: str) -> dict[str, Any]:
-        return model_columns(describe_upload(content, filename, engine))
+        description = describe_upload(content, filename, engine)
+        return model_columns(description, engine.descriptor.hks_times)
 
     return handle
 

@@ -15,7 +15,7 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi_offline import FastAPIOffline
 
-from app.api import routes_health, routes_jobs, routes_models, routes_search
+from app.api import routes_health, routes_jobs, routes_models, routes_previews, routes_search
 from app.api.deps import Services
 from app.api.limits import BodySizeLimit
 from app.api.problems import install_problem_handlers
@@ -107,6 +107,6 @@ def create_app(
     app.add_middleware(
         BodySizeLimit, max_body_bytes=settings.max_upload_bytes + _FORM_OVERHEAD_BYTES
     )
-    for module in (routes_models, routes_search, routes_jobs, routes_health):
+    for module in (routes_models, routes_search, routes_jobs, routes_health, routes_previews):
         app.include_router(module.router)
     return app
