@@ -24,6 +24,7 @@ from app.db.session import make_engine, make_session_factory
 from app.describing import pin_blas_threads
 from app.index import ShapeIndex
 from app.settings import Settings, engine_settings
+from app.viewer import install_viewer
 from app.worker import JobHandler, WorkerPool, describe_handler, make_queue
 
 __all__ = ["create_app"]
@@ -109,4 +110,5 @@ def create_app(
     )
     for module in (routes_models, routes_search, routes_jobs, routes_health, routes_previews):
         app.include_router(module.router)
+    install_viewer(app)
     return app
