@@ -17,6 +17,7 @@ from fastapi_offline import FastAPIOffline
 
 from app.api import routes_health, routes_jobs, routes_models, routes_previews, routes_search
 from app.api.deps import Services
+from app.api.examples import install_examples
 from app.api.limits import BodySizeLimit
 from app.api.problems import install_problem_handlers
 from app.db.migrate import upgrade
@@ -111,4 +112,5 @@ def create_app(
     for module in (routes_models, routes_search, routes_jobs, routes_health, routes_previews):
         app.include_router(module.router)
     install_viewer(app)
+    install_examples(app)
     return app
