@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
+import httpx
 import pytest
 from conftest import PARTS
 from live_server import live_server
@@ -208,3 +209,46 @@ def test_api_docs_render_offline(
     page.screenshot(path=ARTIFACTS / f"{path.strip('/')}.png")
     assert offline.blocked == [], offline.blocked
     assert offline.errors == [], offline.errors
+
+
+def test_with_api_keys_the_viewer_asks_for_a_key_and_sends_it_as_a_header(
+    browser: Any, tmp_path: Path
+) -> None:
+    from sqlalchemy import create_engine
+    from sqlalchemy.orm import sessionmaker
+
+    from app.keys import create_key
+
+    with live_server(tmp_path) as url:
+        engine = create_engine(f"sqlite:///{tmp_path / 'shapesearch.db'}")
+        with sessionmaker(engine).begin() as session:
+            keys = {tenant: create_key(session, tenant) for tenant in ("acme", "other")}
+        engine.dispose()
+        for tenant, part in (("acme", "cylinder.stl"), ("other", "round.stl")):
+            response = httpx.post(
+                f"{url}/v1/models",
+                files={"file": (part, (PARTS / part).read_bytes())},
+                data={"name": f"{tenant}-{part}"},
+                headers={"Authorization": f"Bearer {keys[tenant]}"},
+            )
+            assert response.status_code == 202, response.text
+
+        context = browser.new_context()
+        page = context.new_page()
+        offline = Offline(page)
+        sent: list[tuple[str, str | None]] = []
+        page.on("request", lambda r: sent.append((r.url, r.headers.get("authorization"))))
+        page.goto(f"{url}/")
+        page.wait_for_selector("#key-dialog[open]")
+        page.fill("#key-input", keys["acme"])
+        page.click("#key-form button")
+        page.locator("#models tr").first.wait_for()
+        page.wait_for_timeout(500)
+        names = page.locator("#models tr td:first-child").all_inner_texts()
+        context.close()
+
+    assert names == ["acme-cylinder.stl"], "only the key's tenant's models are shown"
+    api_calls = [(u, auth) for u, auth in sent if "/v1/" in u]
+    assert api_calls and any(auth == f"Bearer {keys['acme']}" for _, auth in api_calls)
+    assert all(keys["acme"] not in u for u, _ in sent), "the key never goes into a URL"
+    assert offline.blocked == [] and offline.errors == []
