@@ -6,11 +6,13 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from app.previews import encode_preview
 from core.cutoff_predictor import CutoffPredictor
 from core.descriptor import DescriptorSpec
 from core.io import load_points
@@ -67,7 +69,8 @@ def described_columns(
     predictor: CutoffPredictor | None = None,
 ) -> dict[str, Any]:
     """``model_columns`` of the file's description: small and picklable, for a sandbox."""
-    return model_columns(describe_upload(content, filename, settings, predictor))
+    description = describe_upload(content, filename, settings, predictor)
+    return model_columns(description, settings.descriptor.hks_times)
 
 
 def quick_check(content: bytes, name: str, points: int, min_points: int, seed: int) -> None:
@@ -91,8 +94,9 @@ def cutoff_record(description: Description) -> dict[str, Any]:
     }
 
 
-def model_columns(description: Description) -> dict[str, Any]:
-    """The Model columns a finished description fills in."""
+def model_columns(description: Description, hks_times: Sequence[float]) -> dict[str, Any]:
+    """The Model columns a finished description fills in; ``hks_times`` is the descriptor's
+    time grid, the first columns of ``description.signature`` (its log scaled HKS)."""
     descriptor = np.ascontiguousarray(description.descriptor, dtype=np.float32)
     return {
         "n_points": description.n_points,
@@ -101,6 +105,12 @@ def model_columns(description: Description) -> dict[str, Any]:
         "descriptor": descriptor.tobytes(),
         "descriptor_version": description.descriptor_version,
         "timings": {stage: float(seconds) for stage, seconds in description.timings.items()},
+        "preview": encode_preview(
+            description.points,
+            description.signature[:, : len(hks_times)],
+            np.asarray(hks_times),
+            description.eigenvalues,
+        ),
     }
 
 

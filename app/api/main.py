@@ -13,17 +13,20 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
+from fastapi_offline import FastAPIOffline
 
 from app.api import (
     routes_duplicates,
     routes_health,
     routes_jobs,
     routes_models,
+    routes_previews,
     routes_revisions,
     routes_search,
     routes_webhooks,
 )
 from app.api.deps import Services
+from app.api.examples import install_examples
 from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
 from app.api.problems import install_problem_handlers
@@ -33,6 +36,7 @@ from app.db.session import make_engine, make_session_factory
 from app.describing import pin_blas_threads
 from app.index import ShapeIndex
 from app.settings import Settings, engine_settings
+from app.viewer import install_viewer
 from app.webhooks import start_delivery_thread
 from app.worker import JobHandler, WorkerPool, describe_handler, make_queue
 
@@ -111,7 +115,8 @@ def create_app(
             follower.join()
             engine.dispose()
 
-    app = FastAPI(
+    # Swagger UI and ReDoc from assets shipped in a wheel: the docs work without internet.
+    app = FastAPIOffline(
         title="shapesearch",
         version="1",
         summary="Shape-similarity search for engineering parts.",
@@ -135,6 +140,9 @@ def create_app(
         routes_webhooks,
         routes_duplicates,
         routes_health,
+        routes_previews,
     ):
         app.include_router(module.router)
+    install_viewer(app)
+    install_examples(app)
     return app

@@ -120,6 +120,8 @@ class Model(Base):
     descriptor: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
     descriptor_version: Mapped[str | None] = mapped_column(String(200))
     timings: Mapped[dict[str, Any] | None] = mapped_column(JSON)
+    # app.previews blob for the viewer (points, HKS, eigenvalues); deferred like descriptor.
+    preview: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
 
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
     updated_at: Mapped[datetime] = mapped_column(default=utcnow, onupdate=utcnow)

@@ -1,0 +1,32 @@
+// The database page: the paper's Figure 7 live (cutoff n against point count, with the
+// fixed cutoff) and the histogram of solver calls per model (GET /v1/stats/cutoff).
+
+import { el, getJson } from "./api.js";
+import { plotBars, plotXY } from "./plots.js";
+
+const REFRESH_MS = 3000;
+
+export function databasePage(page, signal) {
+  const scatter = el("canvas", { class: "plot", id: "cutoff-plot", style: "height: 320px" });
+  const bars = el("canvas", { class: "plot", id: "solver-calls-plot" });
+  const summary = el("p", { class: "hint", id: "cutoff-summary" });
+  page.replaceChildren(
+    el("h1", {}, "Database"),
+    el("h2", {}, "Cutoff n against point count (the paper's Figure 7)"), summary, scatter,
+    el("h2", {}, "Solver calls per model"), bars,
+  );
+
+  async function refresh() {
+    const stats = await getJson("/v1/stats/cutoff");
+    const ns = stats.models.map((m) => m.n);
+    const mean = ns.length ? ns.reduce((a, b) => a + b, 0) / ns.length : 0;
+    summary.textContent = `${stats.models.length} ready models; mean adaptive n ${mean.toFixed(1)} against the fixed ${stats.fixed_n}.`;
+    plotXY(scatter, [{ points: stats.models.map((m) => [m.n_points, m.n]) }],
+      { xLabel: "points", yLabel: "cutoff n", reference: { y: stats.fixed_n, label: `fixed n = ${stats.fixed_n}` } });
+    plotBars(bars, stats.solver_calls.map((b) => [b.solver_calls, b.models]), { xLabel: "solver calls", yLabel: "models" });
+  }
+
+  refresh().catch((error) => { summary.textContent = error.message; });
+  const timer = setInterval(() => refresh().catch(() => {}), REFRESH_MS);
+  signal.addEventListener("abort", () => clearInterval(timer));
+}
