@@ -196,3 +196,69 @@ def test_engine_outlier_filter_drops_stray_points_and_keeps_the_surface() -> Non
     # Nearly all 5000 surface points survive; at most a handful of the ~50 strays do.
     assert np.count_nonzero(on_surface) > 0.97 * len(points)
     assert np.count_nonzero(~on_surface) <= 10
+
+
+# -- a finished run is never lost ------------------------------------------------------------
+
+
+def _tiny_dataset(root: Path) -> Path:
+    """Two classes (spheres, tori) of two point clouds each, written as .xyz files."""
+    from tests.shapes import sphere_points, torus_points
+
+    for label, make in (("sphere", sphere_points), ("torus", torus_points)):
+        (root / label).mkdir(parents=True)
+        for seed in (0, 1):
+            np.savetxt(root / label / f"m{seed}.xyz", make(600, seed=seed))
+    return root
+
+
+def _tiny_variants() -> dict:
+    from core.settings import CutoffSettings, EngineSettings
+
+    return {"default": EngineSettings(max_points=600, cutoff=CutoffSettings(mode="fixed", n=20))}
+
+
+def test_eval_without_matplotlib_writes_results_and_says_so_in_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+    import sys
+
+    from core.evaluation.cli import evaluate
+
+    # A None entry in sys.modules makes ``import matplotlib`` raise ImportError.
+    for name in [m for m in sys.modules if m == "matplotlib" or m.startswith("matplotlib.")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    dataset = load_dataset(_tiny_dataset(tmp_path / "data"))
+    out = tmp_path / "out"
+    record = evaluate(dataset, _tiny_variants(), out, use_cache=False)
+
+    saved = json.loads((out / "results.json").read_text())
+    assert saved["variants"]["default"]["scores"]["clean"]["nn"] == pytest.approx(
+        record["variants"]["default"]["scores"]["clean"]["nn"]
+    )
+    assert "## Clean models" in (out / "results.md").read_text()
+    assert saved["plots"] == [] and not list(out.glob("*.png"))
+    err = capsys.readouterr().err
+    said = [line for line in err.splitlines() if "matplotlib" in line]
+    assert len(said) == 1 and "not installed" in said[0]
+    assert "Traceback" not in err
+
+
+def test_eval_writes_results_before_plotting(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import core.evaluation.cli as evaluation_cli
+
+    def broken_plots(record: dict, out: Path) -> list[str]:
+        raise RuntimeError("plotting failed")
+
+    monkeypatch.setattr(evaluation_cli, "plots_from_record", broken_plots)
+    dataset = load_dataset(_tiny_dataset(tmp_path / "data"))
+    out = tmp_path / "out"
+    with pytest.raises(RuntimeError, match="plotting failed"):
+        evaluation_cli.evaluate(dataset, _tiny_variants(), out, use_cache=False)
+    # The run's numbers survived the failed plot.
+    assert "default" in (out / "results.json").read_text()
+    assert "| default |" in (out / "results.md").read_text()

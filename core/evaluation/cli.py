@@ -318,15 +318,38 @@ def evaluate(
         if timing_models:
             subset = _subset(dataset.models, 1, seed=1)[:timing_models]
             record["direct_timing"] = _direct_timing(subset, variants, clean)
-    plots = plots_from_record(record, out)
-    record["plots"] = plots
+    record["plots"] = []
     record["failures"] = failures
     record["computed_samplings"] = counters["computed"]
     record["cached_samplings"] = counters["cached"]
     record["wall_seconds"] = time.perf_counter() - started
+    # The numbers are on disk before any plot is drawn: a plotting failure never loses a run.
+    write_report(record, out)
+    record["plots"] = _plots(record, out)
+    if record["plots"]:
+        write_report(record, out)
+    return record
+
+
+def write_report(record: dict[str, Any], out: Path) -> None:
+    """``OUT/results.json`` and ``OUT/results.md`` of one run."""
     write_json(record, out / "results.json")
     (out / "results.md").write_text(markdown_report(record))
-    return record
+
+
+def _plots(record: dict[str, Any], out: Path) -> list[str]:
+    """Draw the plots; without matplotlib, say so in one line and draw none."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        print(
+            f"shapesearch eval: matplotlib is not installed, so no plots were drawn; results are"
+            f" in {out}/results.md (pip install 'shapesearch[eval]', then"
+            f" python -m core.evaluation.report {out} draws them)",
+            file=sys.stderr,
+        )
+        return []
+    return plots_from_record(record, out)
 
 
 def run(args: argparse.Namespace) -> int:

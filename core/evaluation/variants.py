@@ -17,6 +17,7 @@ import numpy as np
 from core.settings import CutoffSettings, DescriptorSettings, EngineSettings
 
 __all__ = [
+    "BUDGET_POINTS",
     "DEFAULT_VARIANTS",
     "EVAL_POINTS",
     "NAIVE_DESCRIPTOR",
@@ -27,6 +28,9 @@ __all__ = [
 
 #: Points per model in the evaluation (the chosen ``max_points``; see docs/results.md).
 EVAL_POINTS = 3000
+
+#: Point budgets of the budget sweep (variants ``points-<N>``; see docs/results.md).
+BUDGET_POINTS: tuple[int, ...] = (2000, 3000, 5000, 10000, 20000)
 
 #: The naive baseline descriptor of issue 4: heat-trace-scaled log-HKS at 16 log-spaced times
 #: in [1e-3, 1e-1], 32 area-weighted bins on [-3, 3] per time, square root, L2.
@@ -92,6 +96,8 @@ def _variants() -> dict[str, EngineSettings]:
         # The other Laplacian at the chosen setting (slow: run on a subset).
         "spcl": _engine(laplacian="spcl"),
     }
+    # The point budget (max_points) with everything else at the default: the budget sweep.
+    variants.update({f"points-{points}": _engine(points=points) for points in BUDGET_POINTS})
     return variants
 
 
@@ -101,7 +107,8 @@ VARIANTS: dict[str, EngineSettings] = _variants()
 #: What ``shapesearch eval`` runs when ``--variants`` is not given (all on the robust
 #: Laplacian, so one eigen-solve per model serves them all).
 DEFAULT_VARIANTS: tuple[str, ...] = tuple(
-    name for name in VARIANTS if name not in ("spcl", "baseline-adaptive")
+    name for name in VARIANTS
+    if name not in ("spcl", "baseline-adaptive") and not name.startswith("points-")
 )
 
 #: Variants scored on simulated scans (each scan is one more eigen-solve per model).
