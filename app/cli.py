@@ -8,6 +8,7 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch worker  [--concurrency N]
     shapesearch keys create --tenant NAME
     shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
+    shapesearch eval-parts OUT_DIR [--per-family N] [--seed S]
 """
 
 from __future__ import annotations
@@ -47,6 +48,12 @@ def _eval(args: argparse.Namespace) -> int:
     from core.evaluation.cli import run
 
     return run(args)
+
+
+def _eval_parts(args: argparse.Namespace) -> int:
+    from core.evaluation.parts_generator import main
+
+    return main([args.out, "--per-family", str(args.per_family), "--seed", str(args.seed)])
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -99,6 +106,14 @@ def build_parser() -> argparse.ArgumentParser:
                           help="models on which each cutoff is also timed with its own solver")
     evaluate.add_argument("--no-cache", action="store_true", help="do not read or write OUT/cache")
     evaluate.set_defaults(handler=_eval)
+
+    parts = commands.add_parser(
+        "eval-parts", help="generate the labelled engineering-parts dev set (tune/ and test/)"
+    )
+    parts.add_argument("out")
+    parts.add_argument("--per-family", type=int, default=20)
+    parts.add_argument("--seed", type=int, default=0)
+    parts.set_defaults(handler=_eval_parts)
     return parser
 
 
