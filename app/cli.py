@@ -92,9 +92,12 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--out", default="eval-out")
     evaluate.add_argument("--limit-per-class", type=int, default=None)
     evaluate.add_argument(
-        "--scans", nargs="*", choices=("single", "multi", "single+sor", "multi+sor"), default=(),
-        help="also query simulated scans (single view, three views; +sor: with an outlier "
-        "filter before the engine) against the clean models",
+        "--scans", nargs="*", default=(),
+        choices=("single", "multi", "single+sor", "multi+sor", "turntable", "kinect-view",
+                 "turntable+sor", "kinect-view+sor"),
+        help="also query simulated scans (single view, three views, 18-view depth-sensor "
+        "turntable, one sensor view; +sor: with an outlier filter before the engine) against "
+        "the clean models",
     )
     evaluate.add_argument("--scan-variants", nargs="*", default=None,
                           help="variants scored on scans (default: baseline, default, fixed)")
