@@ -40,6 +40,9 @@ __all__ = [
     "simulate_scan",
     "single_view_scan",
     "turntable_viewpoints",
+    "view_directions",
+    "view_kind",
+    "virtual_view",
 ]
 
 
@@ -381,7 +384,33 @@ def sensor_scan(
     return add_noise_and_outliers(scan, rng, diagonal, (low, high), 0.0, settings.outliers)
 
 
-#: Scan kinds the evaluation can ask for (without the ``+sor`` suffix).
+def view_directions(count: int) -> np.ndarray:
+    """``count`` near-uniform unit directions ``(count, 3)`` (Fibonacci spiral), fixed."""
+    index = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * index / count
+    angle = np.pi * (1.0 + 5.0**0.5) * index
+    ring = np.sqrt(1.0 - z**2)
+    return np.column_stack([ring * np.cos(angle), ring * np.sin(angle), z])
+
+
+def virtual_view(points: np.ndarray, index: int, count: int, distance: float = 3.0) -> np.ndarray:
+    """What viewpoint ``index`` of ``count`` fixed directions sees of ``points : (n, 3)``.
+
+    A clean partial view (no noise, no outliers) of a catalogue model, described and indexed
+    next to the whole model so that a partial scan can match a partial view.
+    """
+    low, high, diagonal = _bbox(points)
+    viewpoint = (low + high) / 2.0 + distance * diagonal * view_directions(count)[index]
+    return points[hidden_point_removal(points, viewpoint)]
+
+
+def view_kind(index: int, count: int) -> str:
+    """The scan-kind name of virtual view ``index`` of ``count``: ``view<index>of<count>``."""
+    return f"view{index}of{count}"
+
+
+#: Scan kinds the evaluation can ask for (without the ``+sor`` suffix), besides the virtual
+#: views ``view<i>of<count>``.
 SCAN_KINDS: tuple[str, ...] = ("single", "multi", "turntable", "kinect-view")
 
 
@@ -389,7 +418,8 @@ def scan_of_kind(points: np.ndarray, rng: np.random.Generator, kind: str) -> np.
     """The scan named ``kind`` (one of ``SCAN_KINDS``) of ``points : (n, 3) float``.
 
     ``single`` and ``multi`` are the original simulator (unchanged, for comparison);
-    ``turntable`` is an 18-view registered sensor scan, ``kinect-view`` one view of it.
+    ``turntable`` is an 18-view registered sensor scan, ``kinect-view`` one view of it;
+    ``view<i>of<count>`` is a clean virtual view of a catalogue model (``virtual_view``).
 
     Raises
     ------
@@ -404,4 +434,8 @@ def scan_of_kind(points: np.ndarray, rng: np.random.Generator, kind: str) -> np.
         return sensor_scan(points, rng)
     if kind == "kinect-view":
         return sensor_scan(points, rng, views=1)
+    if kind.startswith("view") and "of" in kind:
+        index, _, count = kind[4:].partition("of")
+        if index.isdigit() and count.isdigit() and int(index) < int(count):
+            return virtual_view(points, int(index), int(count))
     raise ValueError(f"unknown scan kind {kind!r}; known: {', '.join(SCAN_KINDS)}")
