@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from core.evaluation.scan_retrieval import best_entry_distances, boundary_weights
+from core.evaluation.scan_retrieval import best_entry_distances, boundary_weights, view_subsets
 from core.evaluation.scans import scan_of_kind, view_directions, view_kind, virtual_view
 from tests.shapes import fibonacci_sphere_points
 
@@ -60,3 +60,8 @@ def test_virtual_views_see_the_near_cap_from_fixed_spread_directions() -> None:
                                                view_kind(2, 6)), view)
     with pytest.raises(ValueError):
         scan_of_kind(points, np.random.default_rng(0), "view6of6")
+
+
+def test_view_subsets_are_all_views_and_spread_smaller_sets() -> None:
+    assert view_subsets(6) == [(0, 1, 2, 3, 4, 5), (0, 2, 4), (0, 3)]
+    assert view_subsets(2) == [(0, 1)]

@@ -54,6 +54,7 @@ __all__ = [
     "boundary_weights",
     "main",
     "run",
+    "view_subsets",
 ]
 
 ROTATION_SEED = 1
@@ -114,6 +115,19 @@ def boundary_weights(
     scale = reach * np.sqrt(len(points)) * float(np.median(distances[:, 1]))
     to_rim, _ = cKDTree(points[on_rim]).query(points)
     return np.clip(to_rim / scale, 0.0, 1.0)
+
+
+def view_subsets(views: int) -> list[tuple[int, ...]]:
+    """The sets of view indices scored: all ``views``, and spread subsets of 2 and 3.
+
+    Models are rotated at random before they are viewed, so which fixed directions are kept
+    does not matter, only how many (and that they are spread: every other one).
+    """
+    subsets = [tuple(range(views))]
+    for count in (3, 2):
+        if views > count:
+            subsets.append(tuple(range(0, views, views // count))[:count])
+    return subsets
 
 
 def best_entry_distances(
@@ -230,12 +244,13 @@ def run(
                     failures.append(f"{model.name} ({kind}): {error}")
             print(f"  [{number}/{len(dataset.models)}] {time.perf_counter() - started:.0f} s",
                   file=sys.stderr, flush=True)
-    view_kinds = [view_kind(i, views) for i in range(views)]
-    catalogues = {
-        "global": {m: [d] for m, d in described["clean"].items()},
-        "views": {m: [d, *(described[v][m] for v in view_kinds if m in described[v])]
-                  for m, d in described["clean"].items()},
-    }
+    catalogues = {"global": {m: [d] for m, d in described["clean"].items()}}
+    for subset in view_subsets(views):
+        chosen = [view_kind(i, views) for i in subset]
+        catalogues[f"views{len(subset)}"] = {
+            m: [d, *(described[v][m] for v in chosen if m in described[v])]
+            for m, d in described["clean"].items()
+        }
     scores: dict[str, Any] = {}
     for mode, catalogue in catalogues.items():
         for descriptor in DESCRIPTORS:
@@ -257,6 +272,12 @@ def run(
     }
     out.mkdir(parents=True, exist_ok=True)
     (out / "scan_retrieval.json").write_text(json.dumps(record, indent=1))
+    # Every descriptor, for analyses after the fact: key "<kind>|<descriptor>|<model>".
+    np.savez_compressed(out / "scan_retrieval_descriptors.npz", **{
+        f"{kind}|{name}|{model}": vector
+        for kind, by_model in described.items() for model, entry in by_model.items()
+        for name, vector in entry.descriptors.items()
+    })
     return record
 
 
