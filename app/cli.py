@@ -12,6 +12,7 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch import PATH --url URL [--key KEY] [--external-id path|stem] [--metadata F]
                        [--concurrency N] [--wait] [--report CSV]
     shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
+    shapesearch eval-parts OUT_DIR [--per-family N] [--seed S]
 """
 
 from __future__ import annotations
@@ -106,6 +107,12 @@ def _eval(args: argparse.Namespace) -> int:
     return run(args)
 
 
+def _eval_parts(args: argparse.Namespace) -> int:
+    from core.evaluation.parts_generator import main
+
+    return main([args.out, "--per-family", str(args.per_family), "--seed", str(args.seed)])
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="shapesearch", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
@@ -179,9 +186,12 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--out", default="eval-out")
     evaluate.add_argument("--limit-per-class", type=int, default=None)
     evaluate.add_argument(
-        "--scans", nargs="*", choices=("single", "multi", "single+sor", "multi+sor"), default=(),
-        help="also query simulated scans (single view, three views; +sor: with an outlier "
-        "filter before the engine) against the clean models",
+        "--scans", nargs="*", default=(),
+        choices=("single", "multi", "single+sor", "multi+sor", "turntable", "kinect-view",
+                 "turntable+sor", "kinect-view+sor"),
+        help="also query simulated scans (single view, three views, 18-view depth-sensor "
+        "turntable, one sensor view; +sor: with an outlier filter before the engine) against "
+        "the clean models",
     )
     evaluate.add_argument("--scan-variants", nargs="*", default=None,
                           help="variants scored on scans (default: baseline, default, fixed)")
@@ -193,6 +203,14 @@ def build_parser() -> argparse.ArgumentParser:
                           help="models on which each cutoff is also timed with its own solver")
     evaluate.add_argument("--no-cache", action="store_true", help="do not read or write OUT/cache")
     evaluate.set_defaults(handler=_eval)
+
+    parts = commands.add_parser(
+        "eval-parts", help="generate the labelled engineering-parts dev set (tune/ and test/)"
+    )
+    parts.add_argument("out")
+    parts.add_argument("--per-family", type=int, default=20)
+    parts.add_argument("--seed", type=int, default=0)
+    parts.set_defaults(handler=_eval_parts)
     return parser
 
 

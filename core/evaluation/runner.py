@@ -36,11 +36,7 @@ import scipy.sparse as sp
 
 from core.cutoff import CutoffResult, make_cutoff
 from core.evaluation.dataset import Model
-from core.evaluation.scans import (
-    ScanSettings,
-    random_rotation,
-    simulate_scan,
-)
+from core.evaluation.scans import random_rotation, scan_of_kind
 from core.io import load_points, validate_points
 from core.pipeline import descriptor_from_eigenpairs, normalised_operators
 from core.settings import EngineSettings
@@ -71,7 +67,7 @@ class Sampling:
     max_points: int
     sample_seed: int
     rotation_seed: int
-    scan: str = "clean"  # "clean", "single", "multi", "single+sor" or "multi+sor"
+    scan: str = "clean"  # "clean" or a scans.SCAN_KINDS kind, optionally with "+sor"
 
     def cache_name(self, sha256: str) -> str:
         return (
@@ -245,8 +241,7 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
         scan_seed = _model_seed(model.sha256, sampling.rotation_seed, sampling.scan)
         rng = np.random.default_rng(scan_seed)
         kind, _, cleanup = sampling.scan.partition("+")
-        views = ScanSettings().views if kind == "multi" else 1
-        scanned = simulate_scan(points, rng, ScanSettings(), views=views)
+        scanned = scan_of_kind(points, rng, kind)
         # The loader's own checks and even thinning, as for an uploaded scan; "+sor" scans go
         # through the engine's outlier filter (EngineSettings.outlier_filter, on by default),
         # plain ones without it, to show what the filter is worth.

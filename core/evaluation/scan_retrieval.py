@@ -1,0 +1,321 @@
+"""Scan-robust retrieval, measured at descriptor level (issue 12).
+
+Two ideas, each measured against the global descriptor of the service today:
+
+- **view entries**: every catalogue model is described whole *and* as ``views`` clean virtual
+  partial views (hidden point removal from fixed directions, ``scans.virtual_view``); a model's
+  distance to a query is the smallest over its entries (best view), and the ranking has one
+  row per model;
+- **boundary down-weighting**: points near the open boundary of a partial surface carry the
+  Laplacian's free-boundary artefacts; their histogram weight (area) is scaled by
+  ``boundary_weights`` (0 on the rim, rising to 1 a diffusion length inside). On a closed
+  surface nothing is a rim and the descriptor is unchanged.
+
+Queries are clean models, registered turntable scans and single sensor views (``scans``),
+each left out of the catalogue under its own model name. Eigenpairs come from the evaluation's
+cache (``runner.describe_sampling``), so a rerun only computes what is new::
+
+    python -m core.evaluation.scan_retrieval DATASET --out OUT [--per-class 2] [--views 6]
+
+writes ``OUT/scan_retrieval.json`` and prints a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from core.errors import InvalidShapeError, SolverError
+from core.evaluation.dataset import Model, load_dataset
+from core.evaluation.metrics import pairwise_distances, ranked_relevance, score_rankings
+from core.evaluation.runner import (
+    _sample_points,
+    describe_sampling,
+    run_variants,
+    sampling_of,
+)
+from core.evaluation.scans import view_kind
+from core.evaluation.variants import EVAL_POINTS
+from core.pipeline import descriptor_from_eigenpairs
+from core.settings import DescriptorSettings, EngineSettings
+
+__all__ = [
+    "DESCRIPTORS",
+    "QUERY_KINDS",
+    "best_entry_distances",
+    "boundary_weights",
+    "main",
+    "run",
+    "view_subsets",
+]
+
+ROTATION_SEED = 1
+#: Query kinds: clean models, and the two sensor scans through the engine's outlier filter.
+QUERY_KINDS: tuple[str, ...] = ("clean", "turntable+sor", "kinect-view+sor")
+
+_DEFAULT = DescriptorSettings()
+#: Descriptor variant -> (descriptor settings, down-weight the boundary?).
+DESCRIPTORS: dict[str, tuple[DescriptorSettings, bool]] = {
+    "default": (_DEFAULT, False),
+    "boundary": (_DEFAULT, True),
+    # ShapeDNA is a global spectrum: a partial surface's eigenvalues are not the whole's.
+    "boundary-nodna": (replace(_DEFAULT, dna_count=0), True),
+    # Short diffusion times only: local geometry, less reach to a missing side.
+    "short-hks-boundary": (
+        replace(_DEFAULT, hks_times=tuple(np.geomspace(1e-3, 1e-2, 16).tolist()),
+                hks_weight=1.0, wks_energies=0, dna_count=0),
+        True,
+    ),
+}
+
+
+def boundary_weights(
+    points: np.ndarray, neighbours: int = 16, threshold: float = 0.35, reach: float = 0.1
+) -> np.ndarray:
+    """Histogram weights ``(n,)`` in [0, 1] that fade out towards an open boundary.
+
+    A point is on the boundary when the centroid of its ``neighbours`` nearest points, projected
+    on the local tangent plane (PCA), is off by more than ``threshold`` mean neighbour
+    distances: inside a surface the neighbours surround the point, on a rim they lie to one
+    side. The weight grows linearly with the distance to the nearest boundary point and
+    reaches 1 at ``reach`` times the square root of the surface area (estimated from the
+    point spacing): about the diffusion length of the descriptor's mid times on a unit-area
+    shape.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+
+    Returns
+    -------
+    weights : (n,) float
+        All ones when no point is on a boundary (a closed surface).
+    """
+    tree = cKDTree(points)
+    distances, index = tree.query(points, k=neighbours + 1)
+    local = points[index[:, 1:]] - points[:, None, :]  # (n, k, 3)
+    centred = local - local.mean(axis=1, keepdims=True)
+    _, axes = np.linalg.eigh(np.einsum("nki,nkj->nij", centred, centred))
+    normal = axes[:, :, 0]  # smallest principal direction
+    offset = local.mean(axis=1)
+    tangential = offset - np.sum(offset * normal, axis=1, keepdims=True) * normal
+    spacing = distances[:, 1:].mean(axis=1)
+    on_rim = np.linalg.norm(tangential, axis=1) > threshold * spacing
+    if not on_rim.any():
+        return np.ones(len(points))
+    # n points at spacing s cover an area of about n s^2.
+    scale = reach * np.sqrt(len(points)) * float(np.median(distances[:, 1]))
+    to_rim, _ = cKDTree(points[on_rim]).query(points)
+    return np.clip(to_rim / scale, 0.0, 1.0)
+
+
+def view_subsets(views: int) -> list[tuple[int, ...]]:
+    """The sets of view indices scored: all ``views``, and spread subsets of 2 and 3.
+
+    Models are rotated at random before they are viewed, so which fixed directions are kept
+    does not matter, only how many (and that they are spread: every other one).
+    """
+    subsets = [tuple(range(views))]
+    for count in (3, 2):
+        if views > count:
+            subsets.append(tuple(range(0, views, views // count))[:count])
+    return subsets
+
+
+def best_entry_distances(
+    queries: np.ndarray, entries: np.ndarray, owners: np.ndarray, models: int
+) -> np.ndarray:
+    """Distance ``(q, models)`` from each query to each model's nearest entry (best view).
+
+    Parameters
+    ----------
+    queries : (q, d) float
+    entries : (e, d) float
+    owners : (e,) int
+        The model (0 .. models - 1) each entry belongs to.
+    """
+    distances = pairwise_distances(queries, entries)
+    best = np.full((len(queries), models), np.inf)
+    for model in range(models):
+        mine = owners == model
+        if mine.any():
+            best[:, model] = distances[:, mine].min(axis=1)
+    return best
+
+
+@dataclass
+class Described:
+    """The descriptor variants of one sampling of one model, and what it cost."""
+
+    descriptors: dict[str, np.ndarray]
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def describe(
+    model: Model, kind: str, settings: EngineSettings, cache_dir: Path | None, factory: Any
+) -> Described:
+    """Every ``DESCRIPTORS`` variant of ``model`` under scan ``kind`` (``clean`` too)."""
+    sampling = sampling_of(settings, ROTATION_SEED, kind)
+    store = describe_sampling(model, sampling, settings, cache_dir, factory)
+    result = run_variants(store, {"default": settings})["default"]
+    if store.changed and cache_dir is not None:
+        store.save(cache_dir / sampling.cache_name(model.sha256))
+    values, vectors = store.eigenvalues[: result.n], store.eigenvectors[:, : result.n]
+    points, _ = _sample_points(model, sampling, settings.min_points)
+    started = time.perf_counter()
+    weights = boundary_weights(points)
+    weight_seconds = time.perf_counter() - started
+    descriptors = {}
+    for name, (descriptor, down_weight) in DESCRIPTORS.items():
+        areas = store.areas * weights if down_weight else store.areas
+        variant = replace(settings, descriptor=descriptor)
+        descriptors[name] = descriptor_from_eigenpairs(values, vectors, areas, variant)[1]
+    seconds = {
+        "load": store.timings.get("load", 0.0),
+        "laplacian": store.timings.get("laplacian", 0.0),
+        "eigensolve": result.eigensolve_seconds,
+        "descriptor": result.descriptor_seconds,
+        "boundary": weight_seconds,
+    }
+    return Described(descriptors=descriptors, seconds=seconds)
+
+
+def _scores(
+    queries: dict[str, Described],
+    catalogue: dict[str, list[Described]],
+    labels: dict[str, str],
+    descriptor: str,
+) -> dict[str, float]:
+    names = sorted(catalogue)
+    query_names = sorted(queries)
+    entries, owners = [], []
+    for index, name in enumerate(names):
+        for entry in catalogue[name]:
+            entries.append(entry.descriptors[descriptor])
+            owners.append(index)
+    distances = best_entry_distances(
+        np.array([queries[q].descriptors[descriptor] for q in query_names]),
+        np.array(entries), np.array(owners), len(names),
+    )
+    exclude = np.array([[q == d for d in names] for q in query_names])
+    relevance = ranked_relevance(
+        distances, [labels[q] for q in query_names], [labels[d] for d in names], exclude
+    )
+    return score_rankings(relevance)
+
+
+def run(
+    dataset_root: str | Path,
+    out: str | Path,
+    per_class: int | None = 2,
+    views: int = 6,
+    query_kinds: tuple[str, ...] = QUERY_KINDS,
+    points: int = EVAL_POINTS,
+) -> dict[str, Any]:
+    """Describe catalogue and queries, score every (mode, descriptor, query kind)."""
+    from core.eigen import SpectralSolver, pin_blas_threads
+
+    out = Path(out)
+    cache_dir = out / "cache"
+    dataset = load_dataset(dataset_root, per_class)
+    labels = {m.name: m.label for m in dataset.models}
+    settings = EngineSettings(max_points=points)
+    factory = lambda stiffness, mass: SpectralSolver(stiffness, mass)  # noqa: E731
+    kinds = ["clean", *[view_kind(i, views) for i in range(views)], *query_kinds]
+    described: dict[str, dict[str, Described]] = {kind: {} for kind in kinds}
+    failures = []
+    started = time.perf_counter()
+    with pin_blas_threads():
+        for number, model in enumerate(dataset.models, 1):
+            for kind in kinds:
+                try:
+                    described[kind][model.name] = describe(
+                        model, kind, settings, cache_dir, factory
+                    )
+                except (InvalidShapeError, SolverError, ValueError, RuntimeError) as error:
+                    failures.append(f"{model.name} ({kind}): {error}")
+            print(f"  [{number}/{len(dataset.models)}] {time.perf_counter() - started:.0f} s",
+                  file=sys.stderr, flush=True)
+    catalogues = {"global": {m: [d] for m, d in described["clean"].items()}}
+    for subset in view_subsets(views):
+        chosen = [view_kind(i, views) for i in subset]
+        catalogues[f"views{len(subset)}"] = {
+            m: [d, *(described[v][m] for v in chosen if m in described[v])]
+            for m, d in described["clean"].items()
+        }
+    scores: dict[str, Any] = {}
+    for mode, catalogue in catalogues.items():
+        for descriptor in DESCRIPTORS:
+            for kind in query_kinds:
+                scores[f"{mode}|{descriptor}|{kind}"] = _scores(
+                    described[kind], catalogue, labels, descriptor
+                )
+    record = {
+        "dataset": str(dataset_root),
+        "models": len(dataset.models),
+        "classes": len(set(dataset.labels)),
+        "per_class": per_class,
+        "views": views,
+        "points": points,
+        "scores": scores,
+        "seconds": {kind: _mean_seconds(described[kind]) for kind in kinds},
+        "failures": failures,
+        "wall_seconds": time.perf_counter() - started,
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "scan_retrieval.json").write_text(json.dumps(record, indent=1))
+    # Every descriptor, for analyses after the fact: key "<kind>|<descriptor>|<model>".
+    np.savez_compressed(out / "scan_retrieval_descriptors.npz", **{
+        f"{kind}|{name}|{model}": vector
+        for kind, by_model in described.items() for model, entry in by_model.items()
+        for name, vector in entry.descriptors.items()
+    })
+    return record
+
+
+def _mean_seconds(described: dict[str, Described]) -> dict[str, float]:
+    keys = ("load", "laplacian", "eigensolve", "descriptor", "boundary")
+    return {k: float(np.mean([d.seconds[k] for d in described.values()])) for k in keys}
+
+
+def markdown(record: dict[str, Any]) -> str:
+    """The scores as a Markdown table: one row per (mode, descriptor), NN and mAP per kind."""
+    kinds = sorted({key.split("|")[2] for key in record["scores"]},
+                   key=lambda k: QUERY_KINDS.index(k) if k in QUERY_KINDS else 99)
+    header = "| mode | descriptor | " + " | ".join(f"{k} NN | {k} mAP" for k in kinds) + " |"
+    lines = [header, "|" + "---|" * (2 + 2 * len(kinds))]
+    rows = sorted({tuple(key.split("|")[:2]) for key in record["scores"]})
+    for mode, descriptor in rows:
+        cells = []
+        for kind in kinds:
+            score = record["scores"][f"{mode}|{descriptor}|{kind}"]
+            cells += [f"{score['nn']:.3f}", f"{score['map']:.3f}"]
+        lines.append(f"| {mode} | {descriptor} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m core.evaluation.scan_retrieval DATASET --out OUT``."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("dataset")
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--per-class", type=int, default=2,
+                        help="seeded subset of models per class (0: all)")
+    parser.add_argument("--views", type=int, default=6)
+    args = parser.parse_args(argv)
+    record = run(args.dataset, args.out, args.per_class or None, args.views)
+    print(markdown(record))
+    print(json.dumps(record["seconds"], indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
