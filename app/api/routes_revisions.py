@@ -22,8 +22,8 @@ from sqlalchemy.orm import Session
 
 from app.api.auth import TenantDep
 from app.api.deps import ServicesDep, SessionDep
-from app.api.problems import Problem, problem_responses
 from app.api.inputs import InputLimits, invalid_input
+from app.api.problems import Problem, problem_responses
 from app.api.routes_models import _uuid_or_none, load_model
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
 from app.api.uploads import CheckedUpload, read_checked_upload
