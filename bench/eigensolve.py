@@ -15,6 +15,10 @@ adaptive descriptor's own peak; the later peaks include (b) and (a).
 the previous banded solver (SuperLU LDL^T per shift), the current one (QDLDL LDL^T per shift)
 and stock ``eigsh(L, n, M, sigma)``, interleaved and repeated (the medians are printed).
 
+``--predict`` describes every part twice at each point count: seeded, then with a cutoff
+predictor fitted on all the other parts (leave one out); it prints prediction hits, solver
+calls and eigen-solve seconds of both paths, and checks that n is the same.
+
 Usage::
 
     /work/venv/bin/python bench/eigensolve.py                 # all parts, 20k and 50k points
@@ -22,6 +26,7 @@ Usage::
     /work/venv/bin/python bench/eigensolve.py --points 20000 --models bunny teapot
     nice -n 10 .venv/bin/python bench/eigensolve.py --compare --points 3000 5000 20000 \
         --models angle_block bunny teapot plate_holes cycloidal
+    nice -n 10 .venv/bin/python bench/eigensolve.py --predict --points 3000
 """
 
 from __future__ import annotations
@@ -210,6 +215,64 @@ def print_compare_summary(rows: list[dict], max_points: int) -> None:
     )
 
 
+def run_predict(paths: list[Path], max_points: int) -> None:
+    """Seeded vs leave-one-out predicted cutoff on every part, in this process."""
+    from core.cutoff_predictor import CutoffPredictor
+    from core.eigen import pin_blas_threads
+    from core.pipeline import describe
+    from core.settings import EngineSettings
+
+    settings = EngineSettings(max_points=max_points)
+    seeded = {}
+    with pin_blas_threads():
+        for path in paths:
+            try:
+                seeded[path.stem] = describe(path, settings)
+            except Exception as error:  # an edge case the engine refuses: not this bench's job
+                print(f"{path.stem:<22} skipped: {error}", flush=True)
+        names = list(seeded)
+        features = np.array([seeded[name].features for name in names])
+        counts = np.array([seeded[name].cutoff.n for name in names])
+        rows = []
+        for index, name in enumerate(names):
+            others = np.arange(len(names)) != index
+            predictor = CutoffPredictor().fit(features[others], counts[others])
+            path = next(path for path in paths if path.stem == name)
+            predicted = describe(path, settings, predictor=predictor)
+            before = seeded[name]
+            rows.append(
+                {
+                    "n": before.cutoff.n,
+                    "same_n": predicted.cutoff.n == before.cutoff.n,
+                    "prediction": predicted.cutoff.prediction,
+                    "held": bool(predicted.cutoff.prediction_held),
+                    "seeded_calls": before.cutoff.solver_calls,
+                    "predicted_calls": predicted.cutoff.solver_calls,
+                    "seeded_s": before.timings["eigensolve"],
+                    "predicted_s": predicted.timings["eigensolve"],
+                }
+            )
+            row = rows[-1]
+            print(
+                f"{name:<22} n={row['n']:>3} prediction {row['prediction']:>3} "
+                f"held={row['held']!s:<5} same n={row['same_n']!s:<5} calls seeded "
+                f"{row['seeded_calls']} predicted {row['predicted_calls']}  eigensolve "
+                f"{row['seeded_s']:.2f}s -> {row['predicted_s']:.2f}s",
+                flush=True,
+            )
+    if rows:
+        print(
+            f"\n{max_points} points, {len(rows)} parts: prediction held "
+            f"{sum(row['held'] for row in rows)}/{len(rows)}, same n "
+            f"{sum(row['same_n'] for row in rows)}/{len(rows)}, mean calls seeded "
+            f"{statistics.mean(row['seeded_calls'] for row in rows):.2f} predicted "
+            f"{statistics.mean(row['predicted_calls'] for row in rows):.2f}, median eigensolve "
+            f"seeded {statistics.median(row['seeded_s'] for row in rows):.2f}s predicted "
+            f"{statistics.median(row['predicted_s'] for row in rows):.2f}s",
+            flush=True,
+        )
+
+
 def spawn_worker(path: Path, max_points: int, compare: bool = False) -> dict:
     """Run ``run_worker`` (or ``run_compare``) in a child process and return its JSON result."""
     command = [sys.executable, __file__, "--worker", str(path), str(max_points)]
@@ -277,6 +340,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--models", nargs="+", help="part file stems (default: all)")
     parser.add_argument("--quick", action="store_true", help="3 models, 20k points")
     parser.add_argument("--compare", action="store_true", help="old vs new banded vs stock")
+    parser.add_argument("--predict", action="store_true", help="seeded vs predicted cutoff")
     parser.add_argument("--json", type=Path, help="also write the rows to this file")
     parser.add_argument("--worker", nargs=2, metavar=("PATH", "POINTS"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -286,6 +350,11 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.quick:
         args.models, args.points = list(QUICK_MODELS), [20000]
+    if args.predict:
+        for max_points in args.points:
+            print(f"== max_points {max_points}: seeded vs leave-one-out predicted cutoff")
+            run_predict(part_files(args.models), max_points)
+        return 0
     rows: list[dict] = []
     for max_points in args.points:
         print(f"== max_points {max_points} (BLAS 1 thread, one worker process per run)")
