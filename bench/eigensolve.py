@@ -12,7 +12,8 @@ The worker runs (c) first and reads the peak RSS right after it, so that figure 
 adaptive descriptor's own peak; the later peaks include (b) and (a).
 
 ``--compare`` instead times, on the same (L, M) and at the same n (the adaptive cutoff's n),
-the previous banded solver (SuperLU LDL^T per shift), the current one (QDLDL LDL^T per shift)
+the previous banded solver (SuperLU LDL^T per shift, ARPACK basis 2k + 1), the current one
+(QDLDL LDL^T per shift, basis 1.5k)
 and stock ``eigsh(L, n, M, sigma)``, interleaved and repeated (the medians are printed).
 
 ``--predict`` describes every part twice at each point count: seeded, then with a cutoff
@@ -141,6 +142,7 @@ def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
     from scipy.sparse.linalg import eigsh
 
     import core.eigen._factor as factor_module
+    import core.eigen._solver as solver_module
     from core.cutoff import make_cutoff
     from core.eigen import SpectralSolver, default_shift, pin_blas_threads
     from core.io import load_points
@@ -150,7 +152,7 @@ def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
     settings = EngineSettings(max_points=max_points)
     points = load_points(path, max_points=max_points, seed=settings.sample_seed).points
     result: dict = {"model": path.stem, "max_points": max_points, "mode": "compare"}
-    new_ldl = factor_module._symmetric_ldl
+    new_ldl, new_basis = factor_module._symmetric_ldl, solver_module._BASIS_FACTOR
     with pin_blas_threads():
         start = time.perf_counter()
         _, stiffness, mass = normalised_operators(points, settings)
@@ -164,13 +166,16 @@ def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
         values: dict[str, np.ndarray] = {}
         for _ in range(repeats):
             for name in ("old", "new"):
+                # The previous solver: SuperLU LDL^T and ARPACK's default basis (2k + 1).
                 factor_module._symmetric_ldl = _superlu_ldl if name == "old" else new_ldl
+                solver_module._BASIS_FACTOR = 2.0 if name == "old" else new_basis
                 try:
                     start = time.perf_counter()
                     values[name] = SpectralSolver(stiffness, mass).solve(count)[0]
                     times[name].append(time.perf_counter() - start)
                 finally:
                     factor_module._symmetric_ldl = new_ldl
+                    solver_module._BASIS_FACTOR = new_basis
             start = time.perf_counter()
             stock = eigsh(stiffness, count, mass, sigma=default_shift(mass), which="LM")[0]
             times["stock"].append(time.perf_counter() - start)
