@@ -27,6 +27,7 @@ Usage::
     /work/venv/bin/python bench/eigensolve.py --points 20000 --models bunny teapot
     nice -n 10 .venv/bin/python bench/eigensolve.py --compare --points 3000 5000 20000 \
         --models angle_block bunny teapot plate_holes cycloidal
+    nice -n 10 .venv/bin/python bench/eigensolve.py --compare --repeats 1 --points 20000
     nice -n 10 .venv/bin/python bench/eigensolve.py --predict --points 3000
 """
 
@@ -278,10 +279,10 @@ def run_predict(paths: list[Path], max_points: int) -> None:
         )
 
 
-def spawn_worker(path: Path, max_points: int, compare: bool = False) -> dict:
+def spawn_worker(path: Path, max_points: int, compare: bool = False, repeats: int = 3) -> dict:
     """Run ``run_worker`` (or ``run_compare``) in a child process and return its JSON result."""
     command = [sys.executable, __file__, "--worker", str(path), str(max_points)]
-    command += ["--compare"] if compare else []
+    command += ["--compare", "--repeats", str(repeats)] if compare else []
     completed = subprocess.run(command, capture_output=True, text=True, check=False)
     if completed.returncode != 0:
         return {"model": path.stem, "max_points": max_points, "error": completed.stderr[-400:]}
@@ -346,12 +347,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="3 models, 20k points")
     parser.add_argument("--compare", action="store_true", help="old vs new banded vs stock")
     parser.add_argument("--predict", action="store_true", help="seeded vs predicted cutoff")
+    parser.add_argument("--repeats", type=int, default=3, help="--compare repeats per solver")
     parser.add_argument("--json", type=Path, help="also write the rows to this file")
     parser.add_argument("--worker", nargs=2, metavar=("PATH", "POINTS"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
-        run = run_compare if args.compare else run_worker
-        print(json.dumps(run(Path(args.worker[0]), int(args.worker[1]))))
+        path, points = Path(args.worker[0]), int(args.worker[1])
+        row = run_compare(path, points, args.repeats) if args.compare else run_worker(path, points)
+        print(json.dumps(row))
         return 0
     if args.quick:
         args.models, args.points = list(QUICK_MODELS), [20000]
@@ -364,7 +367,7 @@ def main(argv: list[str] | None = None) -> int:
     for max_points in args.points:
         print(f"== max_points {max_points} (BLAS 1 thread, one worker process per run)")
         for path in part_files(args.models):
-            row = spawn_worker(path, max_points, args.compare)
+            row = spawn_worker(path, max_points, args.compare, args.repeats)
             rows.append(row)
             (print_compare if args.compare else print_row)(row)
         (print_compare_summary if args.compare else print_summary)(rows, max_points)
