@@ -117,9 +117,11 @@ def model_columns(description: Description, hks_times: Sequence[float]) -> dict[
 class CutoffPredictorCache:
     """A ``CutoffPredictor`` fitted on the stored ready models of one descriptor version.
 
-    Refitted at most every ``refresh_seconds`` (models keep arriving), from the features and
-    n each model's cutoff record holds; with no such models ``predictor()`` gives None and the
-    cutoff runs its seed round. Safe to share between worker threads.
+    Refitted from the features and n each model's cutoff record holds: on every job while
+    fewer than ``eager_below`` models train it (a young catalogue learns at once, and the
+    query is small), then every ``refresh_seconds`` (models keep arriving). With no such
+    models ``predictor()`` gives None and the cutoff runs its seed round. Safe to share
+    between worker threads.
 
     Parameters
     ----------
@@ -131,6 +133,8 @@ class CutoffPredictorCache:
         Age after which the next ``predictor()`` call refits.
     limit : int
         Most recent models used (bounds memory and fit time on a large catalogue).
+    eager_below : int
+        Below this many training models, refit on every call.
     """
 
     def __init__(
@@ -140,11 +144,13 @@ class CutoffPredictorCache:
         *,
         refresh_seconds: float = 300.0,
         limit: int = 5000,
+        eager_below: int = 100,
     ) -> None:
         self.sessions = sessions
         self.descriptor_version = descriptor_version
         self.refresh_seconds = refresh_seconds
         self.limit = limit
+        self.eager_below = eager_below
         self._lock = threading.Lock()
         self._fitted_at = -float("inf")
         self._predictor: CutoffPredictor | None = None
@@ -152,7 +158,9 @@ class CutoffPredictorCache:
     def predictor(self) -> CutoffPredictor | None:
         """The current predictor (refitted if stale), or None while there is no data."""
         with self._lock:
-            if time.monotonic() - self._fitted_at >= self.refresh_seconds:
+            known = 0 if self._predictor is None else self._predictor.n_samples_
+            stale = time.monotonic() - self._fitted_at >= self.refresh_seconds
+            if stale or known < self.eager_below:
                 self._fitted_at = time.monotonic()
                 try:
                     self._predictor = self._fit()

@@ -12,8 +12,13 @@ The worker runs (c) first and reads the peak RSS right after it, so that figure 
 adaptive descriptor's own peak; the later peaks include (b) and (a).
 
 ``--compare`` instead times, on the same (L, M) and at the same n (the adaptive cutoff's n),
-the previous banded solver (SuperLU LDL^T per shift), the current one (QDLDL LDL^T per shift)
+the previous banded solver (SuperLU LDL^T per shift, ARPACK basis 2k + 1), the current one
+(QDLDL LDL^T per shift, basis 1.5k)
 and stock ``eigsh(L, n, M, sigma)``, interleaved and repeated (the medians are printed).
+
+``--predict`` describes every part twice at each point count: seeded, then with a cutoff
+predictor fitted on all the other parts (leave one out); it prints prediction hits, solver
+calls and eigen-solve seconds of both paths, and checks that n is the same.
 
 Usage::
 
@@ -22,6 +27,8 @@ Usage::
     /work/venv/bin/python bench/eigensolve.py --points 20000 --models bunny teapot
     nice -n 10 .venv/bin/python bench/eigensolve.py --compare --points 3000 5000 20000 \
         --models angle_block bunny teapot plate_holes cycloidal
+    nice -n 10 .venv/bin/python bench/eigensolve.py --compare --repeats 1 --points 20000
+    nice -n 10 .venv/bin/python bench/eigensolve.py --predict --points 3000
 """
 
 from __future__ import annotations
@@ -136,6 +143,7 @@ def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
     from scipy.sparse.linalg import eigsh
 
     import core.eigen._factor as factor_module
+    import core.eigen._solver as solver_module
     from core.cutoff import make_cutoff
     from core.eigen import SpectralSolver, default_shift, pin_blas_threads
     from core.io import load_points
@@ -145,7 +153,7 @@ def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
     settings = EngineSettings(max_points=max_points)
     points = load_points(path, max_points=max_points, seed=settings.sample_seed).points
     result: dict = {"model": path.stem, "max_points": max_points, "mode": "compare"}
-    new_ldl = factor_module._symmetric_ldl
+    new_ldl, new_basis = factor_module._symmetric_ldl, solver_module._BASIS_FACTOR
     with pin_blas_threads():
         start = time.perf_counter()
         _, stiffness, mass = normalised_operators(points, settings)
@@ -159,13 +167,16 @@ def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
         values: dict[str, np.ndarray] = {}
         for _ in range(repeats):
             for name in ("old", "new"):
+                # The previous solver: SuperLU LDL^T and ARPACK's default basis (2k + 1).
                 factor_module._symmetric_ldl = _superlu_ldl if name == "old" else new_ldl
+                solver_module._BASIS_FACTOR = 2.0 if name == "old" else new_basis
                 try:
                     start = time.perf_counter()
                     values[name] = SpectralSolver(stiffness, mass).solve(count)[0]
                     times[name].append(time.perf_counter() - start)
                 finally:
                     factor_module._symmetric_ldl = new_ldl
+                    solver_module._BASIS_FACTOR = new_basis
             start = time.perf_counter()
             stock = eigsh(stiffness, count, mass, sigma=default_shift(mass), which="LM")[0]
             times["stock"].append(time.perf_counter() - start)
@@ -210,10 +221,68 @@ def print_compare_summary(rows: list[dict], max_points: int) -> None:
     )
 
 
-def spawn_worker(path: Path, max_points: int, compare: bool = False) -> dict:
+def run_predict(paths: list[Path], max_points: int) -> None:
+    """Seeded vs leave-one-out predicted cutoff on every part, in this process."""
+    from core.cutoff_predictor import CutoffPredictor
+    from core.eigen import pin_blas_threads
+    from core.pipeline import describe
+    from core.settings import EngineSettings
+
+    settings = EngineSettings(max_points=max_points)
+    seeded = {}
+    with pin_blas_threads():
+        for path in paths:
+            try:
+                seeded[path.stem] = describe(path, settings)
+            except Exception as error:  # an edge case the engine refuses: not this bench's job
+                print(f"{path.stem:<22} skipped: {error}", flush=True)
+        names = list(seeded)
+        features = np.array([seeded[name].features for name in names])
+        counts = np.array([seeded[name].cutoff.n for name in names])
+        rows = []
+        for index, name in enumerate(names):
+            others = np.arange(len(names)) != index
+            predictor = CutoffPredictor().fit(features[others], counts[others])
+            path = next(path for path in paths if path.stem == name)
+            predicted = describe(path, settings, predictor=predictor)
+            before = seeded[name]
+            rows.append(
+                {
+                    "n": before.cutoff.n,
+                    "same_n": predicted.cutoff.n == before.cutoff.n,
+                    "prediction": predicted.cutoff.prediction,
+                    "held": bool(predicted.cutoff.prediction_held),
+                    "seeded_calls": before.cutoff.solver_calls,
+                    "predicted_calls": predicted.cutoff.solver_calls,
+                    "seeded_s": before.timings["eigensolve"],
+                    "predicted_s": predicted.timings["eigensolve"],
+                }
+            )
+            row = rows[-1]
+            print(
+                f"{name:<22} n={row['n']:>3} prediction {row['prediction']:>3} "
+                f"held={row['held']!s:<5} same n={row['same_n']!s:<5} calls seeded "
+                f"{row['seeded_calls']} predicted {row['predicted_calls']}  eigensolve "
+                f"{row['seeded_s']:.2f}s -> {row['predicted_s']:.2f}s",
+                flush=True,
+            )
+    if rows:
+        print(
+            f"\n{max_points} points, {len(rows)} parts: prediction held "
+            f"{sum(row['held'] for row in rows)}/{len(rows)}, same n "
+            f"{sum(row['same_n'] for row in rows)}/{len(rows)}, mean calls seeded "
+            f"{statistics.mean(row['seeded_calls'] for row in rows):.2f} predicted "
+            f"{statistics.mean(row['predicted_calls'] for row in rows):.2f}, median eigensolve "
+            f"seeded {statistics.median(row['seeded_s'] for row in rows):.2f}s predicted "
+            f"{statistics.median(row['predicted_s'] for row in rows):.2f}s",
+            flush=True,
+        )
+
+
+def spawn_worker(path: Path, max_points: int, compare: bool = False, repeats: int = 3) -> dict:
     """Run ``run_worker`` (or ``run_compare``) in a child process and return its JSON result."""
     command = [sys.executable, __file__, "--worker", str(path), str(max_points)]
-    command += ["--compare"] if compare else []
+    command += ["--compare", "--repeats", str(repeats)] if compare else []
     completed = subprocess.run(command, capture_output=True, text=True, check=False)
     if completed.returncode != 0:
         return {"model": path.stem, "max_points": max_points, "error": completed.stderr[-400:]}
@@ -277,20 +346,28 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--models", nargs="+", help="part file stems (default: all)")
     parser.add_argument("--quick", action="store_true", help="3 models, 20k points")
     parser.add_argument("--compare", action="store_true", help="old vs new banded vs stock")
+    parser.add_argument("--predict", action="store_true", help="seeded vs predicted cutoff")
+    parser.add_argument("--repeats", type=int, default=3, help="--compare repeats per solver")
     parser.add_argument("--json", type=Path, help="also write the rows to this file")
     parser.add_argument("--worker", nargs=2, metavar=("PATH", "POINTS"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
-        run = run_compare if args.compare else run_worker
-        print(json.dumps(run(Path(args.worker[0]), int(args.worker[1]))))
+        path, points = Path(args.worker[0]), int(args.worker[1])
+        row = run_compare(path, points, args.repeats) if args.compare else run_worker(path, points)
+        print(json.dumps(row))
         return 0
     if args.quick:
         args.models, args.points = list(QUICK_MODELS), [20000]
+    if args.predict:
+        for max_points in args.points:
+            print(f"== max_points {max_points}: seeded vs leave-one-out predicted cutoff")
+            run_predict(part_files(args.models), max_points)
+        return 0
     rows: list[dict] = []
     for max_points in args.points:
         print(f"== max_points {max_points} (BLAS 1 thread, one worker process per run)")
         for path in part_files(args.models):
-            row = spawn_worker(path, max_points, args.compare)
+            row = spawn_worker(path, max_points, args.compare, args.repeats)
             rows.append(row)
             (print_compare if args.compare else print_row)(row)
         (print_compare_summary if args.compare else print_summary)(rows, max_points)

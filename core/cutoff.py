@@ -14,7 +14,8 @@ contribution, and because its window is set by ``n`` itself, not by how many eig
 happen to be computed, the same model always gets the same ``n``.
 
 ``AdaptiveCutoff.select`` computes a seed of eigenvalues (or, given a predicted ``n``, goes
-straight to ``prediction + margin``), evaluates the rule on every ``n`` whose window is
+straight to ``prediction + 2 margin``: the window of ``n`` reaches ``n + margin``, so this
+absorbs a prediction up to ``margin`` too low), evaluates the rule on every ``n`` whose window is
 computed, and when ``n*`` lies beyond them asks the solver for more: up to the ``n`` that the
 fit of all computed eigenvalues extrapolates, plus ``margin``. On Weyl-like spectra that is
 the seed plus one solver call, or a single call when the prediction was right. A wrong
@@ -75,7 +76,7 @@ class CutoffResult:
     prediction : int or None
         ``n`` predicted before the solve (``core.cutoff_predictor``), None without one.
     prediction_held : bool or None
-        Whether the first call, to ``prediction + margin``, decided ``n`` (None without one).
+        Whether the first call, to ``prediction + 2 margin``, decided ``n`` (None without one).
     """
 
     mode: str
@@ -199,12 +200,14 @@ class AdaptiveCutoff:
         solver : EigenSolver
         prediction : int, optional
             ``n`` expected for this model (``core.cutoff_predictor``): the first call asks
-            for ``prediction + margin`` instead of the seed. It changes the calls, not ``n``.
+            for ``prediction + 2 margin`` instead of the seed. It changes the calls, not ``n``.
         """
         calls_before = solver.solver_calls_
         first = self.seed
         if prediction is not None:
-            first = int(np.clip(int(prediction) + self.margin, self.seed, self.n_max))
+            # Deciding n needs its window, up to n + margin: one more margin absorbs a
+            # prediction that is up to margin too low (measured: most misses were).
+            first = int(np.clip(int(prediction) + 2 * self.margin, self.seed, self.n_max))
         eigenvalues, complete = self._solve(solver, first)
         predictions: list[int] = []
         n = self.decide(eigenvalues, complete)

@@ -1,7 +1,7 @@
 """Predict the adaptive cutoff's n before the solve, from models already described.
 
 The paper's closing idea: once a database holds described models, a new shape's n can be
-guessed from cheap features, and the cutoff can solve straight to ``prediction + margin``
+guessed from cheap features, and the cutoff can solve straight to ``prediction + 2 margin``
 instead of a seed round followed by a second call. ``core.cutoff.AdaptiveCutoff`` checks the
 rule on what was computed and continues if needed, so a prediction only changes the number
 of solver calls, never n.

@@ -167,3 +167,9 @@ def test_multi_component_shape_zero_eigenvalues_and_continued_rounds():
     for cluster in clusters(reference_values)[:-1]:
         overlap = reference_vectors[:, cluster].T @ (mass @ eigenvectors[:, cluster])
         assert np.linalg.svd(overlap, compute_uv=False).min() > 1 - 1e-6
+
+
+def test_a_shift_on_an_eigenvalue_is_refused_not_miscounted(torus):
+    # L is singular (constants): at s = 0 neither LDL^T nor pivoting LU solves accurately.
+    with pytest.raises(SolverError, match="factorisation"):
+        factorise_shifted(*torus, 0.0)

@@ -4,11 +4,11 @@ QDLDL (the sparse LDL^T of the OSQP project) computes K = P^T L D L^T P with an 
 fill-reducing ordering and no pivoting. By Sylvester's law of inertia the number of negative
 entries of D is the exact number of eigenvalues of L phi = lambda M phi below s (M is
 positive definite). The same factorisation applies (L - s M)^-1 for shift-invert Lanczos;
-its factorisation and triangular solves are 2-2.5x faster than SuperLU's on these matrices
-(bench/eigensolve.py), and the solves dominate a Lanczos band. Without pivoting the
-factorisation of an indefinite K can be unstable, so every factorisation is checked on a
-random right-hand side; if the check fails we fall back to SuperLU's partial pivoting, which
-solves accurately but gives no inertia.
+its factorisation and triangular solves were about 2x faster than SuperLU's at 5000 points,
+and the solves dominate a Lanczos band (whole solve 1.3-1.5x, bench/eigensolve.py
+--compare). Without pivoting the factorisation of an indefinite K can be unstable, so every
+factorisation is checked on a random right-hand side; if the check fails we fall back to
+SuperLU's partial pivoting, which solves accurately but gives no inertia.
 """
 
 from __future__ import annotations

@@ -47,6 +47,11 @@ _FIRST_SHIFT = -1e-3
 _EXTRA = 4
 # Nudge of a shift that hit an eigenvalue, in units of the local mean gap.
 _NUDGE = 1e-3
+# Lanczos basis size of a band, in units of the eigenpairs asked: ARPACK's default (2k + 1)
+# spends more on orthogonalising the basis than the extra vectors save in restarts; 1.5k was
+# about 20 % faster at 3000 points (three parts, bench notes of issue 7). Exactness is
+# unchanged: ARPACK still converges to tol=0 and the inertia count certifies the band.
+_BASIS_FACTOR = 1.5
 
 
 @dataclass(frozen=True)
@@ -105,9 +110,17 @@ def _m_normalised(vectors: np.ndarray, mass: sp.spmatrix) -> np.ndarray:
 
 
 def _lanczos(
-    stiffness: sp.spmatrix, mass: sp.spmatrix, count: int, factor: ShiftFactorisation, seed: int
+    stiffness: sp.spmatrix,
+    mass: sp.spmatrix,
+    count: int,
+    factor: ShiftFactorisation,
+    seed: int,
+    basis: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The ``count`` eigenpairs nearest ``factor.shift``, ascending, M-normalised."""
+    """The ``count`` eigenpairs nearest ``factor.shift``, ascending, M-normalised.
+
+    ``basis`` is ARPACK's ``ncv`` (None: its default, 2 count + 1).
+    """
     try:
         values, vectors = eigsh(
             stiffness,
@@ -117,6 +130,7 @@ def _lanczos(
             which="LM",
             OPinv=factor.inverse_operator(),
             v0=_start_vector(stiffness.shape[0], seed),
+            ncv=basis,
             tol=0.0,
         )
     except (ArpackNoConvergence, ArpackError) as error:
@@ -366,8 +380,12 @@ class SpectralSolver:
             attempt.shift += _NUDGE * mean_gap(self.eigenvalues_, self._weyl_gap)
             return
         attempt.factor_seconds += seconds
+        requested = attempt.requested
+        # Never above ARPACK's default (2k + 1, at least 20): small bands keep it.
+        basis = max(int(_BASIS_FACTOR * requested) + 1, requested + 20)
+        basis = min(self._size - 1, basis, max(2 * requested + 1, 20))
         values, vectors = _lanczos(
-            self.stiffness, self.mass, attempt.requested, factor, seed=len(self.bands_)
+            self.stiffness, self.mass, requested, factor, seed=len(self.bands_), basis=basis
         )
         # Inertia counts the eigenvalues below s: the known ones plus those in [lower, s). If
         # the band holds all of the latter, no eigenvalue hides between bound and window.
