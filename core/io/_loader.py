@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import InvalidShapeError
-from core.io._formats import TEXT_POINT_FORMATS, detect_format
+from core.io._cad import read_cad
+from core.io._formats import CAD_FORMATS, TEXT_POINT_FORMATS, detect_format
 from core.io._meshes import RawGeometry, read_mesh
 from core.io._pcd import read_pcd
 from core.io._pointfiles import read_npy, read_text_points
@@ -70,6 +71,8 @@ def _parse(data: bytes, fmt: str) -> RawGeometry:
         return RawGeometry(read_pcd(data), no_faces)
     if fmt == "npy":
         return RawGeometry(read_npy(data), no_faces)
+    if fmt in CAD_FORMATS:
+        return read_cad(data, fmt)
     return read_mesh(data, fmt)
 
 
