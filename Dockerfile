@@ -12,7 +12,11 @@ COPY pyproject.toml README.md ./
 COPY core ./core
 COPY app ./app
 COPY migrations ./migrations
-RUN pip install . && rm -rf /src
+# With the cad extra the image reads STEP and IGES (OpenCascade); its VTK dependency links
+# libGL and libX11, which the slim image lacks (nothing is displayed).
+RUN apt-get update && apt-get install -y --no-install-recommends libgl1 libx11-6 \
+    && rm -rf /var/lib/apt/lists/*
+RUN pip install '.[cad]' && rm -rf /src
 
 RUN useradd --create-home --uid 10001 shapesearch
 USER shapesearch

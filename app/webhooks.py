@@ -3,7 +3,9 @@
     record_model_event  writes one delivery row per subscribed endpoint, inside the caller's
                         transaction (the change and its event commit together: the outbox)
     check_target        http(s) only; private, loopback and link-local addresses refused
-                        unless SHAPESEARCH_WEBHOOK_ALLOW_PRIVATE=true
+                        unless SHAPESEARCH_WEBHOOK_ALLOW_PRIVATE=true; the request then goes
+                        to the checked address (``pinned``), so DNS cannot swap it after the
+                        check
     Deliverer           claims due deliveries under a lease (like jobs), POSTs them signed
                         per Standard Webhooks, logs every attempt, retries with capped
                         exponential backoff; a deliverer that dies mid-way loses its lease
@@ -46,6 +48,7 @@ __all__ = [
     "TargetRefused",
     "check_target",
     "new_secret",
+    "pinned",
     "record_model_event",
     "start_delivery_thread",
     "valid_secret",
@@ -137,9 +140,13 @@ def valid_secret(secret: str) -> bool:
     return len(raw) >= 16
 
 
-def check_target(url: str, *, allow_private: bool) -> None:
-    """Refuse URLs the service must not call: not http(s), no host, or (unless
-    ``allow_private``) a host that resolves to a non-public address."""
+def check_target(url: str, *, allow_private: bool) -> str | None:
+    """Refuse URLs the service must not call: not http(s), no host, credentials, or (unless
+    ``allow_private``) a host that resolves to a non-public address.
+
+    Returns the checked address to connect to (None with ``allow_private``), so that the
+    request cannot be sent to another address by a second, different DNS answer.
+    """
     parts = urlsplit(url)
     if parts.scheme not in ("http", "https"):
         raise TargetRefused("the URL must be http:// or https://")
@@ -148,19 +155,36 @@ def check_target(url: str, *, allow_private: bool) -> None:
     if parts.username or parts.password:
         raise TargetRefused("the URL must not carry credentials")
     if allow_private:
-        return
+        return None
     try:
         port = parts.port or (443 if parts.scheme == "https" else 80)
         infos = socket.getaddrinfo(parts.hostname, port, proto=socket.IPPROTO_TCP)
     except (OSError, ValueError) as error:
         raise TargetRefused(f"the host {parts.hostname!r} cannot be resolved: {error}") from None
-    for info in infos:
-        address = ipaddress.ip_address(info[4][0])
+    addresses = [ipaddress.ip_address(info[4][0]) for info in infos]
+    for address in addresses:
         if not address.is_global:
             raise TargetRefused(
                 f"the host {parts.hostname!r} resolves to the non-public address {address}; "
                 "set SHAPESEARCH_WEBHOOK_ALLOW_PRIVATE=true to allow private targets"
             )
+    if not addresses:
+        raise TargetRefused(f"the host {parts.hostname!r} has no address")
+    return str(addresses[0])
+
+
+def pinned(url: str, address: str | None) -> tuple[str, dict[str, str], dict[str, Any]]:
+    """The URL aimed at ``address`` with the Host header and TLS server name of the original
+    host (certificates are still verified against that name). None: the URL unchanged."""
+    if address is None:
+        return url, {}, {}
+    parts = urlsplit(url)
+    host = parts.hostname or ""
+    literal = f"[{address}]" if ":" in address else address
+    netloc = literal if parts.port is None else f"{literal}:{parts.port}"
+    host_header = host if parts.port is None else f"{host}:{parts.port}"
+    extensions = {"sni_hostname": host} if parts.scheme == "https" else {}
+    return parts._replace(netloc=netloc).geturl(), {"host": host_header}, extensions
 
 
 # --- delivering -----------------------------------------------------------------------
@@ -265,7 +289,8 @@ class Deliverer:
     def send(self, claimed: _Claimed) -> _Outcome:
         started = time.perf_counter()
         try:
-            check_target(claimed.url, allow_private=self.allow_private)
+            address = check_target(claimed.url, allow_private=self.allow_private)
+            url, host_header, extensions = pinned(claimed.url, address)
             body = json.dumps(claimed.payload, separators=(",", ":"))
             now = utcnow()
             headers = {
@@ -274,8 +299,11 @@ class Deliverer:
                 "webhook-id": str(claimed.id),
                 "webhook-timestamp": str(int(now.timestamp())),
                 "webhook-signature": Signer(claimed.secret).sign(str(claimed.id), now, body),
+                **host_header,
             }
-            response = self.client.post(claimed.url, content=body.encode(), headers=headers)
+            response = self.client.post(
+                url, content=body.encode(), headers=headers, extensions=extensions
+            )
         except (httpx.HTTPError, TargetRefused, OSError) as error:
             elapsed = (time.perf_counter() - started) * 1000
             return _Outcome(None, f"{type(error).__name__}: {error}"[:2000], elapsed)

@@ -39,6 +39,7 @@ class InvalidShapeError(ShapeSearchError):
         "too_few_points",
         "degenerate",
         "too_large",
+        "cad_unavailable",
     )
 
     def __init__(self, reason: str, message: str) -> None:

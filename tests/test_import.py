@@ -133,3 +133,44 @@ def test_an_unreachable_service_fails_with_a_clear_error(
                  "--retries", "1", "--report", str(tmp_path / "r.csv")])
     assert code == 2
     assert "error" in capsys.readouterr().err.lower()
+
+
+def test_the_client_retries_429_and_503_then_succeeds() -> None:
+    from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+    from app.importer import ImportOptions, _Client
+
+    answers = [(429, {"Retry-After": "0"}), (503, {}), (200, {})]
+    seen: list[str] = []
+
+    class Flaky(BaseHTTPRequestHandler):
+        def do_GET(self) -> None:  # noqa: N802 (http.server's naming)
+            seen.append(self.path)
+            status, headers = answers.pop(0) if answers else (200, {})
+            self.send_response(status)
+            for name, value in headers.items():
+                self.send_header(name, value)
+            self.send_header("content-length", "2")
+            self.end_headers()
+            self.wfile.write(b"{}")
+
+        def log_message(self, *args: object) -> None:
+            pass
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Flaky)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        url = f"http://127.0.0.1:{server.server_address[1]}"
+        client = _Client(ImportOptions(url=url, retries=3))
+        assert client.request("GET", "/v1/models").status_code == 200
+        assert len(seen) == 3
+        answers[:] = [(503, {}), (503, {})]
+        seen.clear()
+        client.retries = 1  # gives up: the last answer is returned
+        assert client.request("GET", "/v1/models").status_code == 503
+        assert len(seen) == 2
+        client.close()
+    finally:
+        server.shutdown()
+        server.server_close()

@@ -198,3 +198,34 @@ def test_redescribe_makes_a_new_job_and_stats_count_versions(client: TestClient)
     assert stats["jobs_by_status"] == {"done": 2}
     assert stats["current_descriptor_version"] != "fake-1"
     assert client.post("/v1/models/nope/redescribe").status_code == 404
+
+
+def test_jobs_webhooks_and_stats_are_per_tenant(
+    make_client: ClientFactory, database_url: str
+) -> None:
+    from app.db.session import make_engine, make_session_factory
+    from app.keys import create_key
+
+    client = make_client()  # applies the migrations
+    sessions = make_session_factory(make_engine(database_url))
+    with sessions.begin() as session:
+        acme, globex = create_key(session, "acme"), create_key(session, "globex")
+    as_acme = {"Authorization": f"Bearer {acme}"}
+    as_globex = {"Authorization": f"Bearer {globex}"}
+    model = upload(client, CUBE, headers=as_acme).json()
+    job_id = model["job"]["id"]
+    assert client.get(f"/v1/jobs/{job_id}", headers=as_acme).status_code == 200
+    assert client.get(f"/v1/jobs/{job_id}", headers=as_globex).status_code == 404
+    assert client.get("/v1/jobs", headers=as_globex).json()["items"] == []
+    assert [j["id"] for j in client.get("/v1/jobs", headers=as_acme).json()["items"]] == [job_id]
+    assert client.get("/v1/stats", headers=as_globex).json()["models"] == 0
+    assert client.get(f"/v1/models/{model['id']}/file", headers=as_globex).status_code == 404
+    assert client.post(f"/v1/models/{model['id']}/redescribe",
+                       headers=as_globex).status_code == 404
+    hook = client.post("/v1/webhooks", headers=as_acme,
+                       json={"url": "http://127.0.0.1:9/h", "events": ["model.ready"]}).json()
+    assert client.get("/v1/webhooks", headers=as_globex).json()["items"] == []
+    assert client.get(f"/v1/webhooks/{hook['id']}/deliveries",
+                      headers=as_globex).status_code == 404
+    assert client.delete(f"/v1/webhooks/{hook['id']}", headers=as_globex).status_code == 404
+    assert client.get("/v1/jobs").status_code == 401

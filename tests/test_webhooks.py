@@ -18,7 +18,7 @@ from standardwebhooks.webhooks import Webhook as Verifier
 from app.api.main import create_app
 from app.db.session import make_engine, make_session_factory
 from app.queue import JobQueue
-from app.webhooks import Deliverer
+from app.webhooks import Deliverer, TargetRefused, check_target, pinned
 from core.errors import InvalidShapeError
 
 CUBE = PARTS / "20mm-xyz-cube.stl"
@@ -170,3 +170,21 @@ def test_unsafe_targets_are_refused_and_redirects_not_followed(
     assert client.delete(f"/v1/webhooks/{hook['id']}").status_code == 204
     assert client.get(f"/v1/webhooks/{hook['id']}").status_code == 404
     assert client.delete(f"/v1/webhooks/{hook['id']}").status_code == 404
+
+
+def test_a_checked_address_is_pinned_keeping_host_and_tls_name() -> None:
+    assert pinned("https://hooks.example.com/x?a=1", "93.184.216.34") == (
+        "https://93.184.216.34/x?a=1",
+        {"host": "hooks.example.com"},
+        {"sni_hostname": "hooks.example.com"},
+    )
+    assert pinned("http://hooks.example.com:8080/x", "2606:2800:220:1::1") == (
+        "http://[2606:2800:220:1::1]:8080/x",
+        {"host": "hooks.example.com:8080"},
+        {},
+    )
+    assert pinned("http://127.0.0.1:9/x", None) == ("http://127.0.0.1:9/x", {}, {})
+    assert check_target("http://127.0.0.1:9/x", allow_private=True) is None
+    assert check_target("http://93.184.216.34/x", allow_private=False) == "93.184.216.34"
+    with pytest.raises(TargetRefused, match="non-public"):
+        check_target("http://192.168.1.20/x", allow_private=False)

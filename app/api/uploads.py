@@ -47,7 +47,9 @@ class CheckedUpload:
 
 def invalid_shape_problem(error: InvalidShapeError) -> Problem:
     """The HTTP refusal of an ``InvalidShapeError``: 415, 413 or 422 by its reason."""
-    status = {"unknown_format": 415, "too_large": 413}.get(error.reason, 422)
+    status = {"unknown_format": 415, "cad_unavailable": 415, "too_large": 413}.get(
+        error.reason, 422
+    )
     record = problem_of_reason(error.reason, error.message)
     return Problem(
         status,

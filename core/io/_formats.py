@@ -13,6 +13,7 @@ import re
 from core.errors import InvalidShapeError
 
 __all__ = [
+    "CAD_FORMATS",
     "MESH_FORMATS",
     "POINT_FORMATS",
     "SUPPORTED_FORMATS",
@@ -26,8 +27,11 @@ TEXT_POINT_FORMATS: tuple[str, ...] = ("xyz", "txt", "csv", "pts")
 POINT_FORMATS: tuple[str, ...] = (*TEXT_POINT_FORMATS, "pcd", "npy")
 #: Formats read through trimesh. PLY is here although a PLY without faces is a point cloud.
 MESH_FORMATS: tuple[str, ...] = ("stl", "obj", "off", "ply", "glb")
+#: CAD formats, tessellated through OpenCascade (optional extra); stp/igs are aliases.
+CAD_FORMATS: tuple[str, ...] = ("step", "iges")
+_CAD_ALIASES = {"stp": "step", "igs": "iges"}
 #: Every format ``load_points`` reads, named by its usual extension.
-SUPPORTED_FORMATS: tuple[str, ...] = (*MESH_FORMATS, *POINT_FORMATS)
+SUPPORTED_FORMATS: tuple[str, ...] = (*MESH_FORMATS, *POINT_FORMATS, *CAD_FORMATS)
 
 _NPY_MAGIC = b"\x93NUMPY"
 _GLB_MAGIC = b"glTF"
@@ -59,6 +63,8 @@ def _sniff(head: bytes) -> str | None:
         return "npy"
     if head.startswith(_GLB_MAGIC):
         return "glb"
+    if head.lstrip().startswith(b"ISO-10303-21;"):
+        return "step"
     stripped = head.lstrip()
     if re.match(rb"ply\s", stripped):
         return "ply"
@@ -109,6 +115,7 @@ def detect_format(filename: str | None, head: bytes) -> str:
         ``reason="unknown_format"``, listing the supported formats.
     """
     ext = _extension(filename)
+    ext = _CAD_ALIASES.get(ext or "", ext)
     if ext in SUPPORTED_FORMATS:
         return ext
     sniffed = _sniff(bytes(head[:4096]))

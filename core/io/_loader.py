@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from core.errors import InvalidShapeError
-from core.io._formats import TEXT_POINT_FORMATS, detect_format
+from core.io._cad import read_cad
+from core.io._formats import CAD_FORMATS, TEXT_POINT_FORMATS, detect_format
 from core.io._headers import check_header
 from core.io._meshes import RawGeometry, read_mesh
 from core.io._pcd import read_pcd
@@ -71,6 +72,8 @@ def _parse(data: bytes, fmt: str) -> RawGeometry:
         return RawGeometry(read_pcd(data), no_faces)
     if fmt == "npy":
         return RawGeometry(read_npy(data), no_faces)
+    if fmt in CAD_FORMATS:
+        return read_cad(data, fmt)
     check_header(data, fmt)  # before trimesh expands anything the header promises
     return read_mesh(data, fmt)
 
