@@ -53,6 +53,8 @@ function cards(results, onCompare) {
 export { cards };
 
 export async function modelPage(page, modelId) {
+  // Ask for the preview at once, alongside the model (409 while not ready: ignored then).
+  getPreview(modelId).catch(() => {});
   const model = await getJson(`/v1/models/${modelId}`);
   const main = el("div", {});
   const side = el("div", { class: "panel" }, el("h2", {}, "Facts"), facts(model), el("h2", {}, "Timings"), timings(model));
