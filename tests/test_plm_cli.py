@@ -35,11 +35,17 @@ def test_keys_are_listed_and_revoked(
     assert key[:15] in listing and "acme" in listing and other[:15] in listing
     assert key[15:] not in listing  # never the secret part
 
-    with TestClient(create_app(make_settings(database_url, workers=0))) as client:
+    cache_seconds = 0.5
+    settings = make_settings(database_url, workers=0, auth_cache_seconds=cache_seconds)
+    with TestClient(create_app(settings)) as client:
         bearer = {"Authorization": f"Bearer {key}"}
         assert client.get("/v1/models", headers=bearer).status_code == 200
         assert main(["keys", "revoke", key[:15]]) == 0
-        assert client.get("/v1/models", headers=bearer).status_code == 401
+        # Another process revoked it: this API process stops accepting it within its auth cache.
+        deadline = time.monotonic() + cache_seconds + 2.0
+        while client.get("/v1/models", headers=bearer).status_code != 401:
+            assert time.monotonic() < deadline, "a revoked key still works past the auth cache"
+            time.sleep(0.05)
         other_bearer = {"Authorization": f"Bearer {other}"}
         assert client.get("/v1/models", headers=other_bearer).status_code == 200
     assert main(["keys", "revoke", key[:15]]) == 1
