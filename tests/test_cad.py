@@ -5,6 +5,7 @@ without the extra a CAD upload is 415 with the way to enable it."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -12,14 +13,20 @@ import pytest
 import trimesh
 from conftest import PARTS, make_settings, upload, wait_for_status
 from fastapi.testclient import TestClient
-from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut, BRepAlgoAPI_Fuse
-from OCP.BRepMesh import BRepMesh_IncrementalMesh
-from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
-from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
-from OCP.IGESControl import IGESControl_Writer
-from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
-from OCP.StlAPI import StlAPI_Writer
-from OCP.TopoDS import TopoDS_Shape
+
+try:
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut, BRepAlgoAPI_Fuse
+    from OCP.BRepMesh import BRepMesh_IncrementalMesh
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
+    from OCP.IGESControl import IGESControl_Writer
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+    from OCP.StlAPI import StlAPI_Writer
+    from OCP.TopoDS import TopoDS_Shape
+except ImportError as error:  # the cad extra, or the libGL/libX11 that OpenCascade links
+    if os.environ.get("CI") == "true":
+        raise
+    pytest.skip(f"OpenCascade (cadquery-ocp) does not import: {error}", allow_module_level=True)
 
 import core.io._cad as cad
 from app.api.main import create_app
