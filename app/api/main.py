@@ -19,7 +19,7 @@ from app.api.deps import Services
 from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
 from app.api.problems import install_problem_handlers
-from app.api.search_describer import SearchDescriber
+from app.api.search_describer import SearchAdmission, SearchDescriber
 from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
 from app.describing import pin_blas_threads
@@ -105,6 +105,7 @@ def create_app(
     )
     install_problem_handlers(app)
     app.state.search_describer = SearchDescriber(settings, engine_settings(settings))
+    app.add_middleware(SearchAdmission, describer=app.state.search_describer)
     app.add_middleware(
         BodySizeLimit,
         max_upload_bytes=settings.max_upload_bytes,
