@@ -251,6 +251,12 @@ class Settings(BaseSettings):
         "'default' and only binds to loopback.",
     )
 
+    metrics_from_anywhere: bool = Field(
+        default=False,
+        description="Answer GET /metrics for any client; unset: loopback clients only (the "
+        "metrics name tenants and their model counts).",
+    )
+
     @property
     def resolved_database_url(self) -> str:
         """The database URL, defaulting to the embedded SQLite file."""

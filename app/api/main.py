@@ -13,8 +13,9 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
+from prometheus_client import CollectorRegistry
 
-from app.api import routes_health, routes_jobs, routes_models, routes_search
+from app.api import routes_health, routes_jobs, routes_metrics, routes_models, routes_search
 from app.api.deps import Services
 from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
@@ -24,6 +25,8 @@ from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
 from app.describing import pin_blas_threads
 from app.index import ShapeIndex
+from app.logs import RequestId
+from app.metrics import HttpMetrics, StateCollector
 from app.settings import Settings, engine_settings
 from app.worker import JobHandler, WorkerPool, describe_handler, make_queue
 
@@ -61,6 +64,8 @@ def create_app(
         sessions = make_session_factory(engine)
         index = ShapeIndex(sessions)
         index.rebuild()
+        app.state.metrics_state = CollectorRegistry()
+        app.state.metrics_state.register(StateCollector(sessions, index))
         app.state.services = Services(
             settings=settings,
             engine_settings=engine_settings(settings),
@@ -112,6 +117,8 @@ def create_app(
         overhead_bytes=_FORM_OVERHEAD_BYTES,
     )
     app.add_middleware(QueryGuard, limits=InputLimits.from_settings(settings))
-    for module in (routes_models, routes_search, routes_jobs, routes_health):
+    app.add_middleware(HttpMetrics)
+    app.add_middleware(RequestId)  # outermost: every line of the request carries its id
+    for module in (routes_models, routes_search, routes_jobs, routes_health, routes_metrics):
         app.include_router(module.router)
     return app

@@ -39,7 +39,9 @@ log = logging.getLogger("shapesearch.api")
 
 
 _MEANINGS = {
+    400: "Malformed request body (multipart form or JSON)",
     401: "No or invalid API key",
+    403: "Not allowed for this client",
     404: "No such model or job (for this tenant)",
     409: "Conflict with the current state",
     413: "Upload larger than the limit",

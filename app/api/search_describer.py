@@ -28,6 +28,7 @@ from starlette.types import ASGIApp, Receive, Scope, Send
 from app.api.problems import Problem, problem_response, problem_type
 from app.db.models import Model
 from app.describing import described_columns
+from app.metrics import observe_description
 from app.sandbox import sandbox_of
 from app.settings import Settings
 from core.descriptor import DescriptorSpec
@@ -59,6 +60,7 @@ class SearchDescriber:
         if known is not None:
             return known
         columns = self.sandbox.run(described_columns, content, filename, self.engine)
+        observe_description(columns)
         self._remember(sha256, {name: columns[name] for name in _COLUMNS})
         return columns
 
