@@ -19,6 +19,7 @@ from app.api import routes_health, routes_jobs, routes_metrics, routes_models, r
 from app.api.deps import Services
 from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
+from app.api.openapi import install_openapi
 from app.api.problems import install_problem_handlers
 from app.api.search_describer import SearchAdmission, SearchDescriber
 from app.db.migrate import upgrade
@@ -121,4 +122,5 @@ def create_app(
     app.add_middleware(RequestId)  # outermost: every line of the request carries its id
     for module in (routes_models, routes_search, routes_jobs, routes_health, routes_metrics):
         app.include_router(module.router)
+    install_openapi(app)
     return app
