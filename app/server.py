@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import ipaddress
-import logging
 import sys
 
 import uvicorn
@@ -12,6 +11,7 @@ from app.api.main import create_app
 from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
 from app.keys import keys_exist
+from app.logs import configure_logging
 from app.settings import Settings
 
 __all__ = ["is_loopback", "serve"]
@@ -30,7 +30,7 @@ def serve(host: str | None = None, port: int | None = None, embedded_worker: boo
     settings = Settings()
     host = host or settings.host
     port = port or settings.port
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+    configure_logging()
 
     engine = make_engine(settings.resolved_database_url)
     upgrade(engine)

@@ -305,6 +305,13 @@ class Settings(BaseSettings):
         default=600.0, ge=0, description="Cap of the webhook retry delay."
     )
 
+    # --- observability ---------------------------------------------------------------
+    metrics_from_anywhere: bool = Field(
+        default=False,
+        description="Answer GET /metrics for any client; unset: loopback clients only (the "
+        "metrics name tenants and their model counts).",
+    )
+
     @property
     def resolved_database_url(self) -> str:
         """The database URL, defaulting to the embedded SQLite file."""

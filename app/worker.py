@@ -33,6 +33,8 @@ from app.describing import (
     pin_blas_threads,
     problem_of_reason,
 )
+from app.logs import configure_logging, job_context
+from app.metrics import observe_description
 from app.queue import Claim, JobQueue
 from app.sandbox import sandbox_of
 from app.settings import Settings, engine_settings
@@ -131,7 +133,8 @@ class Worker:
             return False
         self.current = claim
         try:
-            self._handle(claim)
+            with job_context(claim.job_id):  # the job id on every log line of the job
+                self._handle(claim)
         finally:
             self.current = None
         return True
@@ -158,6 +161,7 @@ class Worker:
                 self.queue.retry(claim, _error_record(error))
                 return
         if self.queue.complete(claim, columns):
+            observe_description(columns)
             log.info("job %s done in %.2fs", claim.job_id, time.perf_counter() - started)
             if self.on_done is not None:
                 self.on_done()
@@ -256,7 +260,7 @@ def run_workers(concurrency: int | None = None) -> int:
     """``shapesearch worker``: run ``concurrency`` worker processes until signalled."""
     settings = Settings()
     count = concurrency if concurrency is not None else max(1, settings.workers)
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+    configure_logging()
     upgrade(make_engine(settings.resolved_database_url))
     if count == 1:
         return _worker_process(threads=1)
@@ -283,7 +287,7 @@ def _worker_process(threads: int) -> int:
     """One worker process: first SIGTERM/SIGINT finishes the running job (within the grace
     time), a second one releases it at once."""
     settings = Settings()
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
+    configure_logging()
     pin_blas_threads()
     sessions = make_session_factory(make_engine(settings.resolved_database_url))
     pool = WorkerPool(

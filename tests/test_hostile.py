@@ -7,17 +7,13 @@ The server runs as ``shapesearch serve`` in a subprocess so that its peak reside
 
 from __future__ import annotations
 
-import os
-import socket
-import subprocess
-import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
 import pytest
 from hostile_files import HOSTILE_FILES
+from servers import peak_memory_bytes, running_server
 
 PEAK_MEMORY_BOUND = 500 * 1024 * 1024
 
@@ -26,48 +22,11 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-def peak_memory_bytes(pid: int) -> int:
-    """VmHWM: the process's peak resident set size."""
-    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-        if line.startswith("VmHWM:"):
-            return int(line.split()[1]) * 1024
-    raise AssertionError("no VmHWM")
-
-
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, int]]:
-    """(base URL, pid) of ``shapesearch serve --no-worker`` on an empty SQLite database."""
-    port = _free_port()
-    data = tmp_path_factory.mktemp("hostile")
-    env = {
-        **os.environ,
-        "SHAPESEARCH_DATABASE_URL": f"sqlite:///{data / 'db.sqlite'}",
-        "SHAPESEARCH_PORT": str(port),
-    }
-    process = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--no-worker"],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )
-    base = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 120
-    while True:
-        try:
-            if httpx.get(f"{base}/healthz", timeout=2).status_code == 200:
-                break
-        except httpx.TransportError:
-            pass
-        assert process.poll() is None, "the server exited"
-        assert time.monotonic() < deadline, "the server did not start"
-        time.sleep(0.2)
-    yield base, process.pid
-    process.terminate()
-    process.wait(timeout=60)
+    """(base URL, pid) of a server on an empty SQLite database."""
+    with running_server(tmp_path_factory.mktemp("hostile")) as running:
+        yield running
 
 
 @pytest.mark.parametrize("route", ["/v1/models", "/v1/search"])

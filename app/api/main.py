@@ -14,11 +14,13 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 from fastapi_offline import FastAPIOffline
+from prometheus_client import CollectorRegistry
 
 from app.api import (
     routes_duplicates,
     routes_health,
     routes_jobs,
+    routes_metrics,
     routes_models,
     routes_previews,
     routes_revisions,
@@ -29,12 +31,15 @@ from app.api.deps import Services
 from app.api.examples import install_examples
 from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
+from app.api.openapi import install_openapi
 from app.api.problems import install_problem_handlers
-from app.api.search_describer import SearchDescriber
+from app.api.search_describer import SearchAdmission, SearchDescriber
 from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
 from app.describing import pin_blas_threads
 from app.index import ShapeIndex
+from app.logs import RequestId
+from app.metrics import HttpMetrics, StateCollector
 from app.settings import Settings, engine_settings
 from app.viewer import install_viewer
 from app.webhooks import start_delivery_thread
@@ -79,6 +84,8 @@ def create_app(
             rerank_factor=settings.index_rerank_factor,
         )
         index.rebuild()
+        app.state.metrics_state = CollectorRegistry()
+        app.state.metrics_state.register(StateCollector(sessions, index))
         app.state.services = Services(
             settings=settings,
             engine_settings=engine_settings(settings),
@@ -126,12 +133,15 @@ def create_app(
     )
     install_problem_handlers(app)
     app.state.search_describer = SearchDescriber(settings, engine_settings(settings))
+    app.add_middleware(SearchAdmission, describer=app.state.search_describer)
     app.add_middleware(
         BodySizeLimit,
         max_upload_bytes=settings.max_upload_bytes,
         overhead_bytes=_FORM_OVERHEAD_BYTES,
     )
     app.add_middleware(QueryGuard, limits=InputLimits.from_settings(settings))
+    app.add_middleware(HttpMetrics)
+    app.add_middleware(RequestId)  # outermost: every line of the request carries its id
     for module in (
         routes_revisions,  # before routes_models: /models/by-external-id/... is not an id
         routes_models,
@@ -141,8 +151,10 @@ def create_app(
         routes_duplicates,
         routes_health,
         routes_previews,
+        routes_metrics,
     ):
         app.include_router(module.router)
     install_viewer(app)
+    install_openapi(app)
     install_examples(app)
     return app

@@ -23,6 +23,7 @@ from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import compile_path
 
 __all__ = [
     "PROBLEM_JSON",
@@ -39,7 +40,9 @@ log = logging.getLogger("shapesearch.api")
 
 
 _MEANINGS = {
+    400: "Malformed request body (multipart form or JSON)",
     401: "No or invalid API key",
+    403: "Not allowed for this client",
     404: "No such model or job (for this tenant)",
     409: "Conflict with the current state",
     413: "Upload larger than the limit",
@@ -114,8 +117,22 @@ def problem_response(
     )
 
 
-async def _on_problem(_request: Request, exc: Exception) -> JSONResponse:
+def _allowed_methods(request: Request) -> str:
+    """Every method the API documents at this path (Starlette names only the methods of the
+    first route that matched); HEAD comes with GET."""
+    methods: set[str] = set()
+    for template, operations in request.app.openapi().get("paths", {}).items():
+        if compile_path(template)[0].match(request.url.path):
+            methods |= {method.upper() for method in operations}
+    if "GET" in methods:
+        methods.add("HEAD")
+    return ", ".join(sorted(methods))
+
+
+async def _on_problem(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, StarletteHTTPException)
+    if exc.status_code == 405 and not isinstance(exc, Problem):
+        exc.headers = {**(exc.headers or {}), "Allow": _allowed_methods(request)}
     if isinstance(exc, Problem):
         return problem_response(
             exc.status_code,

@@ -50,7 +50,7 @@ def search(
     k: Annotated[int, Query(ge=1, le=100)] = 10,
     min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
 ) -> SearchResponse:
-    upload = read_checked_upload(file.file, file.filename, services.settings)
+    upload = read_checked_upload(file.file, file.filename, services.settings, parse=False)
     try:
         # A sync route runs in the threadpool, so describing does not block the event loop.
         described = request.app.state.search_describer.describe(

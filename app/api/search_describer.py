@@ -3,9 +3,11 @@
 Each search describes its upload synchronously, which costs seconds of CPU and hundreds of
 MB in a sandboxed child process. ``SearchDescriber``
 
-* admits at most ``search_max_concurrent`` describes at a time; one more is refused at once
-  with 503 and ``Retry-After`` (queueing would only hold the client, a thread and the upload
-  for longer while the machine is already busy);
+* admits at most ``search_max_concurrent`` searches at a time (``SearchAdmission``, before
+  the upload is even read); one more is refused at once with 503 and ``Retry-After``.
+  Queueing would only hold the client, a thread and the upload for longer while the machine
+  is busy, and every admitted request is Python work competing for the GIL with the event
+  loop that answers /healthz;
 * answers an upload it has seen (same sha256 and descriptor version) without describing it:
   from a small LRU cache of recent results, or from a ready model of the same tenant
   uploaded with the same bytes.
@@ -21,16 +23,18 @@ from typing import Any
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session, undefer
+from starlette.types import ASGIApp, Receive, Scope, Send
 
-from app.api.problems import Problem
+from app.api.problems import Problem, problem_response, problem_type
 from app.db.models import Model
 from app.describing import described_columns
+from app.metrics import observe_description
 from app.sandbox import sandbox_of
 from app.settings import Settings
 from core.descriptor import DescriptorSpec
 from core.settings import EngineSettings
 
-__all__ = ["SearchDescriber"]
+__all__ = ["SearchAdmission", "SearchDescriber"]
 
 # The columns a search answer needs (model_columns of the description).
 _COLUMNS = ("n_points", "cutoff", "descriptor", "descriptor_version")
@@ -55,13 +59,14 @@ class SearchDescriber:
         known = self._cached(sha256) or self._stored(session, tenant, sha256)
         if known is not None:
             return known
-        with self._slot():
-            columns = self.sandbox.run(described_columns, content, filename, self.engine)
+        columns = self.sandbox.run(described_columns, content, filename, self.engine)
+        observe_description(columns)
         self._remember(sha256, {name: columns[name] for name in _COLUMNS})
         return columns
 
     @contextmanager
-    def _slot(self) -> Iterator[None]:
+    def admitted(self) -> Iterator[None]:
+        """Hold one of the ``search_max_concurrent`` slots, or raise the 503 ``Problem``."""
         if not self._slots.acquire(blocking=False):
             seconds = self.settings.search_retry_after_seconds
             raise Problem(
@@ -110,3 +115,34 @@ class SearchDescriber:
         if model is None or model.descriptor is None:
             return None
         return {name: getattr(model, name) for name in _COLUMNS}
+
+
+class SearchAdmission:
+    """ASGI middleware: ``POST /v1/search`` runs only inside one of the describer's slots;
+    without a free slot it is answered 503 before its body is read."""
+
+    def __init__(self, app: ASGIApp, describer: SearchDescriber) -> None:
+        self.app = app
+        self.describer = describer
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if not (
+            scope["type"] == "http"
+            and scope["method"] == "POST"
+            and scope["path"].rstrip("/") == "/v1/search"
+        ):
+            await self.app(scope, receive, send)
+            return
+        try:
+            slot = self.describer.admitted()
+            slot.__enter__()
+        except Problem as busy:
+            response = problem_response(
+                503, str(busy.detail), type=problem_type("busy"), headers=busy.headers
+            )
+            await response(scope, receive, send)
+            return
+        try:
+            await self.app(scope, receive, send)
+        finally:
+            slot.__exit__(None, None, None)

@@ -80,9 +80,13 @@ def _bounded_by_size(content: bytes, fmt: str) -> bool:
 
 
 def read_checked_upload(
-    stream: BinaryIO, filename: str | None, settings: Settings
+    stream: BinaryIO, filename: str | None, settings: Settings, *, parse: bool = True
 ) -> CheckedUpload:
-    """Read the file (bounded) and run the quick checks; raises ``Problem`` on refusal."""
+    """Read the file (bounded) and run the quick checks; raises ``Problem`` on refusal.
+
+    ``parse=False`` skips the quick parse, for a caller that describes the file at once
+    anyway (``POST /v1/search``: the describe in the sandbox parses it fully).
+    """
     sha256 = _hash_limited(stream, settings.max_upload_bytes)
     content = stream.read()
     name = filename or "upload"
@@ -91,7 +95,7 @@ def read_checked_upload(
             raise InvalidShapeError("empty_file", "file is empty: upload a point cloud or mesh")
         fmt = detect_format(name, content[:4096])
         check_header(content, fmt)
-        if len(content) <= FULL_CHECK_MAX_BYTES:
+        if parse and len(content) <= FULL_CHECK_MAX_BYTES:
             check = (
                 content, name, settings.upload_check_points, settings.min_points,
                 settings.sample_seed,

@@ -1,0 +1,70 @@
+"""The OpenAPI document, made to say exactly what the service does.
+
+FastAPI derives most of the schema from the routes; three facts it cannot know are added
+here, once, for every operation:
+
+* the API key is optional in the document (``security: [{HTTPBearer: []}, {}]``): an open
+  service (no key created yet) accepts requests without one;
+* a malformed multipart form or JSON body is answered 400 (problem+json);
+* an operation with a body may answer 413 when it is larger than the upload limit (the
+  limit is enforced before routing);
+* links from the model a POST /v1/models creates to the operations on it (its ``id``), so
+  that clients and schema-driven tools can follow them.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import FastAPI
+from fastapi.openapi.utils import get_openapi
+
+from app.api.problems import problem_responses
+
+__all__ = ["install_openapi"]
+
+
+def _complete(operation: dict[str, Any]) -> None:
+    if operation.get("security"):
+        operation["security"] = [*operation["security"], {}]
+    if "requestBody" in operation:
+        responses = operation.setdefault("responses", {})
+        for status, response in problem_responses(400, 413).items():
+            responses.setdefault(str(status), response)
+
+
+def _link_created_models(paths: dict[str, Any]) -> None:
+    created = paths.get("/v1/models", {}).get("post", {}).get("responses", {}).get("202")
+    if created is None:
+        return
+    links = created.setdefault("links", {})
+    for path, operations in paths.items():
+        if not path.startswith("/v1/models/{model_id}"):
+            continue
+        for operation in operations.values():
+            links[operation["operationId"]] = {
+                "operationId": operation["operationId"],
+                "parameters": {"model_id": "$response.body#/id"},
+            }
+
+
+def install_openapi(app: FastAPI) -> None:
+    """Replace ``app.openapi`` with the completed document (built once, then cached)."""
+
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema is None:
+            schema = get_openapi(
+                title=app.title,
+                version=app.version,
+                summary=app.summary,
+                description=app.description,
+                routes=app.routes,
+            )
+            for path in schema.get("paths", {}).values():
+                for operation in path.values():
+                    _complete(operation)
+            _link_created_models(schema.get("paths", {}))
+            app.openapi_schema = schema
+        return app.openapi_schema
+
+    app.openapi = openapi  # type: ignore[method-assign]

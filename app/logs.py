@@ -1,0 +1,116 @@
+"""Structured logs: one JSON object per line and event (python-json-logger).
+
+Every line carries the request id of the HTTP request it belongs to (``X-Request-ID``: taken
+from the client when it is a sane token, else made up; always returned) and, in workers, the
+job id. Both travel in context variables, so no call site passes them along. Keys never
+reach a log: no header is logged, and routes log tenants, never credentials.
+
+    configure_logging()     JSON lines on stderr for the process (serve, worker)
+    RequestId               ASGI middleware: request id in, out, on every line, one access line
+    job_context(job_id)     context manager: the job id on every line of the block
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import time
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+from typing import TextIO
+
+from pythonjsonlogger.json import JsonFormatter
+from starlette.datastructures import MutableHeaders
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+__all__ = ["RequestId", "configure_logging", "job_context", "request_id"]
+
+request_id: ContextVar[str | None] = ContextVar("request_id", default=None)
+job_id: ContextVar[str | None] = ContextVar("job_id", default=None)
+
+access_log = logging.getLogger("shapesearch.access")
+
+_SANE_ID = re.compile(r"^[A-Za-z0-9._:-]{1,128}$")
+
+
+class _ContextFilter(logging.Filter):
+    """Adds request_id and job_id (when set) to every record."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        for name, variable in (("request_id", request_id), ("job_id", job_id)):
+            value = variable.get()
+            if value is not None and not hasattr(record, name):
+                setattr(record, name, value)
+        return True
+
+
+def configure_logging(level: int = logging.INFO, stream: TextIO | None = None) -> None:
+    """JSON lines on ``stream`` (default stderr) for every logger of the process (uvicorn's
+    included)."""
+    handler = logging.StreamHandler(stream)
+    handler.setFormatter(
+        JsonFormatter(
+            "{asctime}{levelname}{name}{message}",
+            style="{",
+            rename_fields={"asctime": "time", "levelname": "level", "name": "logger"},
+        )
+    )
+    handler.addFilter(_ContextFilter())
+    root = logging.getLogger()
+    root.handlers[:] = [handler]
+    root.setLevel(level)
+    for name in ("uvicorn", "uvicorn.error", "uvicorn.access"):
+        logging.getLogger(name).handlers[:] = []
+        logging.getLogger(name).propagate = True
+    logging.getLogger("uvicorn.access").disabled = True  # RequestId writes the access line
+
+
+@contextmanager
+def job_context(job: object) -> Iterator[None]:
+    token = job_id.set(str(job))
+    try:
+        yield
+    finally:
+        job_id.reset(token)
+
+
+class RequestId:
+    """ASGI middleware: the request id (client's ``X-Request-ID`` if sane, else new) in the
+    context while the request runs, in the response header, and in one access line."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        given = dict(scope["headers"]).get(b"x-request-id", b"").decode("latin-1")
+        rid = given if _SANE_ID.match(given) else uuid.uuid4().hex
+        token = request_id.set(rid)
+        started = time.perf_counter()
+        status = 500
+
+        async def send_with_id(message: Message) -> None:
+            nonlocal status
+            if message["type"] == "http.response.start":
+                status = int(message["status"])
+                MutableHeaders(scope=message)["X-Request-ID"] = rid
+            await send(message)
+
+        try:
+            await self.app(scope, receive, send_with_id)
+        finally:
+            route = getattr(scope.get("route"), "path", None) or "unmatched"
+            access_log.info(
+                "request",
+                extra={
+                    "method": scope["method"],
+                    "route": route,
+                    "status": status,
+                    "duration_ms": round((time.perf_counter() - started) * 1000, 1),
+                },
+            )
+            request_id.reset(token)

@@ -1,0 +1,145 @@
+"""GET /metrics (Prometheus text), X-Request-ID, JSON log lines with request and job ids,
+and keys that never reach a log."""
+
+from __future__ import annotations
+
+import io
+import json
+import logging
+from collections.abc import Iterator
+
+import pytest
+from conftest import PARTS, fake_describe, make_settings, wait_for_status
+from fastapi.testclient import TestClient
+from prometheus_client.parser import text_string_to_metric_families
+
+from app.api.main import create_app
+from app.db.session import make_session_factory
+from app.keys import create_key
+from app.logs import configure_logging
+
+CUBE = (PARTS / "20mm-xyz-cube.stl").read_bytes()
+LOOPBACK = ("127.0.0.1", 50000)
+
+
+@pytest.fixture
+def json_logs() -> Iterator[io.StringIO]:
+    """JSON logging into the returned stream for the test (restored after it)."""
+    root = logging.getLogger()
+    handlers, level = root.handlers[:], root.level
+    stream = io.StringIO()
+    configure_logging(stream=stream)
+    yield stream
+    root.handlers[:] = handlers
+    root.setLevel(level)
+    logging.getLogger("uvicorn.access").disabled = False
+
+
+def samples(text: str) -> dict[tuple[str, tuple[tuple[str, str], ...]], float]:
+    return {
+        (sample.name, tuple(sorted(sample.labels.items()))): sample.value
+        for family in text_string_to_metric_families(text)
+        for sample in family.samples
+    }
+
+
+def log_lines(text: str) -> list[dict]:
+    return [json.loads(line) for line in text.splitlines() if line.startswith("{")]
+
+
+def test_metrics_count_requests_jobs_describes_and_the_index(database_url: str) -> None:
+    app = create_app(make_settings(database_url), embedded_worker=True, job_handler=fake_describe)
+    with TestClient(app, client=LOOPBACK) as client:
+        before = samples(client.get("/metrics").text)
+        model = client.post(
+            "/v1/models", files={"file": ("cube.stl", CUBE, "application/octet-stream")}
+        ).json()
+        wait_for_status(client, model["id"], ("ready",))
+        client.get("/v1/models/not-a-model")
+        response = client.get("/metrics")
+    assert response.status_code == 200
+    assert response.headers["content-type"].startswith("text/plain")
+    after = samples(response.text)
+
+    def grew(name: str, **labels: str) -> float:
+        key = (name, tuple(sorted(labels.items())))
+        return after.get(key, 0.0) - before.get(key, 0.0)
+
+    assert grew(
+        "shapesearch_http_requests_total", method="GET", route="/v1/models/{model_id}",
+        status="404",
+    ) == 1
+    assert grew(
+        "shapesearch_http_requests_total", method="POST", route="/v1/models", status="202"
+    ) == 1
+    assert grew(
+        "shapesearch_http_request_duration_seconds_count", method="POST", route="/v1/models"
+    ) == 1
+    assert grew("shapesearch_describe_seconds_count", stage="total") == 1
+    assert grew("shapesearch_solver_calls_total") == 2  # fake_describe: 2 solver calls
+    assert grew("shapesearch_cutoff_n_count") == 1
+    assert after[("shapesearch_jobs", (("status", "done"),))] == 1
+    assert after[("shapesearch_queue_depth", ())] == 0
+    assert after[("shapesearch_queue_oldest_age_seconds", ())] == 0
+    partition = (("descriptor_version", "fake-1"), ("tenant", "default"))
+    assert after[("shapesearch_index_partition_models", partition)] == 1
+    assert after[("shapesearch_index_models", ())] == 1
+
+
+def test_metrics_answer_loopback_clients_only(database_url: str) -> None:
+    app = create_app(make_settings(database_url))
+    with TestClient(app, client=("203.0.113.9", 50000)) as client:
+        refused = client.get("/metrics")
+    assert refused.status_code == 403
+    assert refused.json()["type"] == "urn:shapesearch:problem:forbidden"
+    opened = create_app(make_settings(database_url, metrics_from_anywhere=True))
+    with TestClient(opened, client=("203.0.113.9", 50000)) as client:
+        assert client.get("/metrics").status_code == 200
+
+
+def test_request_ids_are_returned_and_on_every_log_line(
+    database_url: str, json_logs: io.StringIO
+) -> None:
+    app = create_app(make_settings(database_url))
+    secret = None
+    with TestClient(app, raise_server_exceptions=False) as client:
+        with make_session_factory(app.state.services.engine)() as session:
+            secret = create_key(session, "acme")
+            session.commit()
+        given = client.get("/v1/models", headers={"X-Request-ID": "trace-42"})
+        made = client.get(
+            "/v1/models", headers={"Authorization": f"Bearer {secret}", "X-Request-ID": "a b"}
+        )
+    assert given.headers["x-request-id"] == "trace-42"
+    assert made.headers["x-request-id"] != "a b" and len(made.headers["x-request-id"]) == 32
+    output = json_logs.getvalue()
+    assert secret not in output
+    access = [line for line in log_lines(output) if line.get("logger") == "shapesearch.access"]
+    assert {line["request_id"] for line in access} >= {"trace-42", made.headers["x-request-id"]}
+    for line in access:
+        assert line["message"] == "request" and line["route"] == "/v1/models"
+        assert {"time", "level", "status", "duration_ms", "method"} <= set(line)
+
+
+def test_every_worker_line_carries_the_job_id(
+    database_url: str, json_logs: io.StringIO
+) -> None:
+    def refuse(content: bytes, filename: str) -> dict:
+        from core.errors import InvalidShapeError
+
+        raise InvalidShapeError("degenerate", "all points on a line")
+
+    app = create_app(make_settings(database_url), embedded_worker=True, job_handler=refuse)
+    with TestClient(app) as client:
+        model = client.post(
+            "/v1/models", files={"file": ("cube.stl", CUBE, "application/octet-stream")}
+        ).json()
+        wait_for_status(client, model["id"], ("failed",))
+    lines = log_lines(json_logs.getvalue())
+    about_jobs = [
+        line for line in lines
+        if line["logger"] == "shapesearch.worker" and line["message"].startswith("job ")
+    ]
+    assert about_jobs, lines
+    assert all("job_id" in line for line in about_jobs)
+    assert all(line["message"].startswith(f"job {line['job_id']}") for line in about_jobs)
