@@ -16,7 +16,7 @@ from fastapi import FastAPI
 
 from app.api.inputs import invalid_input
 from app.api.limits import too_large_problem
-from app.api.problems import PROBLEM_JSON, Problem, problem_response, problem_type
+from app.api.problems import PROBLEM_JSON, Problem, problem_response
 from app.describing import problem_of_reason
 
 __all__ = ["EXAMPLES", "install_examples"]
@@ -83,22 +83,18 @@ _SUMMARY2 = {"id": _ID2, "external_id": "PN-1002", "name": "Feature block",
 _SIMILAR_RESULTS = [{"model": _SUMMARY2, "distance": 0.4176, "score": 0.9564}]
 
 
-def _problem(status: int, slug: str, detail: str, **extra: Any) -> dict[str, Any]:
-    """The problem+json body the service answers (built by app/api/problems.py, so the type
-    and the title are the service's own)."""
-    body: dict[str, Any] = json.loads(
-        problem_response(status, detail, type=problem_type(slug), **extra).body
-    )
-    return body
-
-
 def _raised(problem: Problem) -> dict[str, Any]:
-    """The body of a ``Problem`` the routes raise (built by the service's own helpers)."""
-    body: dict[str, Any] = json.loads(
-        problem_response(problem.status_code, str(problem.detail), type=problem.type,
-                         **problem.extensions).body
+    """The problem+json body the service answers for ``problem`` (built by
+    app/api/problems.py, so the type and the title are the service's own)."""
+    response = problem_response(
+        problem.status_code, str(problem.detail), type=problem.type, **problem.extensions
     )
+    body: dict[str, Any] = json.loads(response.body)
     return body
+
+
+def _problem(status: int, slug: str, detail: str, **extra: Any) -> dict[str, Any]:
+    return _raised(Problem(status, detail, slug=slug, **extra))
 
 
 def _validation(where: str, field: str, message: str, kind: str) -> dict[str, Any]:
