@@ -66,7 +66,7 @@ def test_every_v1_call_has_examples(document: dict[str, Any]) -> None:
     assert missing == []
     uploads = [media for name, where, media, body in documented_media(document)
                if where == "request" and media == "multipart/form-data" and "examples" in body]
-    assert len(uploads) == 2  # POST /v1/models and POST /v1/search
+    assert len(uploads) == 3  # POST /v1/models, PUT /v1/models/by-external-id/..., POST /v1/search
 
 
 def test_every_example_validates_against_its_schema(document: dict[str, Any]) -> None:

@@ -7,6 +7,7 @@ only the port changed, and checks what every command printed.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
@@ -62,6 +63,9 @@ def run_session(base_url: str) -> dict[str, str]:
 
 
 def output_of(outputs: dict[str, str], start: str) -> str:
+    """What the command ``start`` printed, or the one command beginning with ``start``."""
+    if start in outputs:
+        return outputs[start]
     (found,) = [text for command, text in outputs.items() if command.startswith(start)]
     return found
 
@@ -99,6 +103,37 @@ def test_readme_curl_session_runs_as_written(tmp_path: Path) -> None:
     assert search["query"]["n_points"] > 100
     ranked = [r["model"]["external_id"] for r in search["results"]]
     assert ranked == ["PN-1001", "PN-1002"], "the scan of angle_block must find it first"
+
+    upsert = json_of(outputs, "curl -s -X PUT")
+    assert upsert["id"] == pair["results"][0]["model"]["id"], "an upsert keeps the model's id"
+    assert upsert["external_id"] == "PN-1002" and upsert["job"]["status"] == "queued"
+    assert upsert["file"]["filename"] == "featuretype.STL", "the current file until described"
+
+    round_stl = (ROOT / "tests/fixtures/parts/round.stl").read_bytes()
+    revisions = json_of(outputs, "curl -s $S/v1/models/$ID2/revisions")["items"]
+    assert [(r["number"], r["status"]) for r in revisions] == [(2, "current"), (1, "superseded")]
+    assert revisions[0]["file"]["sha256"] == hashlib.sha256(round_stl).hexdigest()
+    assert revisions[1]["file"]["filename"] == "featuretype.STL"
+
+    jobs = json_of(outputs, 'curl -s "$S/v1/jobs?limit=5"')
+    assert jobs["next_cursor"] is None
+    assert [job["model_id"] for job in jobs["items"]] == [upsert["id"], upsert["id"], model["id"]]
+    assert jobs["items"][0]["id"] == upsert["job"]["id"]
+    assert {job["status"] for job in jobs["items"]} == {"done"}
+
+    download = output_of(outputs, "curl -s -o /tmp/")
+    digest, path = download.split()
+    assert digest == revisions[0]["file"]["sha256"] and path == "/tmp/PN-1002.stl"
+
+    stats = json_of(outputs, "curl -s $S/v1/stats")
+    assert stats["models"] == 2 and stats["by_status"] == {"ready": 2}
+    assert stats["by_descriptor_version"] == {stats["current_descriptor_version"]: 2}
+    assert stats["jobs_by_status"] == {"done": 3}
+    assert model["descriptor_version"] == stats["current_descriptor_version"]
+
+    duplicates = json_of(outputs, 'curl -s "$S/v1/duplicates?min_score=0.98"')
+    assert duplicates["min_score"] == 0.98 and duplicates["groups"] == []
+    assert duplicates["descriptor_version"] == stats["current_descriptor_version"]
 
     viewer = output_of(outputs, "echo")
     assert viewer == f"{base_url}/#/models/{uuid.UUID(model['id'])}"

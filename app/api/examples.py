@@ -8,18 +8,27 @@ every JSON and problem+json response listed in ``EXAMPLES``.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
 from typing import Any
 
 from fastapi import FastAPI
 
-__all__ = ["EXAMPLES", "install_examples"]
+from app.api.inputs import invalid_input
+from app.api.limits import too_large_problem
+from app.api.problems import PROBLEM_JSON, Problem, problem_response
+from app.describing import problem_of_reason
 
-PROBLEM_JSON = "application/problem+json"
+__all__ = ["EXAMPLES", "install_examples"]
 
 _ID = "3f0c9a52-8d1e-4b7a-9c61-2f5e8b7d4a10"
 _ID2 = "b2d4e6f8-1a3c-4e5f-8a7b-9c0d1e2f3a4b"
 _JOB = "7e6d5c4b-3a29-4817-a6b5-c4d3e2f1a0b9"
+_JOB2 = "5a4b3c2d-1e0f-4a9b-8c7d-6e5f4a3b2c1d"
+_HOOK = "c1d2e3f4-a5b6-4c7d-8e9f-0a1b2c3d4e5f"
+_DELIVERY = "0f1e2d3c-4b5a-4968-8776-a5b4c3d2e1f0"
+_REVISION = "9d8c7b6a-5f4e-4d3c-b2a1-0f9e8d7c6b5a"
+_REVISION2 = "6b5a4f3e-2d1c-4b0a-9f8e-7d6c5b4a3f2e"
 _VERSION = (
     "ss2;lap=robust;norm=area;pts=20000+sor;cut=adaptive(xi=1e-10,t=0.01,80-500);"
     "hkss=16[0.001,0.1]w0.2;bins=32[-2,2.5];wks=16[2,7.5]s0.733w1slope1;dna=30w0.2;7edb95adec"
@@ -63,42 +72,91 @@ MODEL_FAILED: dict[str, Any] = {
     "id": _ID2,
     "external_id": "PN-1003",
     "status": "failed",
-    "error": {
-        "type": "urn:shapesearch:problem:degenerate-shape",
-        "title": "Degenerate shape",
-        "detail": "All points lie on a line: a surface is needed.",
-    },
+    "error": problem_of_reason(
+        "degenerate",
+        "all points lie on a single line (or at one point), so the shape has no surface to "
+        "describe: upload a part with extent in at least two directions",
+    ),
 }
 _SUMMARY2 = {"id": _ID2, "external_id": "PN-1002", "name": "Feature block",
              "metadata": {"material": "steel"}}
 _SIMILAR_RESULTS = [{"model": _SUMMARY2, "distance": 0.4176, "score": 0.9564}]
 
 
-def _problem(status: int, slug: str, title: str, detail: str, **extra: Any) -> dict[str, Any]:
-    return {"type": f"urn:shapesearch:problem:{slug}", "title": title, "status": status,
-            "detail": detail, **extra}
+def _raised(problem: Problem) -> dict[str, Any]:
+    """The problem+json body the service answers for ``problem`` (built by
+    app/api/problems.py, so the type and the title are the service's own)."""
+    response = problem_response(
+        problem.status_code, str(problem.detail), type=problem.type, **problem.extensions
+    )
+    body: dict[str, Any] = json.loads(response.body)
+    return body
+
+
+def _problem(status: int, slug: str, detail: str, **extra: Any) -> dict[str, Any]:
+    return _raised(Problem(status, detail, slug=slug, **extra))
 
 
 def _validation(where: str, field: str, message: str, kind: str) -> dict[str, Any]:
-    return _problem(422, "validation-error", "Invalid request", f"{where}.{field}: {message}",
-                    errors=[{"loc": [where, field], "msg": message, "type": kind}])
+    """FastAPI's refusal of one field (app/api/problems.py's validation handler)."""
+    pointer = f"/{where}/{field}" if where != "body" else f"/{field}"
+    return _problem(422, "validation-error", f"{where}.{field}: {message}", pointer=pointer,
+                    errors=[{"loc": [where, field], "msg": message, "type": kind,
+                             "pointer": pointer}])
 
 
-_UNAUTHORIZED = _problem(401, "unauthorized", "Unauthorized",
+_UNAUTHORIZED = _problem(401, "unauthorized",
                          "This service needs an API key: Authorization: Bearer KEY.")
-_NOT_FOUND = _problem(404, "model-not-found", "Not Found", f"There is no model {_ID}.")
-_NOT_READY = _problem(409, "model-not-ready", "Conflict",
+_NOT_FOUND = _problem(404, "model-not-found", f"There is no model {_ID}.")
+_NOT_READY = _problem(409, "model-not-ready",
                       f"Model {_ID} is processing; similarity needs a ready model.",
                       model_status="processing")
-_TOO_LARGE = _problem(413, "too-large", "Content Too Large",
-                      "The file is larger than the limit of 67108864 bytes.")
-_UNKNOWN_FORMAT = _problem(415, "unknown-format", "Unknown format",
+_TOO_LARGE = _raised(too_large_problem(67108864))
+_UNKNOWN_FORMAT = _problem(415, "unknown-format",
                            "could not tell the format of 'drawing.docx': upload one of .stl, "
-                           ".obj, .off, .ply, .glb, .xyz, .txt, .csv, .pts, .pcd, .npy (the file "
-                           "name's extension tells the format)", reason="unknown_format")
-_TOO_FEW_POINTS = _problem(422, "too-few-points", "Too few points",
+                           ".obj, .off, .ply, .glb, .xyz, .txt, .csv, .pts, .pcd, .npy, .step, "
+                           ".iges (the file name's extension tells the format)",
+                           reason="unknown_format")
+_TOO_FEW_POINTS = _problem(422, "too-few-points",
                            "the shape has only 5 distinct points: upload a point cloud or mesh "
                            "with at least 100 distinct points", reason="too_few_points")
+_INVALID_CURSOR = _problem(422, "invalid-cursor",
+                           "cursor is not valid; pass next_cursor unchanged.")
+_WEBHOOK_NOT_FOUND = _problem(404, "webhook-not-found", f"There is no webhook {_HOOK}.")
+_JOB_NOT_FOUND = _problem(404, "job-not-found", f"There is no job {_JOB}.")
+_NEW_FILE = {
+    "filename": "angle_block_rev_b.STL",
+    "size": 36112,
+    "sha256": "e3b7a41c9d2f8065b1c4d7e0a9f3b6c8d2e5f1a4b7c0d3e6f9a2b5c8d1e4f7a0",
+    "format": "stl",
+}
+_JOB_DONE = {"id": _JOB, "model_id": _ID, "status": "done", "attempts": 1,
+             "last_error": None, "leased_until": None,
+             "created_at": "2026-11-22T04:24:35.955773Z",
+             "updated_at": "2026-11-22T04:24:38.120417Z"}
+_JOB_QUEUED = {**_JOB_DONE, "id": _JOB2, "status": "queued", "attempts": 0,
+               "created_at": "2026-11-23T09:12:05.310442Z",
+               "updated_at": "2026-11-23T09:12:05.310442Z"}
+
+
+def _job_summary(job: dict[str, Any]) -> dict[str, Any]:
+    """The ``job`` a model resource shows (JobSummary)."""
+    return {key: job[key] for key in ("id", "status", "attempts", "created_at", "updated_at")}
+
+
+# PUT /v1/models/by-external-id/PN-1001 with a new file: the model keeps its id and its
+# previous descriptor (still searchable) while the job describes the new revision.
+MODEL_REVISED: dict[str, Any] = {
+    **MODEL_READY,
+    "name": "Angle block, rev B",
+    "updated_at": "2026-11-23T09:12:05.310442Z",
+    "job": _job_summary(_JOB_QUEUED),
+}
+_WEBHOOK = {"id": _HOOK, "url": "https://plm.example.com/hooks/shapesearch",
+            "events": ["model.failed", "model.ready"],
+            "created_at": "2026-11-22T04:20:11.402918Z"}
+_UPSERT_FORM = {"file": "(the bytes of angle_block_rev_b.STL)", "name": "Angle block, rev B",
+                "metadata": '{"material": "steel"}'}
 _UPLOAD_FORM = {"file": "(the bytes of angle_block.STL)", "external_id": "PN-1001",
                 "name": "Angle block", "metadata": '{"material": "steel"}'}
 
@@ -109,7 +167,7 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
         "responses": {
             202: MODEL_QUEUED,
             401: _UNAUTHORIZED,
-            409: _problem(409, "duplicate-external-id", "Conflict",
+            409: _problem(409, "duplicate-external-id",
                           f"external_id 'PN-1001' is already used by model {_ID}.",
                           existing_id=_ID),
             413: _TOO_LARGE,
@@ -121,8 +179,7 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
         "responses": {
             200: {"items": [MODEL_READY, MODEL_FAILED], "next_cursor": None},
             401: _UNAUTHORIZED,
-            422: _problem(422, "invalid-cursor", "Unprocessable Entity",
-                          "cursor is not valid; pass next_cursor unchanged."),
+            422: _INVALID_CURSOR,
         },
     },
     ("get", "/v1/models/{model_id}"): {
@@ -179,19 +236,16 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
             413: _TOO_LARGE,
             415: _UNKNOWN_FORMAT,
             422: _TOO_FEW_POINTS,
-            503: _problem(503, "solver-error", "Service Unavailable",
+            503: _problem(503, "solver-error",
                           "The shape could not be described this time: the eigensolver did "
                           "not converge."),
         },
     },
     ("get", "/v1/jobs/{job_id}"): {
         "responses": {
-            200: {"id": _JOB, "model_id": _ID, "status": "done", "attempts": 1,
-                  "last_error": None, "leased_until": None,
-                  "created_at": "2026-11-22T04:24:35.955773Z",
-                  "updated_at": "2026-11-22T04:24:38.120417Z"},
+            200: _JOB_DONE,
             401: _UNAUTHORIZED,
-            404: _problem(404, "job-not-found", "Not Found", f"There is no job {_JOB}."),
+            404: _JOB_NOT_FOUND,
         },
     },
     ("get", "/v1/stats/cutoff"): {
@@ -208,6 +262,123 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
                                  {"solver_calls": 3, "models": 1}],
             },
             401: _UNAUTHORIZED,
+        },
+    },
+    ("put", "/v1/models/by-external-id/{external_id}"): {
+        "request": {"multipart/form-data": _UPSERT_FORM},
+        "responses": {
+            # The same file again: only name and metadata change, no job.
+            200: {**MODEL_READY, "name": "Angle block, rev B",
+                  "updated_at": "2026-11-23T09:12:05.310442Z", "job": _job_summary(_JOB_DONE)},
+            201: {**MODEL_QUEUED,
+                  "job": _job_summary({**_JOB_DONE, "status": "queued", "attempts": 0,
+                                       "updated_at": MODEL_QUEUED["created_at"]})},
+            202: MODEL_REVISED,
+            401: _UNAUTHORIZED,
+            413: _TOO_LARGE,
+            415: _UNKNOWN_FORMAT,
+            422: _raised(invalid_input("/metadata", "must be a JSON object")),
+        },
+    },
+    ("get", "/v1/models/{model_id}/revisions"): {
+        "responses": {
+            200: {"items": [
+                {"id": _REVISION2, "number": 2, "status": "pending", "file": _NEW_FILE,
+                 "created_at": "2026-11-23T09:12:05.310442Z"},
+                {"id": _REVISION, "number": 1, "status": "current", "file": _FILE,
+                 "created_at": "2026-11-22T04:24:35.955773Z"},
+            ]},
+            401: _UNAUTHORIZED,
+            404: _NOT_FOUND,
+        },
+    },
+    ("post", "/v1/models/{model_id}/redescribe"): {
+        "responses": {202: _JOB_QUEUED, 401: _UNAUTHORIZED, 404: _NOT_FOUND},
+    },
+    ("get", "/v1/models/{model_id}/file"): {
+        "responses": {401: _UNAUTHORIZED, 404: _NOT_FOUND},
+    },
+    ("get", "/v1/stats"): {
+        "responses": {
+            200: {
+                "models": 3,
+                "by_status": {"failed": 1, "ready": 2},
+                "by_descriptor_version": {_VERSION: 2},
+                "jobs_by_status": {"done": 2, "failed": 1},
+                "current_descriptor_version": _VERSION,
+            },
+            401: _UNAUTHORIZED,
+        },
+    },
+    ("get", "/v1/duplicates"): {
+        "responses": {
+            200: {
+                "descriptor_version": _VERSION,
+                "min_score": 0.98,
+                "groups": [{
+                    "size": 2,
+                    "members": [
+                        {"id": _ID, "external_id": "PN-1001", "name": "Angle block"},
+                        {"id": _ID2, "external_id": "PN-1001-M", "name": "Angle block, mirrored"},
+                    ],
+                    "pairs": [{"a": _ID, "b": _ID2, "score": 0.9993}],
+                }],
+                "next_cursor": None,
+            },
+            401: _UNAUTHORIZED,
+            422: _validation("query", "min_score", "Input should be less than or equal to 1",
+                             "less_than_equal"),
+        },
+    },
+    ("get", "/v1/jobs"): {
+        "responses": {
+            200: {"items": [_JOB_QUEUED, _JOB_DONE], "next_cursor": None},
+            401: _UNAUTHORIZED,
+            422: _INVALID_CURSOR,
+        },
+    },
+    ("post", "/v1/webhooks"): {
+        "request": {"application/json": {"url": _WEBHOOK["url"],
+                                          "events": ["model.ready", "model.failed"]}},
+        "responses": {
+            201: {**_WEBHOOK, "secret": "whsec_MfKQ9r8GKYqXnDsRmu1Z3aYq7vPXGx4f"},
+            401: _UNAUTHORIZED,
+            422: _problem(422, "webhook-url-refused",
+                          "Webhook URL refused: the host '10.0.0.12' resolves to the non-public "
+                          "address 10.0.0.12; set SHAPESEARCH_WEBHOOK_ALLOW_PRIVATE=true to "
+                          "allow private targets."),
+        },
+    },
+    ("get", "/v1/webhooks"): {
+        "responses": {200: {"items": [_WEBHOOK]}, 401: _UNAUTHORIZED},
+    },
+    ("get", "/v1/webhooks/{webhook_id}"): {
+        "responses": {200: _WEBHOOK, 401: _UNAUTHORIZED, 404: _WEBHOOK_NOT_FOUND},
+    },
+    ("delete", "/v1/webhooks/{webhook_id}"): {
+        "responses": {401: _UNAUTHORIZED, 404: _WEBHOOK_NOT_FOUND},
+    },
+    ("get", "/v1/webhooks/{webhook_id}/deliveries"): {
+        "responses": {
+            200: {"items": [{
+                "id": _DELIVERY,
+                "event_type": "model.ready",
+                "status": "delivered",
+                "attempts": [
+                    {"attempt": 1, "status_code": 503, "error": None, "duration_ms": 41.7,
+                     "created_at": "2026-11-22T04:24:38.402117Z"},
+                    {"attempt": 2, "status_code": 200, "error": None, "duration_ms": 18.2,
+                     "created_at": "2026-11-22T04:24:43.511930Z"},
+                ],
+                "payload": {"type": "model.ready", "timestamp": "2026-11-22T04:24:38.125003+00:00",
+                            "data": {"model": MODEL_READY,
+                                     "job": {"id": _JOB, "status": "done", "attempts": 1,
+                                             "error": None}}},
+                "next_attempt_at": None,
+                "created_at": "2026-11-22T04:24:38.130552Z",
+            }]},
+            401: _UNAUTHORIZED,
+            404: _WEBHOOK_NOT_FOUND,
         },
     },
 }
