@@ -486,7 +486,11 @@ async def _generate(base: str, paths: list[str], args: argparse.Namespace) -> di
                 if time.perf_counter() > deadline:
                     return
                 t0 = time.perf_counter()
-                response = await client.request(args.method, path)
+                try:
+                    response = await client.request(args.method, path)
+                except httpx.HTTPError:  # a timeout under overload counts, and is counted
+                    errors += 1
+                    continue
                 latencies.append(time.perf_counter() - t0)
                 if response.status_code >= 400:
                     errors += 1
