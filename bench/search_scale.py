@@ -309,7 +309,10 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
     index = ShapeIndexFromArgs(sessions, args)
     t0 = time.perf_counter()
     index.rebuild()
-    print(f"in-process rebuild {time.perf_counter() - t0:.1f} s, kind {index.describe(KEY)}")
+    print(
+        f"in-process rebuild {time.perf_counter() - t0:.1f} s, kind {index.describe(KEY)}, "
+        f"index payload {index.nbytes() / 1e6:.0f} MB"
+    )
     rng = np.random.default_rng(5)
     for label, filters in (("similar", {}), ("similar, family=f7 (0.1%)", {"family": "f7"})):
         times, counts = [], []
