@@ -116,9 +116,7 @@ class _Partition:
         )
         ivf.cp.niter = _TRAIN_ITERATIONS
         ivf.cp.min_points_per_centroid = 1  # a small sample is enough for coarse lists
-        training = self.pad(sample[: _TRAIN_PER_LIST * nlist])
-        ivf.train(training)
-        _reserve_lists(ivf, training, expected)
+        ivf.train(self.pad(sample[: _TRAIN_PER_LIST * nlist]))
         ivf.set_direct_map_type(faiss.DirectMap.Hashtable)  # remove_ids without a scan
         ivf.nprobe = self.nprobe
         held = self.index
@@ -160,18 +158,6 @@ class _Partition:
             else:
                 params = faiss.SearchParameters(sel=selector)
         return self.index.search(self.pad(query), k, params=params)
-
-
-def _reserve_lists(ivf: faiss.IndexIVF, training: np.ndarray, expected: int) -> None:
-    """Reserve each inverted list's share of ``expected`` vectors (as the training sample
-    spreads over the lists, plus 15%): lists that grow by doubling would hold up to twice
-    the memory their codes need."""
-    _, lists = ivf.quantizer.search(training, 1)
-    shares = np.bincount(lists.ravel(), minlength=ivf.nlist) / len(training)
-    invlists = faiss.downcast_InvertedLists(ivf.invlists)
-    for list_no, share in enumerate(shares):
-        invlists.resize(list_no, int(math.ceil(share * expected * 1.15)) + 8)
-        invlists.resize(list_no, 0)  # keeps the capacity
 
 
 class ShapeIndex:

@@ -309,7 +309,10 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
     index = ShapeIndexFromArgs(sessions, args)
     t0 = time.perf_counter()
     index.rebuild()
-    print(f"in-process rebuild {time.perf_counter() - t0:.1f} s, kind {index.describe(KEY)}")
+    print(
+        f"in-process rebuild {time.perf_counter() - t0:.1f} s, kind {index.describe(KEY)}, "
+        f"index payload {index.nbytes() / 1e6:.0f} MB"
+    )
     rng = np.random.default_rng(5)
     for label, filters in (("similar", {}), ("similar, family=f7 (0.1%)", {"family": "f7"})):
         times, counts = [], []
@@ -486,7 +489,11 @@ async def _generate(base: str, paths: list[str], args: argparse.Namespace) -> di
                 if time.perf_counter() > deadline:
                     return
                 t0 = time.perf_counter()
-                response = await client.request(args.method, path)
+                try:
+                    response = await client.request(args.method, path)
+                except httpx.HTTPError:  # a timeout under overload counts, and is counted
+                    errors += 1
+                    continue
                 latencies.append(time.perf_counter() - t0)
                 if response.status_code >= 400:
                     errors += 1

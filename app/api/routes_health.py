@@ -47,9 +47,7 @@ def _index_check(services: Services, state: Any) -> str | None:
     if last[1] is not None:
         return last[1]
     with services.sessions() as session:
-        revision = session.execute(
-            select(FeedState.revision).where(FeedState.id == 1)
-        ).scalar_one()
+        revision = session.execute(select(FeedState.revision).where(FeedState.id == 1)).scalar_one()
     behind = int(revision) - index.revision
     if behind > 0:
         return f"index is {behind} change-feed revisions behind the database"
