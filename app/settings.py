@@ -208,9 +208,9 @@ class Settings(BaseSettings):
 
     @property
     def worker_count(self) -> int:
-        """Describes run at once: ``workers``, or one per core when unset (docs/results.md:
-        threads and processes both scale on this engine, which releases the GIL in its heavy
-        parts)."""
+        """Describes run at once: ``workers``, or one per core when unset. Processes
+        (``shapesearch worker``) scale better than the embedded worker's threads, part of a
+        describe holding the GIL (docs/results.md, "Throughput")."""
         return self.workers if self.workers is not None else (os.cpu_count() or 1)
 
     @property

@@ -52,7 +52,8 @@ def budget_rows(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
                     "eigensolve_s": stats["eigensolve_seconds_mean"],
                     "ingest_s": stats["ingest_seconds_mean"],
                 })
-    return sorted(rows, key=lambda row: (row["query"] != "clean", row["query"], row["points"]))
+    return sorted(rows, key=lambda row: (
+        -row["models"], row["query"] != "clean", row["query"], row["points"]))
 
 
 def budget_table(rows: list[dict[str, Any]]) -> str:
@@ -78,16 +79,18 @@ def plot_budget(rows: list[dict[str, Any]], path: Path) -> None:
     plt = _pyplot()
     figure, quality = plt.subplots(figsize=(7, 4.5))
     seconds = quality.twinx()
-    for kind in dict.fromkeys(row["query"] for row in rows):
-        chosen = [row for row in rows if row["query"] == kind]
+    # One line per query kind and model set: scores of different sets are not comparable.
+    for kind, models in dict.fromkeys((row["query"], row["models"]) for row in rows):
+        chosen = [row for row in rows if (row["query"], row["models"]) == (kind, models)]
         points = [row["points"] for row in chosen]
-        quality.plot(points, [row["map"] for row in chosen], marker="o", label=f"mAP, {kind}")
+        name = f"{kind}, {models} models"
+        quality.plot(points, [row["map"] for row in chosen], marker="o", label=f"mAP, {name}")
         seconds.plot(points, [row["ingest_s"] for row in chosen], marker="s", linestyle="--",
-                     alpha=0.6, label=f"ingest s/model, {kind}")
+                     alpha=0.6, label=f"ingest s/model, {name}")
     quality.set_xscale("log")
     quality.set_xlabel("points per model (max_points)")
     quality.set_ylabel("mAP")
-    seconds.set_ylabel("ingest seconds per model")
+    seconds.set_ylabel("ingest wall seconds per model (as measured, shared machine)")
     quality.set_title("Point budget: retrieval quality and cost")
     quality.grid(alpha=0.3)
     handles = quality.get_legend_handles_labels()
