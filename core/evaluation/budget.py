@@ -90,7 +90,7 @@ def plot_budget(rows: list[dict[str, Any]], path: Path) -> None:
     quality.set_xscale("log")
     quality.set_xlabel("points per model (max_points)")
     quality.set_ylabel("mAP")
-    seconds.set_ylabel("ingest wall seconds per model (as measured, shared machine)")
+    seconds.set_ylabel("ingest wall s per model (shared machine)")
     quality.set_title("Point budget: retrieval quality and cost")
     quality.grid(alpha=0.3)
     handles = quality.get_legend_handles_labels()
