@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 __all__ = ["main"]
 
@@ -133,7 +134,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     worker = commands.add_parser("worker", help="run worker processes that describe uploads")
     worker.add_argument(
-        "--concurrency", type=int, default=None, help="default: SHAPESEARCH_WORKERS"
+        "--concurrency", type=int, default=None,
+        help="default: SHAPESEARCH_WORKERS, or one per core",
     )
     worker.set_defaults(handler=_worker)
 
@@ -185,6 +187,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--variants", nargs="*", default=None)
     evaluate.add_argument("--out", default="eval-out")
     evaluate.add_argument("--limit-per-class", type=int, default=None)
+    evaluate.add_argument("--model-list", type=Path, default=None,
+                          help="file of CLASS/FILE names (one a line): score only these models")
     evaluate.add_argument(
         "--scans", nargs="*", default=(),
         choices=("single", "multi", "single+sor", "multi+sor", "turntable", "kinect-view",

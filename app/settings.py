@@ -7,6 +7,7 @@ where service settings become the engine's ``core.settings.EngineSettings``.
 
 from __future__ import annotations
 
+import os
 from dataclasses import replace
 from pathlib import Path
 from typing import Literal
@@ -105,7 +106,9 @@ class Settings(BaseSettings):
     max_points: int = Field(
         default=_ENGINE.max_points,
         ge=10,
-        description="Points sampled from each shape before description.",
+        description="Points per shape: meshes are sampled with exactly this many, larger "
+        "clouds thinned to it, smaller clouds keep all theirs. Raise it (e.g. 20000) for "
+        "thin-walled parts; one database uses one value (docs/results.md).",
     )
     min_points: int = Field(
         default=_ENGINE.min_points,
@@ -207,10 +210,11 @@ class Settings(BaseSettings):
     )
 
     # --- workers and the job queue -------------------------------------------------------
-    workers: int = Field(
-        default=1,
+    workers: int | None = Field(
+        default=None,
         ge=0,
-        description="Worker threads of `serve` (embedded) or processes of `shapesearch worker`.",
+        description="Worker threads of `serve` (embedded; 0: none) or processes of "
+        "`shapesearch worker`. Unset: one per core (each describe pins BLAS to one thread).",
     )
     lease_seconds: float = Field(
         default=60.0,
@@ -311,6 +315,13 @@ class Settings(BaseSettings):
         description="Answer GET /metrics for any client; unset: loopback clients only (the "
         "metrics name tenants and their model counts).",
     )
+
+    @property
+    def worker_count(self) -> int:
+        """Describes run at once: ``workers``, or one per core when unset. Processes
+        (``shapesearch worker``) scale better than the embedded worker's threads, part of a
+        describe holding the GIL (docs/results.md, "Throughput")."""
+        return self.workers if self.workers is not None else (os.cpu_count() or 1)
 
     @property
     def resolved_database_url(self) -> str:

@@ -259,7 +259,7 @@ class WorkerPool:
 def run_workers(concurrency: int | None = None) -> int:
     """``shapesearch worker``: run ``concurrency`` worker processes until signalled."""
     settings = Settings()
-    count = concurrency if concurrency is not None else max(1, settings.workers)
+    count = concurrency if concurrency is not None else max(1, settings.worker_count)
     configure_logging()
     upgrade(make_engine(settings.resolved_database_url))
     if count == 1:

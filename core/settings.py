@@ -116,7 +116,7 @@ class DescriptorSettings:
 class EngineSettings:
     """Everything ``describe`` needs."""
 
-    max_points: int = 20000
+    max_points: int = 3000
     min_points: int = 100
     laplacian: str = "robust"
     normalisation: str = "area"

@@ -94,7 +94,7 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
     spec = DescriptorSpec.from_settings(base.descriptor)
     variants = [
         replace(base, laplacian="spcl"),
-        replace(base, max_points=5000),
+        replace(base, max_points=base.max_points * 2),
         replace(base, normalisation="bbox"),
         replace(base, outlier_filter=False),
         replace(base, cutoff=CutoffSettings(mode="fixed", n=300)),

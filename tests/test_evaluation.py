@@ -262,3 +262,33 @@ def test_eval_writes_results_before_plotting(
     # The run's numbers survived the failed plot.
     assert "default" in (out / "results.json").read_text()
     assert "| default |" in (out / "results.md").read_text()
+
+
+def test_budget_rows_gather_the_points_variants_of_several_runs(tmp_path: Path) -> None:
+    from core.evaluation.budget import budget_rows, budget_table, plot_budget
+
+    def run(points: int, clean_map: float, scan_map: float | None) -> dict:
+        def scored(value: float) -> tuple[dict, dict]:
+            scores = {"map": value, "nn": value, "top5": value / 2}
+            stats = {"n": {"median": 180.0}, "solver_calls_mean": 2.5,
+                     "eigensolve_seconds_mean": points / 1000, "ingest_seconds_mean": points / 900}
+            return scores, stats
+
+        variant = {"scores": {}, "stats": {}}
+        for kind, value in (("clean", clean_map), ("multi+sor", scan_map)):
+            if value is not None:
+                variant["scores"][kind], variant["stats"][kind] = scored(value)
+        return {"dataset": {"models": 45},
+                "variants": {f"points-{points}": variant, "default": variant}}
+
+    rows = budget_rows([run(5000, 0.86, 0.58), run(2000, 0.85, 0.70), run(20000, 0.80, None)])
+    # Only points-<N> variants, clean rows first, each kind by increasing points.
+    assert [(r["query"], r["points"]) for r in rows] == [
+        ("clean", 2000), ("clean", 5000), ("clean", 20000),
+        ("multi+sor", 2000), ("multi+sor", 5000),
+    ]
+    assert rows[3]["map"] == 0.70 and rows[2]["ingest_s"] == pytest.approx(20000 / 900)
+    table = budget_table(rows)
+    assert "| 5000 | multi+sor | 45 | 0.580 | 0.580 | 0.290 |" in table
+    plot_budget(rows, tmp_path / "budget.png")
+    assert (tmp_path / "budget.png").stat().st_size > 1000

@@ -534,3 +534,15 @@ def test_point_only_ply_fixtures_are_too_small():
         # With a lower bar they load, as the five points of the file.
         shape = load_points(FIXTURES / name, min_points=5)
         assert shape.kind == "points" and shape.points.shape == (5, 3)
+
+
+def test_a_cloud_below_the_default_budget_keeps_every_point(tmp_path):
+    from core.settings import EngineSettings
+
+    budget = EngineSettings().max_points
+    small = _cloud(budget - 1, seed=11)
+    kept = load_points(_write(tmp_path, "small.xyz", _text(small)), max_points=budget)
+    assert _same_set(kept.points, small)  # nothing thinned, nothing added
+    large = _cloud(budget + 500, seed=12)
+    thinned = load_points(_write(tmp_path, "large.xyz", _text(large)), max_points=budget)
+    assert len(thinned.points) == budget

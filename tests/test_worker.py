@@ -159,3 +159,16 @@ def test_default_settings_describe_exactly_like_the_engine(
     for name in [n for n in os.environ if n.startswith("SHAPESEARCH_")]:
         monkeypatch.delenv(name)
     assert engine_settings(Settings()) == EngineSettings()
+
+
+def test_workers_default_to_one_describe_per_core(monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+
+    from app.settings import Settings
+
+    monkeypatch.delenv("SHAPESEARCH_WORKERS", raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 6)
+    assert Settings().worker_count == 6
+    assert Settings(workers=0).worker_count == 0  # serve without an embedded worker
+    monkeypatch.setenv("SHAPESEARCH_WORKERS", "3")
+    assert Settings().worker_count == 3

@@ -67,7 +67,7 @@ def create_app(
     embedded_worker: bool = False,
     job_handler: JobHandler | None = None,
 ) -> FastAPI:
-    """Build an app. ``embedded_worker`` runs ``settings.workers`` worker threads inside it;
+    """Build an app. ``embedded_worker`` runs ``settings.worker_count`` worker threads inside it;
     ``job_handler`` replaces the describe step (tests)."""
     settings = settings or Settings()
 
@@ -102,11 +102,11 @@ def create_app(
         )
         follower.start()
         pool = None
-        if embedded_worker and settings.workers > 0:
+        if embedded_worker and settings.worker_count > 0:
             pool = WorkerPool(
                 make_queue(settings, sessions),
                 job_handler or describe_handler(settings, sessions),
-                count=settings.workers,
+                count=settings.worker_count,
                 poll_interval=settings.poll_interval,
                 on_done=index.sync,  # a finished job is searchable at once in this process
             )

@@ -360,6 +360,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"shapesearch eval: {error}", file=sys.stderr)
         return 2
     dataset = load_dataset(args.dataset, getattr(args, "limit_per_class", None))
+    if getattr(args, "model_list", None):
+        wanted = set(Path(args.model_list).read_text().split())
+        dataset.models = [model for model in dataset.models if model.name in wanted]
     if not dataset.models:
         print(f"shapesearch eval: no models under {args.dataset}", file=sys.stderr)
         return 2

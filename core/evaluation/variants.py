@@ -26,8 +26,9 @@ __all__ = [
     "resolve_variants",
 ]
 
-#: Points per model in the evaluation (the chosen ``max_points``; see docs/results.md).
-EVAL_POINTS = 3000
+#: Points per model in the evaluation: the engine's default ``max_points`` (chosen by the
+#: budget sweep, docs/results.md).
+EVAL_POINTS = EngineSettings().max_points
 
 #: Point budgets of the budget sweep (variants ``points-<N>``; see docs/results.md).
 BUDGET_POINTS: tuple[int, ...] = (2000, 3000, 5000, 10000, 20000)
