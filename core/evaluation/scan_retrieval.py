@@ -219,8 +219,13 @@ def run(
     views: int = 6,
     query_kinds: tuple[str, ...] = QUERY_KINDS,
     points: int = EVAL_POINTS,
+    cached_only: bool = False,
 ) -> dict[str, Any]:
-    """Describe catalogue and queries, score every (mode, descriptor, query kind)."""
+    """Describe catalogue and queries, score every (mode, descriptor, query kind).
+
+    With ``cached_only``, models whose samplings are not all in ``OUT/cache`` are skipped
+    (to score what an interrupted run finished).
+    """
     from core.eigen import SpectralSolver, pin_blas_threads
 
     out = Path(out)
@@ -231,10 +236,17 @@ def run(
     factory = lambda stiffness, mass: SpectralSolver(stiffness, mass)  # noqa: E731
     kinds = ["clean", *[view_kind(i, views) for i in range(views)], *query_kinds]
     described: dict[str, dict[str, Described]] = {kind: {} for kind in kinds}
-    failures = []
+    failures: list[str] = []
+    skipped: list[str] = []
     started = time.perf_counter()
     with pin_blas_threads():
         for number, model in enumerate(dataset.models, 1):
+            if cached_only and not all(
+                (cache_dir / sampling_of(settings, ROTATION_SEED, kind).cache_name(
+                    model.sha256)).exists() for kind in kinds
+            ):
+                skipped.append(model.name)
+                continue
             for kind in kinds:
                 try:
                     described[kind][model.name] = describe(
@@ -268,6 +280,8 @@ def run(
         "scores": scores,
         "seconds": {kind: _mean_seconds(described[kind]) for kind in kinds},
         "failures": failures,
+        "skipped": skipped,
+        "scored_models": sorted(described["clean"]),
         "wall_seconds": time.perf_counter() - started,
     }
     out.mkdir(parents=True, exist_ok=True)
@@ -310,8 +324,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--per-class", type=int, default=2,
                         help="seeded subset of models per class (0: all)")
     parser.add_argument("--views", type=int, default=6)
+    parser.add_argument("--cached-only", action="store_true",
+                        help="score only the models an earlier run fully cached")
     args = parser.parse_args(argv)
-    record = run(args.dataset, args.out, args.per_class or None, args.views)
+    record = run(args.dataset, args.out, args.per_class or None, args.views,
+                 cached_only=args.cached_only)
     print(markdown(record))
     print(json.dumps(record["seconds"], indent=1))
     return 0
