@@ -112,6 +112,8 @@ _NOT_READY = _problem(409, "model-not-ready",
                       f"Model {_ID} is processing; similarity needs a ready model.",
                       model_status="processing")
 _TOO_LARGE = _raised(too_large_problem(67108864))
+# FastAPI's refusal of a body it cannot parse (app/api/problems.py turns it into problem+json).
+_MALFORMED = json.loads(problem_response(400, "There was an error parsing the body").body)
 _UNKNOWN_FORMAT = _problem(415, "unknown-format",
                            "could not tell the format of 'drawing.docx': upload one of .stl, "
                            ".obj, .off, .ply, .glb, .xyz, .txt, .csv, .pts, .pcd, .npy, .step, "
@@ -398,7 +400,21 @@ def add_examples(document: dict[str, Any]) -> dict[str, Any]:
             content = operation["responses"][str(status)]["content"]
             media = PROBLEM_JSON if status >= 400 else "application/json"
             _add(content[media], value)
+    _add_body_refusals(document)
     return document
+
+
+def _add_body_refusals(document: dict[str, Any]) -> None:
+    """Examples of the 400 and 413 that every operation with a body documents
+    (app/api/openapi.py), where the operation has no example of its own."""
+    refusals = {"400": _MALFORMED, "413": _TOO_LARGE}
+    for operations in document["paths"].values():
+        for operation in operations.values():
+            for status, value in refusals.items():
+                response = operation.get("responses", {}).get(status, {})
+                content = response.get("content", {}).get(PROBLEM_JSON)
+                if content is not None and "examples" not in content:
+                    _add(content, value)
 
 
 def install_examples(app: FastAPI) -> None:
