@@ -400,16 +400,23 @@ def add_examples(document: dict[str, Any]) -> dict[str, Any]:
             content = operation["responses"][str(status)]["content"]
             media = PROBLEM_JSON if status >= 400 else "application/json"
             _add(content[media], value)
-    _add_body_refusals(document)
+    _add_generic_refusals(document)
     return document
 
 
-def _add_body_refusals(document: dict[str, Any]) -> None:
-    """Examples of the 400 and 413 that every operation with a body documents
-    (app/api/openapi.py), where the operation has no example of its own."""
-    refusals = {"400": _MALFORMED, "413": _TOO_LARGE}
+def _invalid_parameter(operation: dict[str, Any]) -> dict[str, Any]:
+    """The 422 for an invalid value of the operation's first parameter."""
+    parameters = operation.get("parameters") or [{"in": "body", "name": "file"}]
+    where = {"path": "path", "query": "query", "header": "header"}.get(parameters[0]["in"], "body")
+    return _validation(where, parameters[0]["name"], "Input is not valid", "value_error")
+
+
+def _add_generic_refusals(document: dict[str, Any]) -> None:
+    """Examples of the 400, 413 and 422 that app/api/openapi.py documents for every
+    operation that can answer them, where the operation has no example of its own."""
     for operations in document["paths"].values():
         for operation in operations.values():
+            refusals = {"400": _MALFORMED, "413": _TOO_LARGE, "422": _invalid_parameter(operation)}
             for status, value in refusals.items():
                 response = operation.get("responses", {}).get(status, {})
                 content = response.get("content", {}).get(PROBLEM_JSON)

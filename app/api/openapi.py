@@ -27,10 +27,14 @@ __all__ = ["install_openapi"]
 def _complete(operation: dict[str, Any]) -> None:
     if operation.get("security"):
         operation["security"] = [*operation["security"], {}]
+    responses = operation.setdefault("responses", {})
     if "requestBody" in operation:
-        responses = operation.setdefault("responses", {})
         for status, response in problem_responses(400, 413).items():
             responses.setdefault(str(status), response)
+    # FastAPI documents its parameter validation as application/json; the service answers
+    # every refusal as problem+json (app/api/problems.py).
+    if "application/json" in responses.get("422", {}).get("content", {}):
+        responses["422"] = problem_responses(422)[422]
 
 
 def _link_created_models(paths: dict[str, Any]) -> None:
