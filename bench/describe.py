@@ -5,11 +5,10 @@ each measurement in a fresh child process (so its peak RSS is its own), BLAS pin
 thread:
 
 (a) the previous default: 20000 points, seeded adaptive cutoff (t = 0.01, xi = 1e-10, seed 50,
-    margin 10, n in [80, 500]), described with ``core.pipeline.describe``. The settings are
-    spelled out here so that (a) stays this baseline when the defaults change. It uses the
-    pipeline's solver, ``SpectralSolver``: on main when this script was written that is the
-    banded SuperLU shift-invert Lanczos; if a later solver replaces its internals, (a) measures
-    the new solver at the old settings (the lead reconciles after merging).
+    margin 10, n in [80, 500]), described with ``core.pipeline.describe`` on the previous
+    solver (banded SuperLU LDLᵀ, ARPACK basis 2k + 1: ``bench/previous_solver.py``). The
+    settings are spelled out here so that (a) stays this baseline when the defaults change;
+    the cutoff rule is today's (a function of the spectrum alone), which moves n by a few.
 (b) the new default end to end: ``describe(path, EngineSettings())``.
 (c) stock ``eigsh(L, 300, M, sigma)`` (``core.eigen.smallest_eigenpairs``) at (b)'s point
     count: the eigen-solve alone, on the same operators the pipeline builds.
@@ -107,6 +106,10 @@ def measure(kind: str, path: Path) -> dict[str, Any]:
     row: dict[str, Any] = {"model": label(path), "kind": kind}
     with pin_blas_threads():
         if kind in ("a", "b"):
+            if kind == "a":
+                from previous_solver import use_previous_solver
+
+                use_previous_solver()
             settings = previous_default() if kind == "a" else EngineSettings()
             start, cpu = time.perf_counter(), time.process_time()
             description = describe(path, settings)
@@ -187,7 +190,7 @@ def summarise(title: str, models: list[dict[str, dict[str, Any]]]) -> None:
         f"{median('b', 'eigensolve_s'):.2f} s), points {median('b', 'points'):.0f}, n "
         f"{median('b', 'n'):.0f}, calls mean {statistics.mean(m['b']['calls'] for m in done):.2f},"
         f" peak {median('b', 'peak_mb'):.0f} MB (max {max(m['b']['peak_mb'] for m in done):.0f})"
-        f", prediction: {predictions or 'not recorded by this cutoff'}\n"
+        f", prediction: {predictions or 'none (cold database)'}\n"
         f"  (c) stock eigsh {STOCK_COUNT}: median {median('c', 'seconds'):.2f} s, peak "
         f"{median('c', 'peak_mb'):.0f} MB\n"
         f"  ratios (median of per-model ratios): (a)/(b) "

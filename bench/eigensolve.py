@@ -124,22 +124,9 @@ def run_worker(path: Path, max_points: int) -> dict:
     return result
 
 
-def _superlu_ldl(matrix):  # type: ignore[no-untyped-def]
-    """The previous factorisation: SuperLU without pivoting in symmetric mode (U = D L^T)."""
-    from scipy.sparse.linalg import splu
-
-    lu = splu(
-        matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-    )
-    pivots = lu.U.diagonal()
-    congruent = np.array_equal(lu.perm_r, lu.perm_c)
-    if congruent and np.all(np.isfinite(pivots)) and np.all(pivots != 0):
-        return lu, int(np.count_nonzero(pivots < 0))
-    return lu, None
-
-
 def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
     """Old banded vs new banded vs stock at the adaptive n, on the same operators."""
+    from previous_solver import PREVIOUS_BASIS_FACTOR, superlu_ldl
     from scipy.sparse.linalg import eigsh
 
     import core.eigen._factor as factor_module
@@ -168,8 +155,8 @@ def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
         for _ in range(repeats):
             for name in ("old", "new"):
                 # The previous solver: SuperLU LDL^T and ARPACK's default basis (2k + 1).
-                factor_module._symmetric_ldl = _superlu_ldl if name == "old" else new_ldl
-                solver_module._BASIS_FACTOR = 2.0 if name == "old" else new_basis
+                factor_module._symmetric_ldl = superlu_ldl if name == "old" else new_ldl
+                solver_module._BASIS_FACTOR = PREVIOUS_BASIS_FACTOR if name == "old" else new_basis
                 try:
                     start = time.perf_counter()
                     values[name] = SpectralSolver(stiffness, mass).solve(count)[0]
