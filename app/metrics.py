@@ -7,6 +7,7 @@ Process metrics, counted as things happen (module-level, one set per process):
     shapesearch_describe_seconds{stage}                          seconds per describe stage
     shapesearch_solver_calls_total                               eigen-solver calls
     shapesearch_cutoff_n                                         eigenpairs chosen per model
+    shapesearch_webhook_delivery_attempts_total{outcome}         delivered / retry / failed
 
 State metrics, read from the database when scraped (``StateCollector``, one per app):
 
@@ -45,6 +46,7 @@ from app.index import ShapeIndex
 
 __all__ = [
     "CONTENT_TYPE_LATEST",
+    "WEBHOOK_ATTEMPTS",
     "HttpMetrics",
     "StateCollector",
     "exposition",
@@ -64,6 +66,11 @@ DESCRIBE_SECONDS = Histogram(
     buckets=(0.01, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30, 60, 120, 300),
 )
 SOLVER_CALLS = Counter("shapesearch_solver_calls", "Eigen-solver calls of finished describes.")
+WEBHOOK_ATTEMPTS = Counter(
+    "shapesearch_webhook_delivery_attempts",
+    "Webhook delivery attempts by outcome: delivered, retry (backing off) or failed (gave up).",
+    ["outcome"],
+)
 CUTOFF_N = Histogram(
     "shapesearch_cutoff_n", "Eigenpairs the cutoff chose per described shape.",
     buckets=(10, 20, 30, 50, 75, 100, 150, 200, 300, 500),

@@ -40,6 +40,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from standardwebhooks.webhooks import Webhook as Signer
 
 from app.db.models import Job, Model, Webhook, WebhookAttempt, WebhookDelivery, utcnow
+from app.metrics import WEBHOOK_ATTEMPTS
 
 __all__ = [
     "EVENT_TYPES",
@@ -344,6 +345,7 @@ class Deliverer:
                     created_at=now,
                 )
             )
+        WEBHOOK_ATTEMPTS.labels(outcome=_OUTCOMES[values["status"]]).inc()
         return True
 
     def run_once(self) -> bool:
@@ -357,6 +359,10 @@ class Deliverer:
         elif not outcome.ok:
             log.info("delivery %s attempt %d: %s", claimed.id, claimed.attempts, outcome.error)
         return True
+
+
+# Metric label of each settled state of a delivery.
+_OUTCOMES = {"delivered": "delivered", "pending": "retry", "failed": "failed"}
 
 
 class DeliveryThread:

@@ -13,6 +13,7 @@ import pytest
 from conftest import PARTS, fake_describe, make_settings, upload, wait_for_status
 from fastapi.testclient import TestClient
 from plm_helpers import ClientFactory, Receiver, started_clients
+from prometheus_client import REGISTRY
 from standardwebhooks.webhooks import Webhook as Verifier
 
 from app.api.main import create_app
@@ -86,8 +87,17 @@ def test_ready_failed_and_deleted_events_arrive_signed(make_client: ClientFactor
     assert len(log) == 3 and {d["status"] for d in log} == {"delivered"}
 
 
+def attempts_counted(outcome: str) -> float:
+    """The process's ``shapesearch_webhook_delivery_attempts_total`` for ``outcome``."""
+    value = REGISTRY.get_sample_value(
+        "shapesearch_webhook_delivery_attempts_total", {"outcome": outcome}
+    )
+    return value or 0.0
+
+
 def test_a_receiver_failing_twice_gets_the_event_three_times(make_client: ClientFactory) -> None:
     client = make_client(**FAST_RETRIES)
+    retries_before, delivered_before = attempts_counted("retry"), attempts_counted("delivered")
     with Receiver(statuses=[500, 500]) as receiver:
         hook = register(client, receiver.url, events=["model.ready"])
         model = upload(client, CUBE).json()
@@ -106,6 +116,9 @@ def test_a_receiver_failing_twice_gets_the_event_three_times(make_client: Client
     assert [a["attempt"] for a in delivery["attempts"]] == [1, 2, 3]
     assert delivery["attempts"][0]["error"] == "HTTP 500"
     assert delivery["attempts"][2]["error"] is None
+    # /metrics counts the attempts of this process's deliverer.
+    assert attempts_counted("retry") - retries_before == 2
+    assert attempts_counted("delivered") - delivered_before == 1
 
 
 def test_an_event_outlives_the_worker_that_completed_the_job(
