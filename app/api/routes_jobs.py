@@ -2,11 +2,7 @@
 
 from __future__ import annotations
 
-import base64
-import binascii
-import json
 import uuid
-from datetime import datetime
 from typing import Annotated, Literal
 
 from fastapi import APIRouter, Query
@@ -14,6 +10,7 @@ from pydantic import BaseModel, Field
 from sqlalchemy import and_, or_, select
 
 from app.api.auth import TenantDep
+from app.api.cursors import decode_cursor, encode_cursor
 from app.api.deps import SessionDep
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import JobResource, job_resource
@@ -27,22 +24,6 @@ router = APIRouter(prefix="/v1", tags=["jobs"])
 class JobList(BaseModel):
     items: list[JobResource]
     next_cursor: str | None = Field(description="Pass as `cursor` for the next page; null: last.")
-
-
-def _encode_cursor(job: Job) -> str:
-    raw = json.dumps([job.created_at.isoformat(), str(job.id)]).encode()
-    return base64.urlsafe_b64encode(raw).decode().rstrip("=")
-
-
-def _decode_cursor(cursor: str) -> tuple[datetime, uuid.UUID]:
-    try:
-        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
-        created_at, job_id = json.loads(raw)
-        return datetime.fromisoformat(created_at), uuid.UUID(job_id)
-    except (ValueError, TypeError, binascii.Error) as error:
-        raise Problem(
-            422, "cursor is not valid; pass next_cursor unchanged.", slug="invalid-cursor"
-        ) from error
 
 
 @router.get(
@@ -62,7 +43,7 @@ def list_jobs(
     if status is not None:
         query = query.where(Job.status == status)
     if cursor is not None:
-        created_at, job_id = _decode_cursor(cursor)
+        created_at, job_id = decode_cursor(cursor)
         query = query.where(
             or_(Job.created_at < created_at, and_(Job.created_at == created_at, Job.id < job_id))
         )
@@ -70,7 +51,7 @@ def list_jobs(
         query.order_by(Job.created_at.desc(), Job.id.desc()).limit(limit + 1)
     ).all()
     page = rows[:limit]
-    next_cursor = _encode_cursor(page[-1]) if len(rows) > limit else None
+    next_cursor = encode_cursor(page[-1]) if len(rows) > limit else None
     return JobList(items=[job_resource(job) for job in page], next_cursor=next_cursor)
 
 

@@ -2,11 +2,7 @@
 
 from __future__ import annotations
 
-import base64
-import binascii
-import json
 import uuid
-from datetime import datetime
 from typing import Annotated, Any
 
 import numpy as np
@@ -18,6 +14,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, undefer
 
 from app.api.auth import TenantDep
+from app.api.cursors import decode_cursor, encode_cursor
 from app.api.deps import Services, ServicesDep, SessionDep
 from app.api.idempotency import remember, replay_or_refuse, request_sha256
 from app.api.inputs import InputLimits
@@ -150,22 +147,6 @@ def create_model(
     return resource
 
 
-def _encode_cursor(model: Model) -> str:
-    raw = json.dumps([model.created_at.isoformat(), str(model.id)]).encode()
-    return base64.urlsafe_b64encode(raw).decode().rstrip("=")
-
-
-def _decode_cursor(cursor: str) -> tuple[datetime, uuid.UUID]:
-    try:
-        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
-        created_at, model_id = json.loads(raw)
-        return datetime.fromisoformat(created_at), uuid.UUID(model_id)
-    except (ValueError, TypeError, binascii.Error) as error:
-        raise Problem(
-            422, "cursor is not valid; pass next_cursor unchanged.", slug="invalid-cursor"
-        ) from error
-
-
 @router.get(
     "/models",
     response_model=ModelList,
@@ -186,7 +167,7 @@ def list_models(
     if external_id is not None:
         query = query.where(Model.external_id == external_id)
     if cursor:  # an empty cursor is the first page
-        created_at, model_id = _decode_cursor(cursor)
+        created_at, model_id = decode_cursor(cursor)
         # Keyset pagination on (created_at, id): stable while models come and go.
         query = query.where(
             or_(
@@ -198,7 +179,7 @@ def list_models(
         query.order_by(Model.created_at.desc(), Model.id.desc()).limit(limit + 1)
     ).all()
     page = rows[:limit]
-    next_cursor = _encode_cursor(page[-1]) if len(rows) > limit else None
+    next_cursor = encode_cursor(page[-1]) if len(rows) > limit else None
     jobs = latest_jobs(session, [m.id for m in page])
     return ModelList(items=[model_resource(m, jobs.get(m.id)) for m in page],
                      next_cursor=next_cursor)
