@@ -17,22 +17,16 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import Job, Model
+from app.describing import descriptor_version
 from app.revisions import enqueue_redescribe, lock_models
 from app.settings import Settings, engine_settings
-from core.descriptor import DescriptorSpec
-from core.settings import EngineSettings
 
-__all__ = ["current_version", "descriptor_version_of", "enqueue_models", "redescribe_command"]
-
-
-def descriptor_version_of(engine: EngineSettings) -> str:
-    """The descriptor_version these engine settings produce."""
-    return DescriptorSpec.from_settings(engine.descriptor).version(engine)
+__all__ = ["current_version", "enqueue_models", "redescribe_command"]
 
 
 def current_version(settings: Settings) -> str:
     """The descriptor_version the service's settings produce."""
-    return descriptor_version_of(engine_settings(settings))
+    return descriptor_version(engine_settings(settings))
 
 
 def enqueue_models(

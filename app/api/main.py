@@ -25,6 +25,7 @@ from app.api import (
     routes_previews,
     routes_revisions,
     routes_search,
+    routes_stats,
     routes_webhooks,
 )
 from app.api.deps import Services
@@ -151,6 +152,7 @@ def create_app(
         routes_duplicates,
         routes_health,
         routes_previews,
+        routes_stats,
         routes_metrics,
     ):
         app.include_router(module.router)

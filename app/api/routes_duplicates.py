@@ -11,7 +11,7 @@ from pydantic import BaseModel, Field
 from app.api.auth import TenantDep
 from app.api.deps import ServicesDep, SessionDep
 from app.api.problems import Problem, problem_responses
-from app.api.routes_revisions import current_descriptor_version
+from app.api.routes_stats import current_descriptor_version
 from app.duplicates import find_groups
 
 __all__ = ["router"]

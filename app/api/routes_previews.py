@@ -1,29 +1,23 @@
-"""What the viewer draws: ``GET /v1/models/{id}/preview`` and ``GET /v1/stats/cutoff``.
+"""What the viewer draws of one model: ``GET /v1/models/{id}/preview``.
 
 The preview is the binary blob of ``app.previews`` (points, HKS per time, eigenvalues),
-served with an ETag so a browser fetches it once per description. The cutoff statistics are
-the paper's Figure 7 for this database: the cutoff n against the point count of every ready
-model, next to the fixed cutoff, and how many solver calls the cutoff needed.
+served with an ETag so a browser fetches it once per description. The database page's plot
+comes from ``GET /v1/stats/cutoff`` (``app.api.routes_stats``).
 """
 
 from __future__ import annotations
 
 import hashlib
-import uuid
-from collections import Counter
 
 from fastapi import APIRouter, Header, Response
-from pydantic import BaseModel, Field
-from sqlalchemy import select
 
 from app.api.auth import TenantDep
-from app.api.deps import ServicesDep, SessionDep
+from app.api.deps import SessionDep
 from app.api.problems import Problem, problem_responses
 from app.api.routes_models import load_model
-from app.db.models import Model
 from app.previews import PREVIEW_POINTS
 
-__all__ = ["CutoffPoint", "CutoffStats", "SolverCallsBin", "router"]
+__all__ = ["PREVIEW_MEDIA_TYPE", "router"]
 
 router = APIRouter(prefix="/v1", tags=["viewer"])
 
@@ -75,61 +69,3 @@ def model_preview(
     if if_none_match is not None and etag in [tag.strip() for tag in if_none_match.split(",")]:
         return Response(status_code=304, headers=headers)
     return Response(content=blob, media_type=PREVIEW_MEDIA_TYPE, headers=headers)
-
-
-class CutoffPoint(BaseModel):
-    """One ready model on the plot."""
-
-    id: uuid.UUID
-    external_id: str | None
-    name: str | None
-    n_points: int = Field(description="Points the description used.")
-    n: int = Field(description="Eigenpairs the cutoff chose.")
-    solver_calls: int
-    mode: str = Field(description="adaptive or fixed")
-
-
-class SolverCallsBin(BaseModel):
-    solver_calls: int
-    models: int
-
-
-class CutoffStats(BaseModel):
-    """The paper's Figure 7 for this database, and the solver-calls histogram."""
-
-    fixed_n: int = Field(description="The fixed cutoff the adaptive one is compared with.")
-    models: list[CutoffPoint]
-    solver_calls: list[SolverCallsBin] = Field(description="Ready models per solver-call count.")
-
-
-@router.get(
-    "/stats/cutoff",
-    response_model=CutoffStats,
-    responses=problem_responses(401),
-    summary="Cutoff n against point count for every ready model (the paper's Figure 7)",
-)
-def cutoff_stats(tenant: TenantDep, session: SessionDep, services: ServicesDep) -> CutoffStats:
-    rows = session.execute(
-        select(Model.id, Model.external_id, Model.name, Model.n_points, Model.cutoff)
-        .where(Model.tenant == tenant, Model.status == "ready")
-        .order_by(Model.n_points)
-    ).all()
-    points = [
-        CutoffPoint(
-            id=row.id,
-            external_id=row.external_id,
-            name=row.name,
-            n_points=row.n_points,
-            n=row.cutoff["n"],
-            solver_calls=row.cutoff["solver_calls"],
-            mode=row.cutoff["mode"],
-        )
-        for row in rows
-        if row.cutoff is not None and row.n_points is not None
-    ]
-    calls = Counter(point.solver_calls for point in points)
-    return CutoffStats(
-        fixed_n=services.settings.cutoff_n,
-        models=points,
-        solver_calls=[SolverCallsBin(solver_calls=c, models=calls[c]) for c in sorted(calls)],
-    )

@@ -1,11 +1,11 @@
-"""Models as a PLM system keeps them: upsert by external id, revisions, re-describe, the
-stored original, and the counts that show how far a re-describe has come.
+"""Models as a PLM system keeps them: upsert by external id, revisions, re-describe and the
+stored original (``GET /v1/stats``, in ``app.api.routes_stats``, shows how far a re-describe
+has come).
 
     PUT  /v1/models/by-external-id/{external_id}   create (201), same file (200), new file (202)
     GET  /v1/models/{id}/revisions                 newest first
     POST /v1/models/{id}/redescribe                a job over the stored original (202)
     GET  /v1/models/{id}/file                      the current original upload
-    GET  /v1/stats                                 models per status and descriptor_version
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, File, Form, Response, UploadFile
 from pydantic import BaseModel, Field
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -28,7 +28,6 @@ from app.api.routes_models import _uuid_or_none, load_model
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
 from app.api.uploads import CheckedUpload, read_checked_upload
 from app.db.models import Job, Model, ModelRevision, Upload, utcnow
-from app.redescribe import descriptor_version_of
 from app.revisions import (
     add_revision,
     create_model_rows,
@@ -37,7 +36,7 @@ from app.revisions import (
     lock_models,
 )
 
-__all__ = ["RevisionList", "RevisionResource", "Stats", "current_descriptor_version", "router"]
+__all__ = ["RevisionList", "RevisionResource", "router"]
 
 router = APIRouter(prefix="/v1", tags=["models"])
 
@@ -65,22 +64,6 @@ class RevisionResource(BaseModel):
 
 class RevisionList(BaseModel):
     items: list[RevisionResource] = Field(description="Newest first.")
-
-
-class Stats(BaseModel):
-    models: int
-    by_status: dict[str, int] = Field(description="Models per status.")
-    by_descriptor_version: dict[str, int] = Field(
-        description="Ready models per descriptor_version; only current_descriptor_version "
-        "is searched with POST /v1/search."
-    )
-    jobs_by_status: dict[str, int]
-    current_descriptor_version: str
-
-
-def current_descriptor_version(services: ServicesDep) -> str:
-    """The descriptor_version this service's engine settings produce."""
-    return descriptor_version_of(services.engine_settings)
 
 
 def _revision_resource(revision: ModelRevision) -> RevisionResource:
@@ -245,30 +228,4 @@ def model_file(model_id: str, tenant: TenantDep, session: SessionDep) -> Respons
         bytes(content),
         media_type=_MEDIA_TYPES.get(model.file_format, "application/octet-stream"),
         headers={"Content-Disposition": f'attachment; filename="{filename}"'},
-    )
-
-
-def _counts(session: Session, column: object, *where: object) -> dict[str, int]:
-    rows = session.execute(
-        select(column, func.count()).where(*where).group_by(column)  # type: ignore[call-overload]
-    ).all()
-    return {str(key): int(count) for key, count in rows if key is not None}
-
-
-@router.get(
-    "/stats",
-    response_model=Stats,
-    responses=problem_responses(401),
-    summary="Counts of models per status and per descriptor_version, and of jobs",
-)
-def stats(tenant: TenantDep, services: ServicesDep, session: SessionDep) -> Stats:
-    by_status = _counts(session, Model.status, Model.tenant == tenant)
-    return Stats(
-        models=sum(by_status.values()),
-        by_status=by_status,
-        by_descriptor_version=_counts(
-            session, Model.descriptor_version, Model.tenant == tenant, Model.status == "ready"
-        ),
-        jobs_by_status=_counts(session, Job.status, Job.tenant == tenant),
-        current_descriptor_version=current_descriptor_version(services),
     )
