@@ -180,8 +180,8 @@ class ShapeIndex:
         sessions: sessionmaker[Session] | None,
         *,
         exact_max: int = 20_000,
-        nprobe: int = 16,
-        rerank_factor: int = 4,
+        nprobe: int = 8,
+        rerank_factor: int = 2,
     ) -> None:
         self.sessions = sessions
         self.exact_max = exact_max
@@ -219,7 +219,7 @@ class ShapeIndex:
 
     def rerank_candidates(self, k: int) -> int:
         """How many candidates to fetch from an approximate partition for ``k`` results."""
-        return max(self.rerank_factor * k, k + 20)
+        return max(self.rerank_factor * k, k + 10)
 
     def search(
         self,

@@ -47,5 +47,13 @@ def serve(host: str | None = None, port: int | None = None, embedded_worker: boo
         )
         return 2
 
-    uvicorn.run(create_app(settings, embedded_worker=embedded_worker), host=host, port=port)
+    # log_config=None keeps the JSON logging configured above (uvicorn's default config
+    # would replace it and add a second, plain access line per request on stdout).
+    uvicorn.run(
+        create_app(settings, embedded_worker=embedded_worker),
+        host=host,
+        port=port,
+        log_config=None,
+        access_log=False,
+    )
     return 0

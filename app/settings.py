@@ -256,13 +256,13 @@ class Settings(BaseSettings):
         "exactly from the stored descriptors.",
     )
     index_nprobe: int = Field(
-        default=16, ge=1, description="Inverted lists searched per query in an IVF partition."
+        default=8, ge=1, description="Inverted lists searched per query in an IVF partition."
     )
     index_rerank_factor: int = Field(
-        default=4,
+        default=2,
         ge=1,
         description="Candidates per wanted result that an IVF partition returns for exact "
-        "re-ranking (at least k + 20).",
+        "re-ranking (at least k + 10).",
     )
     filter_pushdown_max: int = Field(
         default=10_000,

@@ -25,25 +25,49 @@ SQL only narrows the candidates; ``metadata_matches`` decides, so both ways agre
 from __future__ import annotations
 
 import json
+import uuid
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from sqlalchemy import ColumnElement, and_, cast, false, func, literal, or_, select
-from sqlalchemy.dialects.postgresql import JSONB
-from sqlalchemy.orm import Session, undefer
+from sqlalchemy import (
+    BigInteger,
+    ColumnElement,
+    Connection,
+    and_,
+    any_,
+    bindparam,
+    cast,
+    false,
+    func,
+    literal,
+    or_,
+    select,
+)
+from sqlalchemy.dialects.postgresql import ARRAY, JSONB
 
 from app.db.models import Model
 from app.index import PartitionKey, ShapeIndex
 
-__all__ = ["Match", "find_similar", "matching_ids", "metadata_matches", "score_of"]
+__all__ = ["Candidate", "Match", "find_similar", "matching_ids", "metadata_matches", "score_of"]
 
 PUSHDOWN_MAX = 10_000
 
 
 @dataclass(frozen=True)
+class Candidate:
+    """What an answer shows of a matching model (the fields of ``ModelSummary``)."""
+
+    index_id: int
+    id: uuid.UUID
+    external_id: str | None
+    name: str | None
+    meta: dict[str, Any] | None
+
+
+@dataclass(frozen=True)
 class Match:
-    model: Model
+    model: Candidate
     distance: float
     score: float
 
@@ -77,10 +101,10 @@ def _values_written_as(wanted: str) -> list[Any]:
     return values
 
 
-def _sql_filter(session: Session, filters: dict[str, str]) -> ColumnElement[bool]:
+def _sql_filter(connection: Connection, filters: dict[str, str]) -> ColumnElement[bool]:
     """A SQL condition true for every model that ``metadata_matches`` (perhaps a few more)."""
     conditions = []
-    postgres = session.get_bind().dialect.name == "postgresql"
+    postgres = connection.dialect.name == "postgresql"
     for key, wanted in filters.items():
         values = _values_written_as(wanted)
         if postgres:
@@ -101,18 +125,18 @@ def _sql_filter(session: Session, filters: dict[str, str]) -> ColumnElement[bool
 
 
 def matching_ids(
-    session: Session, key: PartitionKey, filters: dict[str, str], limit: int
+    connection: Connection, key: PartitionKey, filters: dict[str, str], limit: int
 ) -> list[int] | None:
     """The ids of the ready models of partition ``key`` that pass ``filters``, or None when
     more than ``limit`` do (the filter is not selective)."""
     tenant, version = key
-    ids = session.scalars(
+    ids = connection.scalars(
         select(Model.index_id)
         .where(
             Model.tenant == tenant,
             Model.descriptor_version == version,
             Model.status == "ready",
-            _sql_filter(session, filters),
+            _sql_filter(connection, filters),
         )
         .limit(limit + 1)
     ).all()
@@ -121,7 +145,7 @@ def matching_ids(
 
 def find_similar(
     index: ShapeIndex,
-    session: Session,
+    connection: Connection,
     key: PartitionKey,
     vector: np.ndarray,
     *,
@@ -134,7 +158,7 @@ def find_similar(
     """The ``k`` best matches in partition ``key`` (tenant, descriptor version)."""
     filters = filters or {}
     vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
-    allowed = matching_ids(session, key, filters, pushdown_max) if filters else None
+    allowed = matching_ids(connection, key, filters, pushdown_max) if filters else None
     if allowed is not None:
         allowed = [i for i in allowed if i != exclude]
     approximate = index.is_approximate(key)
@@ -148,7 +172,9 @@ def find_similar(
         hits = index.search(key, vector, fetch, allowed=allowed)
         fresh = [i for i, _ in hits if i not in seen and i != exclude]
         seen.update(i for i, _ in hits)
-        for model, distance in _confirmed(session, key[0], fresh, vector, dict(hits), approximate):
+        for model, distance in _confirmed(
+            connection, key[0], fresh, vector, dict(hits), approximate
+        ):
             if metadata_matches(model.meta or {}, filters):
                 matches.append(Match(model, distance, score_of(distance)))
         matches.sort(key=lambda match: (match.distance, match.model.index_id))
@@ -165,29 +191,43 @@ def find_similar(
 
 
 def _confirmed(
-    session: Session,
+    connection: Connection,
     tenant: str,
     ids: list[int],
     query: np.ndarray,
     distances: dict[int, float],
     exact: bool,
-) -> list[tuple[Model, float]]:
+) -> list[tuple[Candidate, float]]:
     """The candidates still ready in the database, with exact distances when ``exact``
-    (read from their stored descriptors) and the index's own otherwise."""
+    (read from their stored descriptors) and the index's own otherwise.
+
+    Plain rows of the columns an answer needs, not ORM objects: building and tracking a
+    few dozen ``Model`` instances per query cost more than the query itself."""
     if not ids:
         return []
-    statement = select(Model).where(
-        Model.index_id.in_(ids), Model.tenant == tenant, Model.status == "ready"
-    )
+    columns = [Model.index_id, Model.id, Model.external_id, Model.name, Model.meta.label("meta")]
     if exact:
-        statement = statement.options(undefer(Model.descriptor))
+        columns.append(Model.descriptor)
+    statement = select(*columns).where(
+        _id_in(connection, ids), Model.tenant == tenant, Model.status == "ready"
+    )
     confirmed = []
-    for model in session.scalars(statement):
-        distance = distances[model.index_id]
-        if exact and model.descriptor is not None:
-            stored = np.frombuffer(model.descriptor, dtype=np.float32)
+    for row in connection.execute(statement, {"ids": ids}):
+        distance = distances[row.index_id]
+        if exact and row.descriptor is not None:
+            stored = np.frombuffer(row.descriptor, dtype=np.float32)
             distance = (
                 float(np.linalg.norm(stored - query)) if len(stored) == len(query) else distance
             )
-        confirmed.append((model, distance))
+        candidate = Candidate(row.index_id, row.id, row.external_id, row.name, row.meta)
+        confirmed.append((candidate, distance))
     return confirmed
+
+
+def _id_in(connection: Connection, ids: list[int]) -> ColumnElement[bool]:
+    """``index_id`` among the bound parameter ``ids``: one array parameter on PostgreSQL,
+    so the statement text is the same for any number of ids and is prepared once per
+    connection; an expanded ``IN`` elsewhere."""
+    if connection.dialect.name == "postgresql":
+        return Model.index_id == any_(bindparam("ids", type_=ARRAY(BigInteger)))
+    return Model.index_id.in_(bindparam("ids", expanding=True))

@@ -300,8 +300,8 @@ def fill(url: str, real: np.ndarray, total: int, noise: float) -> tuple[list[str
 
 
 def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None:
-    from app.api.routes_models import load_model
-    from app.db.session import make_engine, make_session_factory
+    from app.api.routes_models import ready_query
+    from app.db.session import make_engine, make_session_factory, read_only
     from app.similarity import find_similar
 
     engine = make_engine(url)
@@ -318,11 +318,11 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         times, counts = [], []
         for model_id in rng.choice(model_ids, size=args.queries):
             t0 = time.perf_counter()
-            with sessions() as session:
-                model = load_model(session, "default", str(model_id), descriptor=True)
+            with read_only(engine).connect() as connection:  # as the route does
+                model = ready_query(connection, "default", str(model_id))
                 matches = find_similar(
                     index,
-                    session,
+                    connection,
                     KEY,
                     np.frombuffer(model.descriptor, dtype=np.float32),
                     k=K,
@@ -341,7 +341,7 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         statement = select(Model.index_id).where(
             Model.tenant == "default",
             Model.status == "ready",
-            _sql_filter(session, {"family": "f7"}),
+            _sql_filter(session.connection(), {"family": "f7"}),
         )
         explain = "EXPLAIN QUERY PLAN " if engine.dialect.name == "sqlite" else "EXPLAIN "
         compiled = statement.compile(engine, compile_kwargs={"literal_binds": True})
@@ -377,6 +377,8 @@ def start_api(url: str, args: argparse.Namespace) -> tuple[subprocess.Popen[byte
         "SHAPESEARCH_INDEX_EXACT_MAX": str(args.exact_max),
         "SHAPESEARCH_INDEX_NPROBE": str(args.nprobe),
     }
+    OUT.mkdir(parents=True, exist_ok=True)
+    log = (OUT / "api.log").open("wb")
     t0 = time.perf_counter()
     process = subprocess.Popen(
         [
@@ -387,13 +389,15 @@ def start_api(url: str, args: argparse.Namespace) -> tuple[subprocess.Popen[byte
             str(port),
         ],
         env=env,
+        # Its JSON log (one access line per request) goes to a file: a pipe nobody reads
+        # fills after ~250 requests and then blocks the server in a logging write.
         stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
+        stderr=log,
     )
     base = f"http://127.0.0.1:{port}"
     while True:
         if process.poll() is not None:
-            raise RuntimeError(process.stderr.read().decode() if process.stderr else "died")
+            raise RuntimeError((OUT / "api.log").read_text()[-2000:])
         try:
             if httpx.get(f"{base}/readyz", timeout=5).status_code == 200:
                 return process, base, time.perf_counter() - t0
@@ -469,41 +473,47 @@ def phase_db(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
 
 
 async def _generate(base: str, paths: list[str], args: argparse.Namespace) -> dict:
-    import httpx
+    """``args.concurrency`` keep-alive HTTP/1.1 connections, each sending one request at a
+    time; latencies of answered requests. Raw asyncio streams rather than an HTTP client
+    library: on 2 cores the generator shares the machine with the server, and a full client
+    (httpx) spends more CPU per request than the server does, which would measure the client.
+    """
+    from urllib.parse import urlsplit
 
+    url = urlsplit(base)
     latencies: list[float] = []
     results: list[int] = []
     errors = 0
     todo = iter(paths[: args.requests] if args.method == "DELETE" else _cycle(paths, args.requests))
     deadline = time.perf_counter() + args.seconds
-    limits = httpx.Limits(max_connections=args.concurrency)
+    head = f"Host: {url.netloc}\r\nAuthorization: Bearer {args.key}\r\n"
 
-    headers = {"Authorization": f"Bearer {args.key}"}
-    async with httpx.AsyncClient(
-        base_url=base, limits=limits, timeout=30, headers=headers
-    ) as client:
-
-        async def user() -> None:
-            nonlocal errors
+    async def user() -> None:
+        nonlocal errors
+        reader, writer = await asyncio.open_connection(url.hostname, url.port)
+        try:
             for path in todo:
                 if time.perf_counter() > deadline:
                     return
                 t0 = time.perf_counter()
+                writer.write(f"{args.method} {path} HTTP/1.1\r\n{head}\r\n".encode())
                 try:
-                    response = await client.request(args.method, path)
-                except httpx.HTTPError:  # a timeout under overload counts, and is counted
-                    errors += 1
-                    continue
+                    status, body = await asyncio.wait_for(_response(reader), timeout=30)
+                except (TimeoutError, ConnectionError, asyncio.IncompleteReadError):
+                    errors += 1  # a timeout under overload counts, and is counted
+                    return
                 latencies.append(time.perf_counter() - t0)
-                if response.status_code >= 400:
+                if status >= 400:
                     errors += 1
                 elif args.method == "GET":
-                    results.append(len(response.json()["results"]))
+                    results.append(len(json.loads(body)["results"]))
+        finally:
+            writer.close()
 
-        start = time.perf_counter()
-        await asyncio.gather(*(user() for _ in range(args.concurrency)))
-        elapsed = time.perf_counter() - start
-    ms = np.asarray(latencies) * 1000
+    start = time.perf_counter()
+    await asyncio.gather(*(user() for _ in range(args.concurrency)))
+    elapsed = time.perf_counter() - start
+    ms = np.asarray(latencies or [float("nan")]) * 1000
     return {
         "count": len(latencies),
         "seconds": elapsed,
@@ -513,6 +523,18 @@ async def _generate(base: str, paths: list[str], args: argparse.Namespace) -> di
         "errors": errors,
         "min_results": min(results) if results else None,
     }
+
+
+async def _response(reader: asyncio.StreamReader) -> tuple[int, bytes]:
+    """One HTTP/1.1 response with a Content-Length body (what uvicorn sends here)."""
+    header = await reader.readuntil(b"\r\n\r\n")
+    lines = header.decode("latin-1").split("\r\n")
+    length = 0
+    for line in lines[1:]:
+        name, _, value = line.partition(":")
+        if name.lower() == "content-length":
+            length = int(value)
+    return int(lines[0].split()[1]), await reader.readexactly(length)
 
 
 def _cycle(paths: list[str], count: int) -> Iterator[str]:
@@ -546,7 +568,7 @@ def main() -> None:
         "--descriptors", type=int, default=1_000_000, help="vectors in the index phase"
     )
     parser.add_argument("--exact-max", type=int, default=20_000, help="SHAPESEARCH_INDEX_EXACT_MAX")
-    parser.add_argument("--nprobe", type=int, default=16, help="SHAPESEARCH_INDEX_NPROBE")
+    parser.add_argument("--nprobe", type=int, default=8, help="SHAPESEARCH_INDEX_NPROBE")
     parser.add_argument("--real", type=int, default=40, help="real models to describe")
     parser.add_argument("--points", type=int, default=3000, help="points per real model")
     parser.add_argument("--noise", type=float, default=0.08, help="norm of the synthetic noise")

@@ -122,7 +122,9 @@ def test_find_similar_widens_until_k_models_pass_the_filters(
     index = ShapeIndex(sessions)
     index.rebuild()
     with sessions() as session:
-        matches = find_similar(index, session, ("t", "v1"), query, k=3, filters={"tag": "yes"})
+        matches = find_similar(
+            index, session.connection(), ("t", "v1"), query, k=3, filters={"tag": "yes"}
+        )
     assert sorted(m.model.index_id for m in matches) == sorted(tagged)
     assert [m.distance for m in matches] == sorted(m.distance for m in matches)
 

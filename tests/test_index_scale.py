@@ -49,7 +49,7 @@ def test_a_compressed_partition_answers_exactly_after_re_ranking(
     with sessions() as session:
         for q in range(5):
             query = vectors[list(vectors)[q * 37]]
-            matches = find_similar(index, session, KEY, query, k=10)
+            matches = find_similar(index, session.connection(), KEY, query, k=10)
             assert [m.model.index_id for m in matches] == exact_order(vectors, query)[:10]
             # Distances are exact (from the stored vectors), not quantised estimates.
             for m in matches:
@@ -104,16 +104,25 @@ def test_a_selective_filter_is_pushed_down_and_still_returns_k(
     index = ShapeIndex(sessions, exact_max=exact_max)
     index.rebuild()
     with sessions() as session:
-        assert sorted(matching_ids(session, KEY, {"family": "rare"}, limit=10) or []) == rare
-        assert matching_ids(session, KEY, {"family": "common"}, limit=10) is None  # broad
-        assert matching_ids(session, KEY, {"family": "7"}, limit=10) == [numeric]
-        assert matching_ids(session, KEY, {"qty": "3", "family": "rare"}, limit=10) == []
-        pushed = find_similar(index, session, KEY, query, k=3, filters={"family": "rare"})
+        assert (
+            sorted(matching_ids(session.connection(), KEY, {"family": "rare"}, limit=10) or [])
+            == rare
+        )
+        assert (
+            matching_ids(session.connection(), KEY, {"family": "common"}, limit=10) is None
+        )  # broad
+        assert matching_ids(session.connection(), KEY, {"family": "7"}, limit=10) == [numeric]
+        assert (
+            matching_ids(session.connection(), KEY, {"qty": "3", "family": "rare"}, limit=10) == []
+        )
+        pushed = find_similar(
+            index, session.connection(), KEY, query, k=3, filters={"family": "rare"}
+        )
         widened = find_similar(
-            index, session, KEY, query, k=3, filters={"family": "rare"}, pushdown_max=0
+            index, session.connection(), KEY, query, k=3, filters={"family": "rare"}, pushdown_max=0
         )
         assert [m.model.index_id for m in pushed] == [m.model.index_id for m in widened]
         assert sorted(m.model.index_id for m in pushed) == rare
         # Fewer matching models than k: all of them, nothing else.
-        seven = find_similar(index, session, KEY, query, k=5, filters={"family": "7"})
+        seven = find_similar(index, session.connection(), KEY, query, k=5, filters={"family": "7"})
         assert [m.model.index_id for m in seven] == [numeric]

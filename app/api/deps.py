@@ -25,6 +25,7 @@ class Services:
     engine_settings: EngineSettings
     engine: Engine
     sessions: sessionmaker[Session]
+    reader: Engine  # hot read-only paths (app.db.session.read_only)
     index: ShapeIndex
 
 

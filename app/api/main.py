@@ -36,7 +36,7 @@ from app.api.openapi import install_openapi
 from app.api.problems import install_problem_handlers
 from app.api.search_describer import SearchAdmission, SearchDescriber
 from app.db.migrate import upgrade
-from app.db.session import make_engine, make_session_factory
+from app.db.session import make_engine, make_session_factory, read_only
 from app.describing import pin_blas_threads
 from app.index import ShapeIndex
 from app.logs import RequestId
@@ -92,6 +92,7 @@ def create_app(
             engine_settings=engine_settings(settings),
             engine=engine,
             sessions=sessions,
+            reader=read_only(engine),
             index=index,
         )
         stop = threading.Event()

@@ -9,7 +9,7 @@ import numpy as np
 from fastapi import APIRouter, Depends, File, Form, Header, Query, Request, Response, UploadFile
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse
-from sqlalchemy import and_, delete, or_, select, update
+from sqlalchemy import Connection, Row, and_, delete, or_, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, undefer
 
@@ -37,7 +37,7 @@ from app.revisions import create_model_rows, latest_jobs, lock_models
 from app.similarity import find_similar
 from app.webhooks import record_model_event
 
-__all__ = ["load_model", "metadata_filters", "router"]
+__all__ = ["load_model", "metadata_filters", "ready_query", "router"]
 
 router = APIRouter(prefix="/v1", tags=["models"])
 
@@ -99,8 +99,11 @@ def create_model(
     metadata: Annotated[str | None, Form(description="A JSON object, as a string.")] = None,
     idempotency_key: Annotated[
         str | None,
-        Header(max_length=300, description="Retries with the same key and body get the "
-               "first answer back; another body with the same key gets 422."),
+        Header(
+            max_length=300,
+            description="Retries with the same key and body get the "
+            "first answer back; another body with the same key gets 422.",
+        ),
     ] = None,
 ) -> ModelResource | JSONResponse:
     limits = InputLimits.from_settings(services.settings)
@@ -181,8 +184,9 @@ def list_models(
     page = rows[:limit]
     next_cursor = encode_cursor(page[-1]) if len(rows) > limit else None
     jobs = latest_jobs(session, [m.id for m in page])
-    return ModelList(items=[model_resource(m, jobs.get(m.id)) for m in page],
-                     next_cursor=next_cursor)
+    return ModelList(
+        items=[model_resource(m, jobs.get(m.id)) for m in page], next_cursor=next_cursor
+    )
 
 
 @router.get(
@@ -294,6 +298,29 @@ async def similar_models(
     )
 
 
+def ready_query(connection: Connection, tenant: str, model_id: str) -> Row[Any]:
+    """The ``id, index_id, descriptor, descriptor_version`` of the tenant's ready model
+    ``model_id`` (only what a similarity query needs, not the whole row); 404 or 409."""
+    parsed = _uuid_or_none(model_id)
+    model = None
+    if parsed is not None:
+        model = connection.execute(
+            select(
+                Model.id, Model.index_id, Model.status, Model.descriptor, Model.descriptor_version
+            ).where(Model.id == parsed, Model.tenant == tenant)
+        ).one_or_none()
+    if model is None:
+        raise _not_found(model_id)
+    if model.status != "ready" or model.descriptor is None or model.descriptor_version is None:
+        raise Problem(
+            409,
+            f"Model {model.id} is {model.status}; similarity needs a ready model.",
+            slug="model-not-ready",
+            model_status=model.status,
+        )
+    return model
+
+
 def _similar_models(
     services: Services,
     tenant: str,
@@ -302,18 +329,11 @@ def _similar_models(
     min_score: float | None,
     filters: dict[str, str],
 ) -> SimilarResponse:
-    with services.sessions() as session:
-        model = load_model(session, tenant, model_id, descriptor=True)
-        if model.status != "ready" or model.descriptor is None or model.descriptor_version is None:
-            raise Problem(
-                409,
-                f"Model {model.id} is {model.status}; similarity needs a ready model.",
-                slug="model-not-ready",
-                model_status=model.status,
-            )
+    with services.reader.connect() as connection:
+        model = ready_query(connection, tenant, model_id)
         matches = find_similar(
             services.index,
-            session,
+            connection,
             (tenant, model.descriptor_version),
             np.frombuffer(model.descriptor, dtype=np.float32),
             k=k,

@@ -68,7 +68,7 @@ def search(
         ) from error
     matches = find_similar(
         services.index,
-        session,
+        session.connection(),
         (tenant, described["descriptor_version"]),
         np.frombuffer(described["descriptor"], dtype=np.float32),
         k=k,

@@ -9,6 +9,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.db.models import Job, Model
+from app.similarity import Candidate
 
 __all__ = [
     "CutoffInfo",
@@ -208,7 +209,7 @@ def model_resource(model: Model, job: Job | None = None) -> ModelResource:
     )
 
 
-def model_summary(model: Model) -> ModelSummary:
+def model_summary(model: Model | Candidate) -> ModelSummary:
     return ModelSummary(
         id=model.id, external_id=model.external_id, name=model.name, metadata=model.meta or {}
     )

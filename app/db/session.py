@@ -9,14 +9,17 @@ from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.engine import make_url
 from sqlalchemy.orm import Session, sessionmaker
 
-__all__ = ["make_engine", "make_session_factory"]
+__all__ = ["make_engine", "make_session_factory", "read_only"]
 
 
 def make_engine(url: str) -> Engine:
     """Create the engine; on SQLite, make it safe for the API and worker threads to share."""
     parsed = make_url(url)
     if parsed.get_backend_name() != "sqlite":
-        return create_engine(url, pool_pre_ping=True, pool_size=10, max_overflow=20)
+        # As many pooled connections as the thread pool runs requests (anyio's default 40
+        # threads; 16-64 concurrent searches): overflow connections are closed when given
+        # back, so a pool smaller than the load would connect anew on most requests.
+        return create_engine(url, pool_pre_ping=True, pool_size=20, max_overflow=30)
 
     if parsed.database and parsed.database != ":memory:":
         Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
@@ -44,3 +47,17 @@ def make_engine(url: str) -> Engine:
 
 def make_session_factory(engine: Engine) -> sessionmaker[Session]:
     return sessionmaker(engine, expire_on_commit=False)
+
+
+
+def read_only(engine: Engine) -> Engine:
+    """The engine as hot read-only request paths (similar) should use it.
+
+    On PostgreSQL its connections run in autocommit: each statement is its own snapshot and
+    no ``BEGIN``/``ROLLBACK`` round trips frame the request (two of the five round trips a
+    ``similar`` made). A read path that needs one snapshot across statements must not use
+    it. SQLite is in-process, where a transaction costs nothing: the engine itself.
+    """
+    if engine.dialect.name != "postgresql":
+        return engine
+    return engine.execution_options(isolation_level="AUTOCOMMIT")
