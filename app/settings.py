@@ -258,6 +258,12 @@ class Settings(BaseSettings):
     index_nprobe: int = Field(
         default=8, ge=1, description="Inverted lists searched per query in an IVF partition."
     )
+    query_threads: int = Field(
+        default=4,
+        ge=1,
+        description="Threads of an API process that run similarity queries (database and "
+        "index); more concurrent requests wait in line for them.",
+    )
     index_rerank_factor: int = Field(
         default=2,
         ge=1,

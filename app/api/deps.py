@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -26,6 +27,7 @@ class Services:
     engine: Engine
     sessions: sessionmaker[Session]
     reader: Engine  # hot read-only paths (app.db.session.read_only)
+    queries: ThreadPoolExecutor  # similarity queries (routes_models.similar_models)
     index: ShapeIndex
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import AsyncIterator
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
@@ -93,6 +94,9 @@ def create_app(
             engine=engine,
             sessions=sessions,
             reader=read_only(engine),
+            queries=ThreadPoolExecutor(
+                settings.query_threads, thread_name_prefix="shapesearch-query"
+            ),
             index=index,
         )
         stop = threading.Event()
@@ -122,6 +126,7 @@ def create_app(
                 deliveries.stop()
             stop.set()
             follower.join()
+            app.state.services.queries.shutdown()
             engine.dispose()
 
     # Swagger UI and ReDoc from assets shipped in a wheel: the docs work without internet.
