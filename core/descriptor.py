@@ -1,4 +1,4 @@
-"""One search vector per model from its per-point signature.
+"""One search vector per model from its per-point signature and its points.
 
 For each scale (heat time, or wave energy) the signature values of all points go into a
 histogram with fixed bin edges, each point weighted by the area it stands for, so that a
@@ -6,6 +6,17 @@ dense patch of a scan does not outvote a sparse one. Histograms are square-roote
 (Hellinger embedding: L2 distance between them is the Hellinger distance) and every block
 is scaled to unit norm, then weighted; the whole vector has unit norm, so L2 distance and
 inner product rank alike in FAISS.
+
+The spectral blocks are intrinsic (unchanged by bending); two extrinsic blocks describe the
+embedding itself, both invariant to rotation, translation and scale:
+
+- D2 (Osada et al. 2002): histogram of distances between random area-weighted point pairs,
+  over their mean distance, square-rooted like the others;
+- spread: square roots of the sorted eigenvalues of the area-weighted covariance of the
+  points over their sum (a rod ~ (1, 0, 0), a plate ~ (0.7, 0.7, 0), a ball ~ (0.58, ...)).
+
+Layout: ``[HKS | WKS | WKS slope | eigenvalue channel | D2 | spread]``, blocks of weight 0
+left out.
 
 Everything that changes the vector is written into ``descriptor_version``: vectors with
 different versions must never be compared.
@@ -21,10 +32,10 @@ import numpy as np
 from core.settings import DescriptorSettings, EngineSettings
 from core.signatures import heat_kernel_signature, wave_kernel_signature, zero_eigenvalue_count
 
-__all__ = ["DescriptorSpec", "area_histograms"]
+__all__ = ["DescriptorSpec", "area_histograms", "distance_distribution", "spread_profile"]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
-_LAYOUT = "ss2"
+_LAYOUT = "ss3"
 
 
 def area_histograms(
@@ -54,6 +65,55 @@ def area_histograms(
     return histograms / np.maximum(histograms.sum(axis=1, keepdims=True), 1e-300)
 
 
+def distance_distribution(
+    points: np.ndarray, areas: np.ndarray, edges: np.ndarray, pairs: int, seed: int
+) -> np.ndarray:
+    """D2 shape distribution (Osada et al. 2002) of a surface given as weighted points.
+
+    Distances between ``pairs`` random point pairs, each end drawn with probability
+    proportional to its area (uniform on the surface, however unevenly it was sampled),
+    divided by their mean so that neither scale nor the normalisation convention matters.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    areas : (n,) float
+        Non-negative, not all zero.
+    edges : (b + 1,) float
+        Bin edges of distance over mean distance; values outside go to the end bins.
+    pairs : int
+    seed : int
+        Seeds the pair draw: the same points always give the same histogram.
+
+    Returns
+    -------
+    histogram : (b,) float
+        Sums to 1.
+    """
+    rng = np.random.default_rng(seed)
+    probability = areas / areas.sum()
+    ends = rng.choice(points.shape[0], size=(2, pairs), p=probability)
+    distances = np.linalg.norm(points[ends[0]] - points[ends[1]], axis=1)
+    mean = distances.mean()
+    ratios = distances / mean if mean > 0 else distances
+    return area_histograms(ratios[:, None], np.ones(pairs), edges)[0]
+
+
+def spread_profile(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    """How the surface spreads along its principal axes, ``(3,) float`` of unit norm.
+
+    Square roots of the eigenvalues of the area-weighted covariance of ``points : (n, 3)``
+    (about their area-weighted centroid), largest first, over their sum: the eigenvalues
+    do not change under rotation and the ratio does not change under scaling.
+    """
+    weights = areas / areas.sum()
+    offsets = points - weights @ points
+    covariance = (offsets * weights[:, None]).T @ offsets
+    variances = np.maximum(np.sort(np.linalg.eigvalsh(covariance))[::-1], 0.0)
+    total = variances.sum()
+    return np.sqrt(variances / total) if total > 0 else np.zeros(3)
+
+
 def _unit_block(block: np.ndarray) -> np.ndarray:
     flat = block.ravel()
     norm = np.linalg.norm(flat)
@@ -79,6 +139,11 @@ class DescriptorSpec:
     slope_weight: float
     dna_count: int
     dna_weight: float
+    d2_edges: tuple[float, ...]
+    d2_pairs: int
+    d2_seed: int
+    d2_weight: float
+    spread_weight: float
 
     @classmethod
     def from_settings(cls, settings: DescriptorSettings) -> DescriptorSpec:
@@ -101,6 +166,11 @@ class DescriptorSpec:
             slope_weight=settings.wks_slope_weight if energies.size > 1 else 0.0,
             dna_count=settings.dna_count,
             dna_weight=settings.dna_weight,
+            d2_edges=tuple(np.linspace(*settings.d2_range, settings.bins + 1).tolist()),
+            d2_pairs=settings.d2_pairs,
+            d2_seed=settings.d2_seed,
+            d2_weight=settings.d2_weight,
+            spread_weight=settings.spread_weight,
         )
 
     def signature(self, eigenvalues: np.ndarray, eigenvectors: np.ndarray) -> np.ndarray:
@@ -121,8 +191,17 @@ class DescriptorSpec:
             columns.append(np.log(np.maximum(wks, 1e-300)))
         return np.hstack(columns)
 
+    @property
+    def extrinsic(self) -> bool:
+        """True when the vector depends on the points, not only on the spectrum."""
+        return self.d2_weight > 0 or self.spread_weight > 0
+
     def histogram(
-        self, signature: np.ndarray, areas: np.ndarray, eigenvalues: np.ndarray
+        self,
+        signature: np.ndarray,
+        areas: np.ndarray,
+        eigenvalues: np.ndarray,
+        points: np.ndarray | None = None,
     ) -> np.ndarray:
         """The descriptor, ``(d,) float32`` of unit norm.
 
@@ -134,6 +213,14 @@ class DescriptorSpec:
             Area each point stands for.
         eigenvalues : (k,) float
             Unit-area eigenvalues, for the normalised eigenvalue channel.
+        points : (n, 3) float, optional
+            The points the signature was computed on (any position and scale); required
+            when ``extrinsic``.
+
+        Raises
+        ------
+        ValueError
+            ``points`` missing, or not one per signature row, while an extrinsic block is on.
 
         Notes
         -----
@@ -158,7 +245,24 @@ class DescriptorSpec:
                 blocks.append(self.slope_weight * _unit_block(np.sqrt(slope)))
         if self.dna_count and self.dna_weight > 0:
             blocks.append(self.dna_weight * _unit_block(self._eigenvalue_channel(eigenvalues)))
+        if self.extrinsic:
+            blocks.extend(self._extrinsic_blocks(points, areas, signature.shape[0]))
         return _unit_block(np.concatenate(blocks)).astype(np.float32)
+
+    def _extrinsic_blocks(
+        self, points: np.ndarray | None, areas: np.ndarray, count: int
+    ) -> list[np.ndarray]:
+        if points is None or points.shape != (count, 3):
+            raise ValueError("the D2 and spread blocks need the (n, 3) points of the signature")
+        blocks = []
+        if self.d2_weight > 0:
+            d2 = distance_distribution(
+                points, areas, np.asarray(self.d2_edges), self.d2_pairs, self.d2_seed
+            )
+            blocks.append(self.d2_weight * _unit_block(np.sqrt(d2)))
+        if self.spread_weight > 0:
+            blocks.append(self.spread_weight * spread_profile(points, areas))
+        return blocks
 
     def _eigenvalue_channel(self, eigenvalues: np.ndarray) -> np.ndarray:
         """ShapeDNA on Weyl's scale: ``log(lambda_j / 4 pi j)`` for the first non-zero ones.
@@ -201,6 +305,13 @@ class DescriptorSpec:
             )
         if self.dna_count:
             parts.append(f"dna={self.dna_count}w{self.dna_weight:g}")
+        if self.d2_weight > 0:
+            parts.append(
+                f"d2={len(self.d2_edges) - 1}[{self.d2_edges[0]:g},{self.d2_edges[-1]:g}]"
+                f"p{self.d2_pairs}s{self.d2_seed}w{self.d2_weight:g}"
+            )
+        if self.spread_weight > 0:
+            parts.append(f"spread=w{self.spread_weight:g}")
         # The readable part rounds; the digest pins every exact value (a custom time grid).
         exact = repr((self, settings.laplacian, settings.normalisation, settings.max_points,
                       settings.sample_seed, settings.outlier_filter, cutoff))

@@ -1,7 +1,7 @@
 """``describe``: one shape file in, one search descriptor out.
 
     load -> validate -> centre -> Laplacian (L, M) -> unit area -> eigenpairs with the
-    cutoff -> signatures -> histogram descriptor
+    cutoff -> signatures -> histogram descriptor (+ extrinsic blocks of the points)
 
 Every stage is timed; the timings travel with the result so the service can store them.
 """
@@ -181,6 +181,7 @@ def descriptor_from_eigenpairs(
     eigenvalues: np.ndarray,
     eigenvectors: np.ndarray,
     areas: np.ndarray,
+    points: np.ndarray,
     settings: EngineSettings,
     timings: dict[str, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, str]:
@@ -192,6 +193,9 @@ def descriptor_from_eigenpairs(
     eigenvectors : (n, k) float
     areas : (n,) float
         Diagonal of the mass matrix.
+    points : (n, 3) float
+        The points the operators were built on, for the extrinsic blocks (which do not
+        depend on position or scale, so normalised or not gives the same vector).
 
     Returns
     -------
@@ -204,7 +208,7 @@ def descriptor_from_eigenpairs(
     with _timed(timings, "signature"):
         signature = spec.signature(eigenvalues, eigenvectors)
     with _timed(timings, "descriptor"):
-        descriptor = spec.histogram(signature, areas, eigenvalues)
+        descriptor = spec.histogram(signature, areas, eigenvalues, points)
     return signature, descriptor, spec.version(settings)
 
 
@@ -229,7 +233,7 @@ def _describe_loaded(
         eigenvalues, eigenvectors = solver.solve(cutoff.n)
     areas = np.asarray(mass.diagonal(), dtype=np.float64)
     signature, descriptor, version = descriptor_from_eigenpairs(
-        eigenvalues, eigenvectors, areas, settings, timings
+        eigenvalues, eigenvectors, areas, points, settings, timings
     )
     return Description(
         points=points,

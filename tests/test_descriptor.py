@@ -7,8 +7,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from core.descriptor import DescriptorSpec, area_histograms
+from core.descriptor import (
+    DescriptorSpec,
+    area_histograms,
+    distance_distribution,
+    spread_profile,
+)
+from core.evaluation.scans import random_rotation
 from core.settings import CutoffSettings, DescriptorSettings, EngineSettings
+from tests.shapes import plate_points, sphere_points, torus_points
 
 
 def test_area_histograms_weight_by_area_and_keep_outliers() -> None:
@@ -33,6 +40,10 @@ def fake_spectrum(n_points: int = 400, k: int = 60, seed: int = 0):
     return eigenvalues, eigenvectors, np.full(n_points, 1.0 / n_points)
 
 
+def fake_points(n_points: int = 400, seed: int = 0) -> np.ndarray:
+    return torus_points(n_points, seed=seed)
+
+
 @pytest.mark.parametrize(
     "settings",
     [
@@ -42,21 +53,28 @@ def fake_spectrum(n_points: int = 400, k: int = 60, seed: int = 0):
         DescriptorSettings(wks_energies=8, dna_count=20, wks_slope_weight=0.0),
         DescriptorSettings(bins=16, hks_times=(0.01, 0.1)),
         DescriptorSettings(hks_weight=0.0, wks_weight=0.0),
+        DescriptorSettings(d2_weight=0.0),
+        DescriptorSettings(spread_weight=0.0, bins=8),
+        DescriptorSettings(
+            hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0
+        ),
     ],
 )
 def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> None:
     spec = DescriptorSpec.from_settings(settings)
     eigenvalues, eigenvectors, areas = fake_spectrum()
     signature = spec.signature(eigenvalues, eigenvectors)
-    descriptor = spec.histogram(signature, areas, eigenvalues)
+    descriptor = spec.histogram(signature, areas, eigenvalues, fake_points())
     # Blocks: HKS (times x bins), WKS (energies x bins), WKS slope ((energies - 1) x bins),
-    # eigenvalue channel (dna_count); a block with weight 0 is left out.
+    # eigenvalue channel (dna_count), D2 (bins), spread (3); a block with weight 0 is left out.
     energies = settings.wks_energies
     length = (
         (len(settings.hks_times) * settings.bins if settings.hks_weight > 0 else 0)
         + (energies * settings.bins if energies and settings.wks_weight > 0 else 0)
         + ((energies - 1) * settings.bins if energies > 1 and settings.wks_slope_weight else 0)
-        + settings.dna_count
+        + (settings.dna_count if settings.dna_weight > 0 else 0)
+        + (settings.bins if settings.d2_weight > 0 else 0)
+        + (3 if settings.spread_weight > 0 else 0)
     )
     assert descriptor.dtype == np.float32
     assert descriptor.shape == (length,)
@@ -86,7 +104,9 @@ def test_wks_block_uses_its_own_log_range_centred_near_zero() -> None:
 
 def test_a_descriptor_without_blocks_is_refused() -> None:
     with pytest.raises(ValueError, match="no block"):
-        DescriptorSettings(hks_weight=0.0, wks_energies=0, dna_count=0).validate()
+        DescriptorSettings(
+            hks_weight=0.0, wks_energies=0, dna_count=0, d2_weight=0.0, spread_weight=0.0
+        ).validate()
 
 
 def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
@@ -109,10 +129,117 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(hks_times=(1e-3, 1e-2, 0.06)),
         DescriptorSettings(hks_weight=0.3),
         DescriptorSettings(wks_sigma=3.0),
-        DescriptorSettings(wks_slope_weight=0.5),
+        DescriptorSettings(wks_slope_weight=1.0),
         DescriptorSettings(wks_log_range=(-2.0, 2.0)),
         DescriptorSettings(dna_weight=0.3),
+        DescriptorSettings(d2_weight=0.5),
+        DescriptorSettings(d2_pairs=5000),
+        DescriptorSettings(d2_seed=1),
+        DescriptorSettings(d2_range=(0.0, 2.5)),
+        DescriptorSettings(spread_weight=0.5),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 17
+    assert len(versions) == 22
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)
+
+
+# --- extrinsic blocks: D2 and spread --------------------------------------------------------
+
+D2_EDGES = np.linspace(0.0, 3.0, 33)
+
+
+def _d2(points: np.ndarray, areas: np.ndarray | None = None, seed: int = 0) -> np.ndarray:
+    areas = np.full(len(points), 1.0 / len(points)) if areas is None else areas
+    return distance_distribution(points, areas, D2_EDGES, 20000, seed)
+
+
+def test_d2_sums_to_one_and_its_distances_are_over_their_mean() -> None:
+    histogram = _d2(sphere_points(500))
+    assert histogram.sum() == pytest.approx(1.0)
+    centres = (D2_EDGES[1:] + D2_EDGES[:-1]) / 2
+    # Distances over their mean have mean 1 (up to the bin width).
+    assert histogram @ centres == pytest.approx(1.0, abs=0.05)
+    # Unit sphere: D2 density is d / 2 on [0, 2], mean distance 4 / 3, so nothing lies
+    # beyond 2 / (4 / 3) = 1.5 mean distances.
+    assert histogram[centres > 1.55].sum() == 0.0
+
+
+def test_d2_draws_pairs_by_area() -> None:
+    points = plate_points(400)
+    far = np.vstack([points, [[50.0, 50.0, 50.0]]])
+    areas = np.append(np.full(400, 1.0 / 400), 0.0)
+    # A point that stands for no area is never drawn: the far one changes nothing.
+    np.testing.assert_allclose(_d2(far, areas), _d2(points))
+    weighted = np.append(np.full(400, 0.5 / 400), 0.5)
+    assert not np.allclose(_d2(far, weighted), _d2(points))
+
+
+def test_extrinsic_blocks_ignore_rotation_translation_and_scale() -> None:
+    points = torus_points(800, r=0.3)
+    areas = np.random.default_rng(1).uniform(0.5, 1.5, 800)
+    rotation = random_rotation(np.random.default_rng(2))
+    moved = 3.7 * points @ rotation.T + np.array([5.0, -2.0, 1.0])
+    np.testing.assert_allclose(_d2(moved, areas), _d2(points, areas), atol=1e-12)
+    np.testing.assert_allclose(spread_profile(moved, areas), spread_profile(points, areas))
+
+
+def test_spread_of_a_rod_a_plate_and_a_sphere() -> None:
+    rod = np.column_stack([np.linspace(-1, 1, 200), np.zeros(200), np.zeros(200)])
+    uniform = np.full(200, 1.0)
+    np.testing.assert_allclose(spread_profile(rod, uniform), [1.0, 0.0, 0.0], atol=1e-9)
+    plate = spread_profile(plate_points(4000), np.ones(4000))
+    np.testing.assert_allclose(plate, [np.sqrt(0.5), np.sqrt(0.5), 0.0], atol=0.03)
+    sphere = spread_profile(sphere_points(4000), np.ones(4000))
+    np.testing.assert_allclose(sphere, np.full(3, np.sqrt(1 / 3)), atol=0.03)
+    assert np.linalg.norm(sphere) == pytest.approx(1.0)
+
+
+def _extrinsic(points: np.ndarray) -> np.ndarray:
+    """The D2 and spread part of the default descriptor, unit norm."""
+    spec = DescriptorSpec.from_settings(
+        DescriptorSettings(hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0)
+    )
+    eigenvalues, eigenvectors, areas = fake_spectrum(len(points))
+    signature = spec.signature(eigenvalues, eigenvectors)
+    return spec.histogram(signature, areas, eigenvalues, points)
+
+
+def test_two_samplings_of_one_shape_are_closer_than_two_shapes() -> None:
+    makers = {
+        "square plate": lambda seed: plate_points(1500, seed=seed),
+        "long plate": lambda seed: plate_points(1500, a=4.0, b=0.5, seed=seed),
+        "sphere": lambda seed: sphere_points(1500, seed=seed),
+        "torus": lambda seed: torus_points(1500, seed=seed),
+    }
+    first = {name: _extrinsic(make(0)) for name, make in makers.items()}
+    second = {name: _extrinsic(make(1)) for name, make in makers.items()}
+    for name in makers:
+        same = np.linalg.norm(first[name] - second[name])
+        others = min(
+            np.linalg.norm(first[name] - first[other]) for other in makers if other != name
+        )
+        assert same < 0.25 * others, (name, same, others)
+
+
+def test_extrinsic_blocks_tell_a_flat_sheet_from_a_bent_one() -> None:
+    # Rolling a 2 x pi/2 sheet into a half cylinder of radius 1/2 is an isometry: the
+    # spectral blocks cannot see it, the extrinsic ones must.
+    flat = plate_points(1500, a=2.0, b=np.pi / 2)
+    angle = flat[:, 1] * 2.0  # arc length / radius, radius 0.5
+    bent = np.column_stack([flat[:, 0], 0.5 * np.sin(angle), 0.5 * np.cos(angle)])
+    resampled = plate_points(1500, a=2.0, b=np.pi / 2, seed=1)
+    noise = np.linalg.norm(_extrinsic(flat) - _extrinsic(resampled))
+    assert np.linalg.norm(_extrinsic(flat) - _extrinsic(bent)) > 4 * noise
+
+
+def test_extrinsic_blocks_need_the_points() -> None:
+    spec = DescriptorSpec.from_settings(DescriptorSettings())
+    eigenvalues, eigenvectors, areas = fake_spectrum()
+    signature = spec.signature(eigenvalues, eigenvectors)
+    with pytest.raises(ValueError, match="points"):
+        spec.histogram(signature, areas, eigenvalues)
+    with pytest.raises(ValueError, match="points"):
+        spec.histogram(signature, areas, eigenvalues, fake_points(300))
+    spectral = DescriptorSpec.from_settings(DescriptorSettings(d2_weight=0.0, spread_weight=0.0))
+    assert not spectral.extrinsic
+    assert spectral.histogram(signature, areas, eigenvalues).shape == (1534,)

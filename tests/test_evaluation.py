@@ -292,3 +292,33 @@ def test_budget_rows_gather_the_points_variants_of_several_runs(tmp_path: Path) 
     assert "| 5000 | multi+sor | 45 | 0.580 | 0.580 | 0.290 |" in table
     plot_budget(rows, tmp_path / "budget.png")
     assert (tmp_path / "budget.png").stat().st_size > 1000
+
+
+def test_cached_stores_keep_the_points_and_old_caches_get_them_back(tmp_path: Path) -> None:
+    from core.evaluation.cli import _solver_factory
+    from core.evaluation.runner import describe_sampling, run_variants, sampling_of
+
+    dataset = load_dataset(_tiny_dataset(tmp_path / "data"))
+    model = dataset.models[2]  # a torus
+    settings = _tiny_variants()["default"]
+    sampling = sampling_of(settings, rotation_seed=1)
+    cache = tmp_path / "cache"
+    fresh = describe_sampling(model, sampling, settings, cache, _solver_factory())
+    expected = run_variants(fresh, {"default": settings})["default"].descriptor
+    assert fresh.points is not None and fresh.points.shape == (fresh.areas.size, 3)
+    path = cache / sampling.cache_name(model.sha256)
+    fresh.save(path)
+    cached = describe_sampling(model, sampling, settings, cache, _solver_factory())
+    np.testing.assert_array_equal(cached.points, fresh.points)
+    np.testing.assert_array_equal(run_variants(cached, {"default": settings})["default"].descriptor,
+                                  expected)
+    # A cache written before the points were kept: the same sampling is drawn again, and
+    # the extrinsic blocks, blind to position and scale, give the same vector.
+    with np.load(path, allow_pickle=True) as data:
+        old = {key: data[key] for key in data.files if key != "points"}
+    np.savez(path, **old)
+    resumed = describe_sampling(model, sampling, settings, cache, _solver_factory())
+    assert resumed.changed and resumed.points.shape == fresh.points.shape
+    np.testing.assert_allclose(
+        run_variants(resumed, {"default": settings})["default"].descriptor, expected, atol=1e-6
+    )

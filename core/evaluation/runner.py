@@ -130,6 +130,8 @@ class EigenStore:
         ``load``, ``laplacian`` seconds and ``n_points``.
     factory : callable, optional
         Builds the real solver (rebuilding the Laplacian when the store came from cache).
+    points : (n, 3) float, optional
+        The points of the operators, for the descriptor's extrinsic blocks.
     """
 
     eigenvalues: np.ndarray
@@ -138,6 +140,7 @@ class EigenStore:
     bands: list[tuple[int, float]]
     timings: dict[str, float]
     factory: Callable[[], Any] | None = None
+    points: np.ndarray | None = None
     changed: bool = False
     _solver: Any = None
 
@@ -179,8 +182,10 @@ class EigenStore:
     def save(self, path: Path) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = path.with_suffix(".part.npz")
+        extra = {} if self.points is None else {"points": self.points}
         np.savez(
             partial,
+            **extra,
             eigenvalues=self.eigenvalues,
             eigenvectors=self.eigenvectors,
             areas=self.areas,
@@ -201,6 +206,8 @@ class EigenStore:
                 bands=bands,
                 timings={str(k): float(v) for k, v in data["timings"]},
                 factory=factory,
+                # Caches written before the extrinsic blocks have no points.
+                points=data["points"] if "points" in data.files else None,
             )
 
 
@@ -270,8 +277,9 @@ def describe_sampling(
         if not operators:
             points, load_seconds = _sample_points(model, sampling, settings.min_points)
             start = time.perf_counter()
-            _, stiffness, mass = normalised_operators(points, settings)
+            normalised, stiffness, mass = normalised_operators(points, settings)
             operators.update(
+                points=normalised,
                 stiffness=stiffness,
                 mass=mass,
                 timings={
@@ -288,9 +296,16 @@ def describe_sampling(
 
     if path is not None and path.exists():
         try:
-            return EigenStore.load(path, factory)
+            store = EigenStore.load(path, factory)
         except (OSError, ValueError, KeyError) as error:
             print(f"  cache {path.name} unreadable ({error}); recomputing", file=sys.stderr)
+        else:
+            if store.points is None:
+                # An older cache: the same seeded sampling again, without the Laplacian. Not
+                # normalised, which the extrinsic blocks do not see (position and scale free).
+                store.points, _ = _sample_points(model, sampling, settings.min_points)
+                store.changed = True
+            return store
     stiffness, mass, timings = build()
     return EigenStore(
         eigenvalues=np.empty(0),
@@ -299,6 +314,7 @@ def describe_sampling(
         bands=[],
         timings=dict(timings),
         factory=factory,
+        points=operators["points"],
     )
 
 
@@ -331,7 +347,7 @@ def run_variants(
         eigenvalues, eigenvectors = view.solve(cutoff.n)
         timings: dict[str, float] = {}
         _, descriptor, _ = descriptor_from_eigenpairs(
-            eigenvalues, eigenvectors, store.areas, settings, timings
+            eigenvalues, eigenvectors, store.areas, store.points, settings, timings
         )
         results[name] = ModelResult(
             n=int(cutoff.n),

@@ -177,7 +177,9 @@ def describe(
     for name, (descriptor, down_weight) in DESCRIPTORS.items():
         areas = store.areas * weights if down_weight else store.areas
         variant = replace(settings, descriptor=descriptor)
-        descriptors[name] = descriptor_from_eigenpairs(values, vectors, areas, variant)[1]
+        descriptors[name] = descriptor_from_eigenpairs(
+            values, vectors, areas, points, variant
+        )[1]
     seconds = {
         "load": store.timings.get("load", 0.0),
         "laplacian": store.timings.get("laplacian", 0.0),
