@@ -40,6 +40,7 @@ from core.evaluation.dataset import Model
 from core.evaluation.scans import random_rotation, scan_of_kind
 from core.io import load_points, validate_points
 from core.io._denoise import denoise_points
+from core.io._outliers import spacing_inliers
 from core.pipeline import descriptor_from_eigenpairs, normalised_operators
 from core.settings import EngineSettings
 
@@ -230,21 +231,25 @@ class VariantSolver:
         return self.store.eigenvalues[:count], self.store.eigenvectors[:, :count]
 
 
-def _cleanup_steps(steps: str) -> tuple[bool, tuple[str, int, int] | None]:
-    """Parse the cleanup suffix of a scan kind: ``sor`` and/or ``<fit><k>[x<passes>]``.
+def _cleanup_steps(steps: str) -> tuple[bool, tuple[str, int, int] | None, float | None]:
+    """Parse the cleanup suffix of a scan kind: ``sor`` (the engine's outlier filter),
+    ``mor<ratio>`` (``spacing_inliers`` with that ratio, instead) and ``<fit><k>[x<passes>]``.
 
-    ``"sor+plane16x2"`` -> (True, ("plane", 16, 2)); ``""`` -> (False, None).
+    ``"sor+plane16x2"`` -> (True, ("plane", 16, 2), None); ``""`` -> (False, None, None).
     """
-    outliers, denoise = False, None
+    outliers, denoise, ratio = False, None, None
     for step in filter(None, steps.split("+")):
         if step == "sor":
             outliers = True
+            continue
+        if re.fullmatch(r"mor\d+(\.\d+)?", step):
+            ratio = float(step[3:])
             continue
         match = re.fullmatch(r"(plane|quadric)(\d+)(?:x(\d+))?", step)
         if match is None:
             raise ValueError(f"unknown scan cleanup step {step!r}")
         denoise = (match[1], int(match[2]), int(match[3] or 1))
-    return outliers, denoise
+    return outliers, denoise, ratio
 
 
 def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[np.ndarray, float]:
@@ -264,13 +269,15 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
     seed = _model_seed(model.sha256, sampling.rotation_seed)
     points = shape.points @ random_rotation(np.random.default_rng(seed)).T
     if sampling.scan != "clean":
-        outliers, denoise = _cleanup_steps(steps)
+        outliers, denoise, ratio = _cleanup_steps(steps)
         # Seeded without the denoise step: a denoised scan is the same scan, cleaned, so that
         # with and without denoising compare paired.
-        seed_key = kind + ("+sor" if outliers else "")
+        seed_key = kind + ("+sor" if outliers or ratio is not None else "")
         scan_seed = _model_seed(model.sha256, sampling.rotation_seed, seed_key)
         rng = np.random.default_rng(scan_seed)
         scanned = points if kind == "points" else scan_of_kind(points, rng, kind)
+        if ratio is not None:
+            scanned = scanned[spacing_inliers(scanned, ratio=ratio)]
         # The loader's own checks and even thinning, as for an uploaded scan; "+sor" scans go
         # through the engine's outlier filter (EngineSettings.outlier_filter, on by default),
         # plain ones without it, to show what the filter is worth; a denoise step after it.

@@ -430,6 +430,16 @@ def scan_of_kind(points: np.ndarray, rng: np.random.Generator, kind: str) -> np.
         return simulate_scan(points, rng, ScanSettings(), views=1)
     if kind == "multi":
         return simulate_scan(points, rng, ScanSettings(), views=ScanSettings().views)
+    # Diagnostics that split the multi-view scan's loss into its causes: occlusion alone
+    # (the three views, no noise, no outliers) and noise alone (every point, noise, outliers).
+    if kind == "multi-nonoise":
+        return simulate_scan(points, rng, ScanSettings(noise=0.0, outliers=0.0),
+                             views=ScanSettings().views)
+    if kind == "whole-noisy":
+        low, high, diagonal = _bbox(points)
+        settings = ScanSettings()
+        return add_noise_and_outliers(points, rng, diagonal, (low, high), settings.noise,
+                                      settings.outliers)
     if kind == "turntable":
         return sensor_scan(points, rng)
     if kind == "kinect-view":

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["statistical_inliers"]
+__all__ = ["spacing_inliers", "statistical_inliers"]
 
 
 def statistical_inliers(points: np.ndarray, neighbours: int = 8, z: float = 2.0) -> np.ndarray:
@@ -40,3 +40,28 @@ def statistical_inliers(points: np.ndarray, neighbours: int = 8, z: float = 2.0)
     distances, _ = cKDTree(points).query(points, neighbours + 1)
     spacing = distances[:, 1:].mean(axis=1)  # column 0 is the point itself
     return spacing <= spacing.mean() + z * spacing.std()
+
+
+def spacing_inliers(points: np.ndarray, neighbours: int = 8, ratio: float = 2.0) -> np.ndarray:
+    """Mask of the points whose mean neighbour distance is at most ``ratio`` times the median.
+
+    The median, unlike the mean and standard deviation of ``statistical_inliers``, does not
+    move with the outliers themselves, so the cut stays at the same spacing whether a cloud
+    has no stray points (a clean sample keeps nearly all its points) or many.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    neighbours : int
+    ratio : float
+        Points with a mean distance above ``ratio * median`` are outliers.
+
+    Returns
+    -------
+    inliers : (n,) bool
+    """
+    if len(points) <= neighbours:
+        return np.ones(len(points), dtype=bool)
+    distances, _ = cKDTree(points).query(points, neighbours + 1)
+    spacing = distances[:, 1:].mean(axis=1)
+    return spacing <= ratio * float(np.median(spacing))
