@@ -128,13 +128,6 @@ class Settings(BaseSettings):
         description="Drop statistical outliers (stray points) of uploaded point clouds; "
         "meshes are never filtered.",
     )
-    denoise_neighbours: int = Field(
-        default=_ENGINE.denoise_neighbours,
-        ge=0,
-        description="Uploaded point clouds (scans): project every point onto the plane of "
-        "this many nearest neighbours after the outlier filter, to take out range noise; "
-        "0 turns it off; meshes are never denoised (docs/results.md, issue 12).",
-    )
     cutoff_mode: Literal["adaptive", "fixed"] = Field(
         default=_ENGINE.cutoff.mode, description="adaptive (per-model eigenpair count) or fixed."
     )
@@ -347,7 +340,6 @@ def engine_settings(settings: Settings) -> EngineSettings:
         normalisation=settings.normalisation,
         sample_seed=settings.sample_seed,
         outlier_filter=settings.outlier_filter,
-        denoise_neighbours=settings.denoise_neighbours,
         cutoff=CutoffSettings(
             mode=settings.cutoff_mode,
             xi=settings.cutoff_xi,

@@ -1,7 +1,7 @@
 """``describe``: one shape file in, one search descriptor out.
 
-    load -> validate [-> denoise, point clouds only] -> centre -> Laplacian (L, M) -> unit
-    area -> eigenpairs with the cutoff -> signatures -> histogram descriptor
+    load -> validate -> centre -> Laplacian (L, M) -> unit area -> eigenpairs with the
+    cutoff -> signatures -> histogram descriptor
 
 Every stage is timed; the timings travel with the result so the service can store them.
 """
@@ -21,7 +21,7 @@ from core.cutoff import AdaptiveCutoff, CutoffResult, make_cutoff
 from core.cutoff_predictor import CutoffPredictor, shape_features
 from core.descriptor import DescriptorSpec
 from core.eigen import SpectralSolver, pin_blas_threads
-from core.io import LoadedShape, denoise_points, load_points
+from core.io import LoadedShape, load_points
 from core.laplacian import build_laplacian
 from core.normalise import centre, unit_area_mass, unit_bbox_scale
 from core.settings import EngineSettings
@@ -214,13 +214,8 @@ def _describe_loaded(
     timings: dict[str, float],
     predictor: CutoffPredictor | None = None,
 ) -> Description:
-    raw = shape.points
-    if shape.kind == "points" and settings.denoise_neighbours:
-        # Scans only: points sampled from a mesh lie on its surface by construction.
-        with _timed(timings, "denoise"):
-            raw = denoise_points(raw, settings.denoise_neighbours)
     with _timed(timings, "laplacian"):
-        points, stiffness, mass = normalised_operators(raw, settings)
+        points, stiffness, mass = normalised_operators(shape.points, settings)
     features = shape_features(points, mass)
     with pin_blas_threads(), _timed(timings, "eigensolve"):
         # One solver per model: the cutoff's rounds continue the spectrum it already has.

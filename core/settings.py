@@ -12,8 +12,6 @@ import numpy as np
 
 __all__ = ["CutoffSettings", "DescriptorSettings", "EngineSettings"]
 
-DENOISE_DEFAULT = 0
-
 
 @dataclass(frozen=True)
 class CutoffSettings:
@@ -125,10 +123,6 @@ class EngineSettings:
     sample_seed: int = 0
     # Drop stray points of scanned clouds (meshes are never filtered); see core/io/_outliers.py.
     outlier_filter: bool = True
-    # Project every point of an uploaded cloud (after the outlier filter and the thinning) onto
-    # the PCA plane of its this many nearest neighbours, once; 0 turns it off. Meshes are never
-    # denoised. See core/io/_denoise.py and the measurements in the EngineSettings docstring.
-    denoise_neighbours: int = DENOISE_DEFAULT
     cutoff: CutoffSettings = field(default_factory=CutoffSettings)
     descriptor: DescriptorSettings = field(default_factory=DescriptorSettings)
 
@@ -139,8 +133,6 @@ class EngineSettings:
             raise ValueError("max_points must be >= min_points")
         if self.laplacian not in ("robust", "spcl"):
             raise ValueError(f"laplacian must be 'robust' or 'spcl', not {self.laplacian!r}")
-        if self.denoise_neighbours != 0 and self.denoise_neighbours < 3:
-            raise ValueError("denoise_neighbours must be 0 (off) or at least 3")
         if self.normalisation not in ("area", "bbox"):
             raise ValueError("normalisation must be 'area' or 'bbox'")
         self.cutoff.validate()

@@ -72,3 +72,17 @@ def test_zero_passes_copy_and_bad_arguments_are_refused() -> None:
         denoise_points(points, 16, 1, "spline")
     with pytest.raises(ValueError, match="neighbours"):
         denoise_points(points, 4, 1, "quadric")
+
+
+def test_spacing_inliers_keep_a_clean_sample_and_drop_far_strays() -> None:
+    from core.io._outliers import spacing_inliers, statistical_inliers
+
+    surface = _sphere(3000)
+    strays = np.random.default_rng(5).uniform(-1.5, 1.5, size=(30, 3))
+    strays = strays[np.abs(np.linalg.norm(strays, axis=1) - 1.0) > 0.3]
+    # A clean random sample: the median rule keeps (nearly) every point, while the mean + 2
+    # std rule drops the few percent in sparse spots, which opens holes (docs: issue 12 notes).
+    assert spacing_inliers(surface).mean() > 0.995
+    assert statistical_inliers(surface).mean() < 0.99
+    mask = spacing_inliers(np.vstack([surface, strays]))
+    assert not mask[len(surface):].any()

@@ -444,6 +444,17 @@ def scan_of_kind(points: np.ndarray, rng: np.random.Generator, kind: str) -> np.
         return sensor_scan(points, rng)
     if kind == "kinect-view":
         return sensor_scan(points, rng, views=1)
+    if kind.startswith("merge") and "of" in kind:
+        # merge<digits>of<count>: the union of those clean virtual views, a merged scan's
+        # catalogue counterpart.
+        indices, _, count = kind[5:].partition("of")
+        if indices.isdigit() and count.isdigit() and max(map(int, indices)) < int(count):
+            low, high, diagonal = _bbox(points)
+            seen = np.zeros(len(points), dtype=bool)
+            for index in map(int, indices):
+                viewpoint = (low + high) / 2.0 + 3.0 * diagonal * view_directions(int(count))[index]
+                seen[hidden_point_removal(points, viewpoint)] = True
+            return points[seen]
     if kind.startswith("view") and "of" in kind:
         index, _, count = kind[4:].partition("of")
         if index.isdigit() and count.isdigit() and int(index) < int(count):
