@@ -75,7 +75,9 @@ def test_zero_passes_copy_and_bad_arguments_are_refused() -> None:
 
 
 def test_spacing_inliers_keep_a_clean_sample_and_drop_far_strays() -> None:
-    from core.io._outliers import spacing_inliers, statistical_inliers
+    from scipy.spatial import cKDTree
+
+    from core.io import spacing_inliers
 
     surface = _sphere(3000)
     strays = np.random.default_rng(5).uniform(-1.5, 1.5, size=(30, 3))
@@ -83,6 +85,8 @@ def test_spacing_inliers_keep_a_clean_sample_and_drop_far_strays() -> None:
     # A clean random sample: the median rule keeps (nearly) every point, while the mean + 2
     # std rule drops the few percent in sparse spots, which opens holes (docs: issue 12 notes).
     assert spacing_inliers(surface).mean() > 0.995
-    assert statistical_inliers(surface).mean() < 0.99
+    distances, _ = cKDTree(surface).query(surface, 9)
+    spacing = distances[:, 1:].mean(axis=1)
+    assert (spacing <= spacing.mean() + 2.0 * spacing.std()).mean() < 0.99
     mask = spacing_inliers(np.vstack([surface, strays]))
     assert not mask[len(surface):].any()

@@ -97,6 +97,7 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         replace(base, max_points=base.max_points * 2),
         replace(base, normalisation="bbox"),
         replace(base, outlier_filter=False),
+        replace(base, outlier_ratio=base.outlier_ratio + 1.0),
         replace(base, cutoff=CutoffSettings(mode="fixed", n=300)),
         replace(base, cutoff=CutoffSettings(xi=1e-12)),
     ]
@@ -114,5 +115,5 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(dna_weight=0.3),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 17
+    assert len(versions) == 18
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)

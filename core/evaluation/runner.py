@@ -38,9 +38,7 @@ import scipy.sparse as sp
 from core.cutoff import CutoffResult, make_cutoff
 from core.evaluation.dataset import Model
 from core.evaluation.scans import random_rotation, scan_of_kind
-from core.io import load_points, validate_points
-from core.io._denoise import denoise_points
-from core.io._outliers import spacing_inliers
+from core.io import OUTLIER_RATIO, denoise_points, load_points, validate_points
 from core.pipeline import descriptor_from_eigenpairs, normalised_operators
 from core.settings import EngineSettings
 
@@ -59,7 +57,7 @@ __all__ = [
 #: many times denser and then thinned by the loader's own rule, like an uploaded scan.
 SCAN_OVERSAMPLING = 3
 #: Cache layout generation: bump when what is cached changes meaning.
-_CACHE_VERSION = "e1"
+_CACHE_VERSION = "e2"  # e2: "+sor" is the median-spacing outlier rule (issue 12)
 
 
 @dataclass(frozen=True)
@@ -233,7 +231,7 @@ class VariantSolver:
 
 def _cleanup_steps(steps: str) -> tuple[bool, tuple[str, int, int] | None, float | None]:
     """Parse the cleanup suffix of a scan kind: ``sor`` (the engine's outlier filter),
-    ``mor<ratio>`` (``spacing_inliers`` with that ratio, instead) and ``<fit><k>[x<passes>]``.
+    ``mor<ratio>`` (the same filter with that ratio) and ``<fit><k>[x<passes>]`` (denoise).
 
     ``"sor+plane16x2"`` -> (True, ("plane", 16, 2), None); ``""`` -> (False, None, None).
     """
@@ -276,14 +274,13 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
         scan_seed = _model_seed(model.sha256, sampling.rotation_seed, seed_key)
         rng = np.random.default_rng(scan_seed)
         scanned = points if kind == "points" else scan_of_kind(points, rng, kind)
-        if ratio is not None:
-            scanned = scanned[spacing_inliers(scanned, ratio=ratio)]
         # The loader's own checks and even thinning, as for an uploaded scan; "+sor" scans go
         # through the engine's outlier filter (EngineSettings.outlier_filter, on by default),
         # plain ones without it, to show what the filter is worth; a denoise step after it.
         points = validate_points(
             scanned, max_points=sampling.max_points, min_points=min_points,
-            seed=sampling.sample_seed, remove_outliers=outliers,
+            seed=sampling.sample_seed, remove_outliers=outliers or ratio is not None,
+            outlier_ratio=OUTLIER_RATIO if ratio is None else ratio,
         )
         if denoise is not None:
             fit, neighbours, passes = denoise

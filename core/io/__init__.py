@@ -16,17 +16,18 @@ from core.io._denoise import denoise_points
 from core.io._formats import SUPPORTED_FORMATS, detect_format
 from core.io._headers import check_header
 from core.io._loader import LoadedShape, load_points
-from core.io._outliers import statistical_inliers
+from core.io._outliers import OUTLIER_RATIO, spacing_inliers
 from core.io._validate import MAX_PARSED_POINTS, validate_points
 
 __all__ = [
     "MAX_PARSED_POINTS",
+    "OUTLIER_RATIO",
     "SUPPORTED_FORMATS",
     "check_header",
     "denoise_points",
     "LoadedShape",
     "detect_format",
     "load_points",
-    "statistical_inliers",
+    "spacing_inliers",
     "validate_points",
 ]
