@@ -226,8 +226,12 @@ def run(
     query_kinds: tuple[str, ...] = QUERY_KINDS,
     points: int = EVAL_POINTS,
     cached_only: bool = False,
+    merged: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """Describe catalogue and queries, score every (mode, descriptor, query kind).
+
+    ``merged`` names merged virtual views (e.g. ``("merge012of4", "merge123of4")``) that add
+    the catalogue modes ``merged`` (clean + those) and ``merged+views`` (+ the single views).
 
     With ``cached_only``, models whose samplings are not all in ``OUT/cache`` are skipped
     (to score what an interrupted run finished).
@@ -241,7 +245,7 @@ def run(
     settings = EngineSettings(max_points=points)
     factory = lambda stiffness, mass: SpectralSolver(stiffness, mass)  # noqa: E731
     kinds = list(dict.fromkeys(["clean", *[view_kind(i, views) for i in range(views)],
-                                *query_kinds]))
+                                *merged, *query_kinds]))
     described: dict[str, dict[str, Described]] = {kind: {} for kind in kinds}
     failures: list[str] = []
     skipped: list[str] = []
@@ -270,6 +274,15 @@ def run(
             m: [d, *(described[v][m] for v in chosen if m in described[v])]
             for m, d in described["clean"].items()
         }
+    if merged:
+        # Merged virtual views (scans.scan_of_kind "merge<digits>of<count>") as extra entries,
+        # alone and next to all single views.
+        singles = [view_kind(i, views) for i in range(views)]
+        for mode, extra in (("merged", list(merged)), ("merged+views", [*merged, *singles])):
+            catalogues[mode] = {
+                m: [d, *(described[k][m] for k in extra if m in described[k])]
+                for m, d in described["clean"].items()
+            }
     scores: dict[str, Any] = {}
     for mode, catalogue in catalogues.items():
         for descriptor in DESCRIPTORS:
@@ -333,11 +346,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--views", type=int, default=6, help="virtual views per model (0: none)")
     parser.add_argument("--kinds", nargs="+", default=list(QUERY_KINDS),
                         help="query kinds (default: %(default)s)")
+    parser.add_argument("--merged", nargs="*", default=[],
+                        help="merged virtual-view entry kinds, e.g. merge012of4 merge123of4")
     parser.add_argument("--cached-only", action="store_true",
                         help="score only the models an earlier run fully cached")
     args = parser.parse_args(argv)
     record = run(args.dataset, args.out, args.per_class or None, args.views,
-                 query_kinds=tuple(args.kinds), cached_only=args.cached_only)
+                 query_kinds=tuple(args.kinds), cached_only=args.cached_only,
+                 merged=tuple(args.merged))
     print(markdown(record))
     print(json.dumps(record["seconds"], indent=1))
     return 0
