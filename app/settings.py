@@ -128,6 +128,12 @@ class Settings(BaseSettings):
         description="Drop statistical outliers (stray points) of uploaded point clouds; "
         "meshes are never filtered.",
     )
+    outlier_ratio: float = Field(
+        default=_ENGINE.outlier_ratio,
+        gt=1,
+        description="Outlier filter cut: a cloud point whose mean distance to its 8 nearest "
+        "neighbours exceeds this many times the median of that distance is dropped.",
+    )
     cutoff_mode: Literal["adaptive", "fixed"] = Field(
         default=_ENGINE.cutoff.mode, description="adaptive (per-model eigenpair count) or fixed."
     )
@@ -346,6 +352,7 @@ def engine_settings(settings: Settings) -> EngineSettings:
         normalisation=settings.normalisation,
         sample_seed=settings.sample_seed,
         outlier_filter=settings.outlier_filter,
+        outlier_ratio=settings.outlier_ratio,
         cutoff=CutoffSettings(
             mode=settings.cutoff_mode,
             xi=settings.cutoff_xi,

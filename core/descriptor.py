@@ -292,7 +292,8 @@ class DescriptorSpec:
             _LAYOUT,
             f"lap={settings.laplacian}",
             f"norm={settings.normalisation}",
-            f"pts={settings.max_points}{'+sor' if settings.outlier_filter else ''}",
+            f"pts={settings.max_points}"
+            f"{f'+mor{settings.outlier_ratio:g}' if settings.outlier_filter else ''}",
             f"cut={cut}",
             f"hks{'s' if self.scaled else ''}={len(self.times)}"
             f"[{min(self.times):g},{max(self.times):g}]w{self.hks_weight:g}",
@@ -314,6 +315,7 @@ class DescriptorSpec:
             parts.append(f"spread=w{self.spread_weight:g}")
         # The readable part rounds; the digest pins every exact value (a custom time grid).
         exact = repr((self, settings.laplacian, settings.normalisation, settings.max_points,
-                      settings.sample_seed, settings.outlier_filter, cutoff))
+                      settings.sample_seed, settings.outlier_filter, settings.outlier_ratio,
+                      cutoff))
         parts.append(hashlib.sha256(exact.encode()).hexdigest()[:10])
         return ";".join(parts)

@@ -126,6 +126,7 @@ def describe(
             min_points=settings.min_points,
             seed=settings.sample_seed,
             remove_outliers=settings.outlier_filter,
+            outlier_ratio=settings.outlier_ratio,
         )
     description = _describe_loaded(shape, settings, timings, predictor)
     timings["total"] = round(time.perf_counter() - start, 6)
@@ -152,6 +153,7 @@ def describe_points(
             min_points=settings.min_points,
             seed=settings.sample_seed,
             remove_outliers=settings.outlier_filter,
+            outlier_ratio=settings.outlier_ratio,
         )
     shape = LoadedShape(points=checked, format="array", kind="points", n_input=len(points))
     description = _describe_loaded(shape, settings, timings, predictor)

@@ -117,6 +117,7 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         replace(base, max_points=base.max_points * 2),
         replace(base, normalisation="bbox"),
         replace(base, outlier_filter=False),
+        replace(base, outlier_ratio=base.outlier_ratio + 1.0),
         replace(base, cutoff=CutoffSettings(mode="fixed", n=300)),
         replace(base, cutoff=CutoffSettings(xi=1e-12)),
     ]
@@ -139,7 +140,7 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(spread_weight=0.5),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 22
+    assert len(versions) == 23
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)
 
 

@@ -65,3 +65,35 @@ def test_virtual_views_see_the_near_cap_from_fixed_spread_directions() -> None:
 def test_view_subsets_are_all_views_and_spread_smaller_sets() -> None:
     assert view_subsets(6) == [(0, 1, 2, 3, 4, 5), (0, 2, 4), (0, 3)]
     assert view_subsets(2) == [(0, 1)]
+
+
+def test_merged_virtual_views_are_the_union_of_their_views() -> None:
+    points = fibonacci_sphere_points(2000)
+    rng = np.random.default_rng(0)
+    merged = scan_of_kind(points, rng, "merge01of4")
+    union = {tuple(p) for k in (0, 1) for p in virtual_view(points, k, 4)}
+    assert {tuple(p) for p in merged} == union
+    # Two of four spread views see more than one and less than everything.
+    assert len(virtual_view(points, 0, 4)) < len(merged) < len(points)
+
+
+def test_diagnostic_kinds_split_occlusion_from_noise() -> None:
+    points = fibonacci_sphere_points(2000)
+    occluded = scan_of_kind(points, np.random.default_rng(1), "multi-nonoise")
+    # Occlusion only: a subset of the clean points, exactly, and not all of them.
+    assert {tuple(p) for p in occluded} <= {tuple(p) for p in points}
+    assert len(occluded) < len(points)
+    noisy = scan_of_kind(points, np.random.default_rng(1), "whole-noisy")
+    # Noise only: every point (moved) plus 1 % outliers.
+    assert len(noisy) == len(points) + round(len(points) * 0.01 / 0.99)
+    assert not np.allclose(noisy[: len(points)], points)
+
+
+def test_cleanup_steps_parse_filters_and_denoising() -> None:
+    from core.evaluation.runner import _cleanup_steps
+
+    assert _cleanup_steps("") == (False, None, None)
+    assert _cleanup_steps("sor+plane16x2") == (True, ("plane", 16, 2), None)
+    assert _cleanup_steps("mor2.5+quadric24") == (False, ("quadric", 24, 1), 2.5)
+    with pytest.raises(ValueError, match="cleanup"):
+        _cleanup_steps("sor+smooth")

@@ -24,6 +24,7 @@ solver per variant on a subset, to check the estimate.
 from __future__ import annotations
 
 import hashlib
+import re
 import sys
 import time
 from collections.abc import Callable
@@ -37,7 +38,7 @@ import scipy.sparse as sp
 from core.cutoff import CutoffResult, make_cutoff
 from core.evaluation.dataset import Model
 from core.evaluation.scans import random_rotation, scan_of_kind
-from core.io import load_points, validate_points
+from core.io import OUTLIER_RATIO, denoise_points, load_points, validate_points
 from core.pipeline import descriptor_from_eigenpairs, normalised_operators
 from core.settings import EngineSettings
 
@@ -56,7 +57,7 @@ __all__ = [
 #: many times denser and then thinned by the loader's own rule, like an uploaded scan.
 SCAN_OVERSAMPLING = 3
 #: Cache layout generation: bump when what is cached changes meaning.
-_CACHE_VERSION = "e1"
+_CACHE_VERSION = "e2"  # e2: "+sor" is the median-spacing outlier rule (issue 12)
 
 
 @dataclass(frozen=True)
@@ -235,27 +236,62 @@ class VariantSolver:
         return self.store.eigenvalues[:count], self.store.eigenvectors[:, :count]
 
 
+def _cleanup_steps(steps: str) -> tuple[bool, tuple[str, int, int] | None, float | None]:
+    """Parse the cleanup suffix of a scan kind: ``sor`` (the engine's outlier filter),
+    ``mor<ratio>`` (the same filter with that ratio) and ``<fit><k>[x<passes>]`` (denoise).
+
+    ``"sor+plane16x2"`` -> (True, ("plane", 16, 2), None); ``""`` -> (False, None, None).
+    """
+    outliers, denoise, ratio = False, None, None
+    for step in filter(None, steps.split("+")):
+        if step == "sor":
+            outliers = True
+            continue
+        if re.fullmatch(r"mor\d+(\.\d+)?", step):
+            ratio = float(step[3:])
+            continue
+        match = re.fullmatch(r"(plane|quadric)(\d+)(?:x(\d+))?", step)
+        if match is None:
+            raise ValueError(f"unknown scan cleanup step {step!r}")
+        denoise = (match[1], int(match[2]), int(match[3] or 1))
+    return outliers, denoise, ratio
+
+
 def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[np.ndarray, float]:
-    """Load, rotate and (for scans) scan one model; returns points and load seconds."""
+    """Load, rotate and (for scans) scan one model; returns points and load seconds.
+
+    Scan kind ``points`` is no scan at all: the clean sample handed over as a point cloud (an
+    uploaded ``.xyz``), so that it goes through the point-cloud cleanup steps.
+    """
     start = time.perf_counter()
     dense = sampling.max_points * (1 if sampling.scan == "clean" else SCAN_OVERSAMPLING)
+    kind, _, steps = sampling.scan.partition("+")
+    if kind == "points":
+        dense = sampling.max_points
     shape = load_points(
         str(model.path), max_points=dense, min_points=min_points, seed=sampling.sample_seed
     )
     seed = _model_seed(model.sha256, sampling.rotation_seed)
     points = shape.points @ random_rotation(np.random.default_rng(seed)).T
     if sampling.scan != "clean":
-        scan_seed = _model_seed(model.sha256, sampling.rotation_seed, sampling.scan)
+        outliers, denoise, ratio = _cleanup_steps(steps)
+        # Seeded without the denoise step: a denoised scan is the same scan, cleaned, so that
+        # with and without denoising compare paired.
+        seed_key = kind + ("+sor" if outliers or ratio is not None else "")
+        scan_seed = _model_seed(model.sha256, sampling.rotation_seed, seed_key)
         rng = np.random.default_rng(scan_seed)
-        kind, _, cleanup = sampling.scan.partition("+")
-        scanned = scan_of_kind(points, rng, kind)
+        scanned = points if kind == "points" else scan_of_kind(points, rng, kind)
         # The loader's own checks and even thinning, as for an uploaded scan; "+sor" scans go
         # through the engine's outlier filter (EngineSettings.outlier_filter, on by default),
-        # plain ones without it, to show what the filter is worth.
+        # plain ones without it, to show what the filter is worth; a denoise step after it.
         points = validate_points(
             scanned, max_points=sampling.max_points, min_points=min_points,
-            seed=sampling.sample_seed, remove_outliers=cleanup == "sor",
+            seed=sampling.sample_seed, remove_outliers=outliers or ratio is not None,
+            outlier_ratio=OUTLIER_RATIO if ratio is None else ratio,
         )
+        if denoise is not None:
+            fit, neighbours, passes = denoise
+            points = denoise_points(points, neighbours, passes, fit)
     return points, time.perf_counter() - start
 
 

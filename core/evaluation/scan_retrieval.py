@@ -58,8 +58,12 @@ __all__ = [
 ]
 
 ROTATION_SEED = 1
-#: Query kinds: clean models, and the two sensor scans through the engine's outlier filter.
-QUERY_KINDS: tuple[str, ...] = ("clean", "turntable+sor", "kinect-view+sor")
+#: Query kinds: clean models, the simple merged three-view and single-view scans and the two
+#: sensor scans, all through the engine's outlier filter. A further ``+<fit><k>[x<passes>]``
+#: step (``runner._cleanup_steps``) denoises a scan after the filter, e.g. ``multi+sor+plane16``.
+QUERY_KINDS: tuple[str, ...] = (
+    "clean", "multi+sor", "single+sor", "turntable+sor", "kinect-view+sor",
+)
 
 _DEFAULT = DescriptorSettings()
 #: Descriptor variant -> (descriptor settings, down-weight the boundary?).
@@ -123,6 +127,8 @@ def view_subsets(views: int) -> list[tuple[int, ...]]:
     Models are rotated at random before they are viewed, so which fixed directions are kept
     does not matter, only how many (and that they are spread: every other one).
     """
+    if views < 1:
+        return []
     subsets = [tuple(range(views))]
     for count in (3, 2):
         if views > count:
@@ -222,8 +228,12 @@ def run(
     query_kinds: tuple[str, ...] = QUERY_KINDS,
     points: int = EVAL_POINTS,
     cached_only: bool = False,
+    merged: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """Describe catalogue and queries, score every (mode, descriptor, query kind).
+
+    ``merged`` names merged virtual views (e.g. ``("merge012of4", "merge123of4")``) that add
+    the catalogue modes ``merged`` (clean + those) and ``merged+views`` (+ the single views).
 
     With ``cached_only``, models whose samplings are not all in ``OUT/cache`` are skipped
     (to score what an interrupted run finished).
@@ -236,7 +246,8 @@ def run(
     labels = {m.name: m.label for m in dataset.models}
     settings = EngineSettings(max_points=points)
     factory = lambda stiffness, mass: SpectralSolver(stiffness, mass)  # noqa: E731
-    kinds = ["clean", *[view_kind(i, views) for i in range(views)], *query_kinds]
+    kinds = list(dict.fromkeys(["clean", *[view_kind(i, views) for i in range(views)],
+                                *merged, *query_kinds]))
     described: dict[str, dict[str, Described]] = {kind: {} for kind in kinds}
     failures: list[str] = []
     skipped: list[str] = []
@@ -265,6 +276,15 @@ def run(
             m: [d, *(described[v][m] for v in chosen if m in described[v])]
             for m, d in described["clean"].items()
         }
+    if merged:
+        # Merged virtual views (scans.scan_of_kind "merge<digits>of<count>") as extra entries,
+        # alone and next to all single views.
+        singles = [view_kind(i, views) for i in range(views)]
+        for mode, extra in (("merged", list(merged)), ("merged+views", [*merged, *singles])):
+            catalogues[mode] = {
+                m: [d, *(described[k][m] for k in extra if m in described[k])]
+                for m, d in described["clean"].items()
+            }
     scores: dict[str, Any] = {}
     for mode, catalogue in catalogues.items():
         for descriptor in DESCRIPTORS:
@@ -305,7 +325,7 @@ def _mean_seconds(described: dict[str, Described]) -> dict[str, float]:
 def markdown(record: dict[str, Any]) -> str:
     """The scores as a Markdown table: one row per (mode, descriptor), NN and mAP per kind."""
     kinds = sorted({key.split("|")[2] for key in record["scores"]},
-                   key=lambda k: QUERY_KINDS.index(k) if k in QUERY_KINDS else 99)
+                   key=lambda k: (QUERY_KINDS.index(k) if k in QUERY_KINDS else 99, k))
     header = "| mode | descriptor | " + " | ".join(f"{k} NN | {k} mAP" for k in kinds) + " |"
     lines = [header, "|" + "---|" * (2 + 2 * len(kinds))]
     rows = sorted({tuple(key.split("|")[:2]) for key in record["scores"]})
@@ -325,12 +345,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", required=True)
     parser.add_argument("--per-class", type=int, default=2,
                         help="seeded subset of models per class (0: all)")
-    parser.add_argument("--views", type=int, default=6)
+    parser.add_argument("--views", type=int, default=6, help="virtual views per model (0: none)")
+    parser.add_argument("--kinds", nargs="+", default=list(QUERY_KINDS),
+                        help="query kinds (default: %(default)s)")
+    parser.add_argument("--merged", nargs="*", default=[],
+                        help="merged virtual-view entry kinds, e.g. merge012of4 merge123of4")
     parser.add_argument("--cached-only", action="store_true",
                         help="score only the models an earlier run fully cached")
     args = parser.parse_args(argv)
     record = run(args.dataset, args.out, args.per_class or None, args.views,
-                 cached_only=args.cached_only)
+                 query_kinds=tuple(args.kinds), cached_only=args.cached_only,
+                 merged=tuple(args.merged))
     print(markdown(record))
     print(json.dumps(record["seconds"], indent=1))
     return 0

@@ -430,10 +430,31 @@ def scan_of_kind(points: np.ndarray, rng: np.random.Generator, kind: str) -> np.
         return simulate_scan(points, rng, ScanSettings(), views=1)
     if kind == "multi":
         return simulate_scan(points, rng, ScanSettings(), views=ScanSettings().views)
+    # Diagnostics that split the multi-view scan's loss into its causes: occlusion alone
+    # (the three views, no noise, no outliers) and noise alone (every point, noise, outliers).
+    if kind == "multi-nonoise":
+        return simulate_scan(points, rng, ScanSettings(noise=0.0, outliers=0.0),
+                             views=ScanSettings().views)
+    if kind == "whole-noisy":
+        low, high, diagonal = _bbox(points)
+        settings = ScanSettings()
+        return add_noise_and_outliers(points, rng, diagonal, (low, high), settings.noise,
+                                      settings.outliers)
     if kind == "turntable":
         return sensor_scan(points, rng)
     if kind == "kinect-view":
         return sensor_scan(points, rng, views=1)
+    if kind.startswith("merge") and "of" in kind:
+        # merge<digits>of<count>: the union of those clean virtual views, a merged scan's
+        # catalogue counterpart.
+        indices, _, count = kind[5:].partition("of")
+        if indices.isdigit() and count.isdigit() and max(map(int, indices)) < int(count):
+            low, high, diagonal = _bbox(points)
+            seen = np.zeros(len(points), dtype=bool)
+            for index in map(int, indices):
+                viewpoint = (low + high) / 2.0 + 3.0 * diagonal * view_directions(int(count))[index]
+                seen[hidden_point_removal(points, viewpoint)] = True
+            return points[seen]
     if kind.startswith("view") and "of" in kind:
         index, _, count = kind[4:].partition("of")
         if index.isdigit() and count.isdigit() and int(index) < int(count):

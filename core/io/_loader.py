@@ -22,6 +22,7 @@ from core.io._cad import read_cad
 from core.io._formats import CAD_FORMATS, TEXT_POINT_FORMATS, detect_format
 from core.io._headers import check_header
 from core.io._meshes import RawGeometry, read_mesh
+from core.io._outliers import OUTLIER_RATIO
 from core.io._pcd import read_pcd
 from core.io._pointfiles import read_npy, read_text_points
 from core.io._sampling import sample_surface, triangle_areas
@@ -146,6 +147,7 @@ def load_points(
     min_points: int = 100,
     seed: int = 0,
     remove_outliers: bool = False,
+    outlier_ratio: float = OUTLIER_RATIO,
 ) -> LoadedShape:
     """Load a point cloud or mesh file as checked points.
 
@@ -163,8 +165,10 @@ def load_points(
     seed : int
         Seed of mesh sampling and thinning: the same file always gives the same points.
     remove_outliers : bool
-        Drop statistical outliers from point clouds (scans). Points sampled from a mesh lie
-        on its surface by construction and are never filtered.
+        Drop outliers from point clouds (scans). Points sampled from a mesh lie on its
+        surface by construction and are never filtered.
+    outlier_ratio : float
+        Outlier cut, in median neighbour spacings (``validate_points``).
 
     Returns
     -------
@@ -205,5 +209,6 @@ def load_points(
         min_points=min_points,
         seed=seed,
         remove_outliers=remove_outliers,
+        outlier_ratio=outlier_ratio,
     )
     return LoadedShape(points=points, format=fmt, kind="points", n_input=n_input)

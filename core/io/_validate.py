@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from core.errors import InvalidShapeError
-from core.io._outliers import statistical_inliers
+from core.io._outliers import OUTLIER_RATIO, spacing_inliers
 from core.io._sampling import voxel_downsample
 
 __all__ = ["MAX_PARSED_POINTS", "validate_points"]
@@ -151,6 +151,7 @@ def validate_points(
     min_points: int = 100,
     seed: int = 0,
     remove_outliers: bool = False,
+    outlier_ratio: float = OUTLIER_RATIO,
 ) -> np.ndarray:
     """Check a point cloud and thin it to at most ``max_points`` points.
 
@@ -165,7 +166,10 @@ def validate_points(
     seed : int
         Seed of the thinning; same points and seed give the same result.
     remove_outliers : bool
-        Drop statistical outliers (stray scan points) before thinning.
+        Drop outliers (stray scan points) before thinning.
+    outlier_ratio : float
+        A point is an outlier when its mean distance to its 8 nearest neighbours exceeds this
+        many times the median of that distance (``core.io._outliers``).
 
     Returns
     -------
@@ -189,7 +193,7 @@ def validate_points(
     _check_span(array)
     distinct = _distinct(array) if len(array) else np.zeros(0, dtype=np.intp)
     if remove_outliers and len(distinct) > min_points:
-        distinct = distinct[statistical_inliers(array[distinct])]
+        distinct = distinct[spacing_inliers(array[distinct], ratio=outlier_ratio)]
     if len(distinct) < max(min_points, 1):
         repeated = f" ({len(array):,} points with repeats)" if len(array) > len(distinct) else ""
         raise InvalidShapeError(
