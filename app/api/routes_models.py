@@ -34,12 +34,37 @@ from app.api.uploads import read_checked_upload
 from app.db.feed import record_event
 from app.db.models import Model, utcnow
 from app.revisions import create_model_rows, latest_jobs, lock_models
-from app.similarity import find_similar
+from app.similarity import SearchMode, find_similar
 from app.webhooks import record_model_event
 
-__all__ = ["load_model", "metadata_filters", "router"]
+__all__ = [
+    "SCAN_MODE_HELP",
+    "ModeQuery",
+    "load_model",
+    "metadata_filters",
+    "query_column",
+    "router",
+]
 
 router = APIRouter(prefix="/v1", tags=["models"])
+
+SCAN_MODE_HELP = (
+    "mode=scan is for partial scans (one side of a part): the query is described with the "
+    "points near its open rim faded out, and every model is compared both whole and as "
+    "each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's "
+    "distance is that of its best view, one result per model. mode=shape (the default) "
+    "compares whole models only, which suits complete meshes and merged scans better."
+)
+ModeQuery = Annotated[
+    SearchMode,
+    Query(description="shape (default): whole models; scan: for partial scans, best view "
+          "of each model."),
+]
+
+
+def query_column(mode: SearchMode) -> str:
+    """The descriptor column a query uses in ``mode``: the scan descriptor in scan mode."""
+    return "scan_descriptor" if mode == "scan" else "descriptor"
 
 
 def _uuid_or_none(text: str) -> uuid.UUID | None:
@@ -58,7 +83,7 @@ def load_model(session: Session, tenant: str, model_id: str, *, descriptor: bool
     parsed = _uuid_or_none(model_id)
     query = select(Model).where(Model.id == parsed, Model.tenant == tenant)
     if descriptor:
-        query = query.options(undefer(Model.descriptor))
+        query = query.options(undefer(Model.descriptor), undefer(Model.scan_descriptor))
     model = session.scalar(query) if parsed is not None else None
     if model is None:
         raise _not_found(model_id)
@@ -277,7 +302,9 @@ def metadata_filters(request: Request) -> dict[str, str]:
     description="Best first, the model itself left out. Filter on metadata with query "
     "parameters `metadata.KEY=VALUE` (string values compare as text, others by their JSON "
     "form, e.g. `metadata.qty=3`); filters apply before the top-k cut. "
-    "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite.",
+    "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite. "
+    + SCAN_MODE_HELP + " Use it for models uploaded as partial scans; models described "
+    "before scan mode existed are queried with their plain descriptor.",
 )
 async def similar_models(
     model_id: str,
@@ -286,11 +313,12 @@ async def similar_models(
     services: ServicesDep,
     k: Annotated[int, Query(ge=1, le=100)] = 10,
     min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
+    mode: ModeQuery = "shape",
 ) -> SimilarResponse:
     # One hop to the thread pool for the whole query (database and FAISS); the index is
     # kept in step by the background sync, not polled per request.
     return await run_in_threadpool(
-        _similar_models, services, tenant, model_id, k, min_score, filters
+        _similar_models, services, tenant, model_id, k, min_score, filters, mode
     )
 
 
@@ -301,6 +329,7 @@ def _similar_models(
     k: int,
     min_score: float | None,
     filters: dict[str, str],
+    mode: SearchMode,
 ) -> SimilarResponse:
     with services.sessions() as session:
         model = load_model(session, tenant, model_id, descriptor=True)
@@ -311,16 +340,18 @@ def _similar_models(
                 slug="model-not-ready",
                 model_status=model.status,
             )
+        query = getattr(model, query_column(mode)) or model.descriptor
         matches = find_similar(
             services.index,
             session,
             (tenant, model.descriptor_version),
-            np.frombuffer(model.descriptor, dtype=np.float32),
+            np.frombuffer(query, dtype=np.float32),
             k=k,
             min_score=min_score,
             filters=filters,
             exclude=model.index_id,
             pushdown_max=services.settings.filter_pushdown_max,
+            mode=mode,
         )
         return SimilarResponse(
             query=SimilarQuery(model_id=model.id),
