@@ -303,8 +303,8 @@ def metadata_filters(request: Request) -> dict[str, str]:
     "parameters `metadata.KEY=VALUE` (string values compare as text, others by their JSON "
     "form, e.g. `metadata.qty=3`); filters apply before the top-k cut. "
     "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite. "
-    + SCAN_MODE_HELP + " Use it for models uploaded as partial scans; models described "
-    "before scan mode existed are queried with their plain descriptor.",
+    + SCAN_MODE_HELP + " Use mode=scan for a model that was uploaded as a partial scan (a "
+    "model described before scan mode existed is then queried with its plain descriptor).",
 )
 async def similar_models(
     model_id: str,

@@ -4,7 +4,8 @@
 float32, v <= 16; indexed as extra entries of the model, ``app.index``) and
 ``scan_descriptor`` the model described as a scan (``d`` float32, the query of
 ``/similar?mode=scan``). Both are filled by the worker with the model's descriptor; models
-described before this migration have neither until they are described again.
+described before this migration have neither until they are described again
+(``shapesearch redescribe --all``); until then scan mode compares them whole.
 
 Revision ID: 0006
 Revises: 0005
