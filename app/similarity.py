@@ -234,6 +234,8 @@ def _best_entries(
     # Views per model (on average): a model's views tend to be near the query together.
     per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
     fetch = (k + 1 if exclude is not None else k) * (4 if filters and allowed is None else 1)
+    if index.is_approximate(key) or index.is_approximate(views_key(key)):
+        fetch = index.rerank_candidates(fetch)  # estimated distances: a margin of candidates
     matches: dict[int, Match] = {}
     seen: set[int] = set()
     while True:

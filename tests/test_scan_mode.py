@@ -267,6 +267,21 @@ def sphere_scan(n: int, direction: np.ndarray) -> np.ndarray:
     return sphere[hidden_point_removal(sphere, 20.0 * direction)]
 
 
+def test_scan_mode_on_compressed_partitions_agrees_with_a_direct_computation(
+    sessions: sessionmaker[Session],
+) -> None:
+    entries = catalogue(sessions, 60, views=3, seed=12, d=16)
+    index = ShapeIndex(sessions, exact_max=100)  # the 180 views are IVF-SQ8, the models flat
+    index.rebuild()
+    assert index.describe(views_key(KEY)) == "ivf-sq8" and index.describe(KEY) == "flat"
+    query = unit(np.random.default_rng(13).normal(size=16))
+    expected = brute_force(entries, query)[:5]
+    found = scan_search(index, sessions, query, k=5)
+    assert [m.model.index_id for m in found] == [i for i, _ in expected]
+    for match, (_, distance) in zip(found, expected, strict=True):
+        assert match.distance == pytest.approx(distance, abs=1e-5)  # exact, not the estimate
+
+
 def test_a_partial_scan_finds_its_model_first_by_its_best_view(
     sessions: sessionmaker[Session],
 ) -> None:
