@@ -25,6 +25,7 @@ __all__ = [
     "describe_upload",
     "described_columns",
     "descriptor_version",
+    "ingest_columns",
     "model_columns",
     "pin_blas_threads",
     "problem_of_reason",
@@ -52,9 +53,14 @@ def describe_upload(
     filename: str,
     settings: EngineSettings,
     predictor: CutoffPredictor | None = None,
+    scan: bool = False,
+    views: int = 0,
 ) -> Description:
-    """Describe an uploaded file (call ``pin_blas_threads`` once in the process first)."""
-    return describe(content, settings, filename=filename, predictor=predictor)
+    """Describe an uploaded file (call ``pin_blas_threads`` once in the process first);
+    ``scan`` and ``views`` as in ``core.pipeline.describe``."""
+    return describe(
+        content, settings, filename=filename, predictor=predictor, scan=scan, views=views
+    )
 
 
 def descriptor_version(settings: EngineSettings) -> str:
@@ -67,10 +73,29 @@ def described_columns(
     filename: str,
     settings: EngineSettings,
     predictor: CutoffPredictor | None = None,
+    scan: bool = False,
+    views: int = 0,
 ) -> dict[str, Any]:
-    """``model_columns`` of the file's description: small and picklable, for a sandbox."""
-    description = describe_upload(content, filename, settings, predictor)
+    """``model_columns`` of the file's description: small and picklable, for a sandbox.
+
+    A catalogue part is described with ``scan=True, views=settings.views.count`` (scan mode's
+    entries, ``ingest_columns``); a search query with ``scan`` in scan mode only.
+    """
+    description = describe_upload(content, filename, settings, predictor, scan, views)
     return model_columns(description, settings.descriptor.hks_times)
+
+
+def ingest_columns(
+    content: bytes,
+    filename: str,
+    settings: EngineSettings,
+    predictor: CutoffPredictor | None = None,
+) -> dict[str, Any]:
+    """``described_columns`` of a catalogue part: with its scan descriptor and the
+    ``settings.views.count`` virtual views that scan mode searches (none when 0)."""
+    return described_columns(
+        content, filename, settings, predictor, True, settings.views.count
+    )
 
 
 def quick_check(content: bytes, name: str, points: int, min_points: int, seed: int) -> None:
@@ -96,14 +121,20 @@ def cutoff_record(description: Description) -> dict[str, Any]:
 
 def model_columns(description: Description, hks_times: Sequence[float]) -> dict[str, Any]:
     """The Model columns a finished description fills in; ``hks_times`` is the descriptor's
-    time grid, the first columns of ``description.signature`` (its log scaled HKS)."""
+    time grid, the first columns of ``description.signature`` (its log scaled HKS).
+    ``view_descriptors`` is None without views, ``scan_descriptor`` None unless asked for."""
     descriptor = np.ascontiguousarray(description.descriptor, dtype=np.float32)
+    scan = description.scan_descriptor
+    views = np.ascontiguousarray(description.views, dtype=np.float32)
     return {
         "n_points": description.n_points,
         "cutoff": cutoff_record(description),
         "eigenvalues": [float(v) for v in np.asarray(description.eigenvalues).ravel()],
         "descriptor": descriptor.tobytes(),
         "descriptor_version": description.descriptor_version,
+        # Always written, so that a re-describe with fewer (or no) views leaves none stale.
+        "view_descriptors": views.tobytes() if len(views) else None,
+        "scan_descriptor": None if scan is None else np.asarray(scan, np.float32).tobytes(),
         "timings": {stage: float(seconds) for stage, seconds in description.timings.items()},
         "preview": encode_preview(
             description.points,

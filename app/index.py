@@ -7,7 +7,11 @@ the last revision it applied and reads only newer events, so a sync that finds n
 is one indexed query. Deletes made in this process are also applied at once with ``remove``.
 
 One partition per (tenant, descriptor_version): tenants never see each other's models and
-descriptors of different layouts are never compared. Vectors are unit-norm float32 under
+descriptors of different layouts are never compared. Scan mode's extra entries, the
+descriptors of each model's virtual partial views (``Model.view_descriptors``), live in a
+partition of their own, ``views_key(key)``, so that the default search never meets them; view
+``v`` of model ``i`` has the id ``view_id(i, v)``, and adding, replacing or removing a model
+does the same to all its views in the same batch. Vectors are unit-norm float32 under
 the model's integer ``index_id``. A partition is
 
 * ``flat``: exact ``IndexIDMap2(IndexFlatL2)`` while it holds at most ``exact_max``
@@ -36,10 +40,53 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import FeedState, IndexEvent, Model
+from core.settings import MAX_VIEWS
 
-__all__ = ["PartitionKey", "ShapeIndex"]
+__all__ = ["VIEW_ID_BASE", "PartitionKey", "ShapeIndex", "view_id", "view_of", "views_key"]
 
 PartitionKey = tuple[str, str]  # (tenant, descriptor_version)
+
+#: View ids start above every model id (index_id is a 64-bit sequence that never gets near
+#: 2^48), so that an id alone tells a view from a model.
+VIEW_ID_BASE = 1 << 48
+
+
+_VIEWS = "#views"
+
+
+def views_key(key: PartitionKey) -> PartitionKey:
+    """The partition of the view entries of partition ``key``'s models."""
+    tenant, version = key
+    return tenant, version + _VIEWS
+
+
+def _holds_views(key: PartitionKey) -> bool:
+    return key[1].endswith(_VIEWS)
+
+
+def view_id(index_id: int, view: int) -> int:
+    """The index id of view ``view`` (< ``MAX_VIEWS``) of model ``index_id``."""
+    return VIEW_ID_BASE + index_id * MAX_VIEWS + view
+
+
+def view_of(entry_id: int) -> tuple[int, int]:
+    """``(index_id, view)`` of a view entry's id (the inverse of ``view_id``)."""
+    return divmod(entry_id - VIEW_ID_BASE, MAX_VIEWS)
+
+
+def _view_ids(index_id: int, count: int) -> list[int]:
+    return [view_id(index_id, view) for view in range(count)]
+
+
+def _views_array(blob: bytes | None, dim: int) -> np.ndarray | None:
+    """``Model.view_descriptors`` as ``(v, dim) float32``, or None when there are none."""
+    if not blob or dim == 0:
+        return None
+    views = np.frombuffer(blob, dtype=np.float32)
+    return views.reshape(-1, dim)[:MAX_VIEWS] if len(views) % dim == 0 else None
+
+# One model added: (index_id, partition, (d,) descriptor, (v, d) views or None).
+_Added = tuple[int, PartitionKey, np.ndarray, "np.ndarray | None"]
 
 _EVENT_BATCH = 5000
 _ROW_CHUNK = 2000  # rows per query of a streamed rebuild
@@ -189,13 +236,19 @@ class ShapeIndex:
         self.rerank_factor = rerank_factor
         self.revision = 0  # last change-feed revision applied
         self._partitions: dict[PartitionKey, _Partition] = {}
-        self._partition_of: dict[int, PartitionKey] = {}
+        self._partition_of: dict[int, PartitionKey] = {}  # models only
+        self._views_of: dict[int, int] = {}  # model index_id -> views it has in the index
         self._sync_lock = threading.Lock()  # one writer of the maps at a time
 
     # --- reading ----------------------------------------------------------------------
 
     def __len__(self) -> int:
+        """Models held (their views not counted)."""
         return len(self._partition_of)
+
+    def views_held(self, index_id: int) -> int:
+        """How many view entries model ``index_id`` has in the index."""
+        return self._views_of.get(index_id, 0)
 
     def __contains__(self, index_id: int) -> bool:
         return index_id in self._partition_of
@@ -263,11 +316,38 @@ class ShapeIndex:
             for row_ids, row_d in zip(ids, squared, strict=True)
         ]
 
+    def search_views(
+        self,
+        key: PartitionKey,
+        vector: np.ndarray,
+        k: int,
+        *,
+        allowed: Sequence[int] | None = None,
+    ) -> list[tuple[int, int, float]]:
+        """The ``k`` nearest view entries of partition ``key``'s models, as ``(index_id,
+        view, L2 distance)`` nearest first (a model may appear once per view); only views
+        of the ``allowed`` model ids when given."""
+        allowed_views = None
+        if allowed is not None:
+            allowed_views = [
+                entry for i in allowed for entry in _view_ids(i, self._views_of.get(i, 0))
+            ]
+        hits = self.search(views_key(key), vector, k, allowed=allowed_views)
+        return [(*view_of(entry), distance) for entry, distance in hits]
+
     # --- writing ----------------------------------------------------------------------
 
-    def add(self, index_id: int, key: PartitionKey, vector: np.ndarray) -> None:
+    def add(
+        self,
+        index_id: int,
+        key: PartitionKey,
+        vector: np.ndarray,
+        views: np.ndarray | None = None,
+    ) -> None:
+        """Add (or replace) model ``index_id`` with ``vector : (d,)`` and its scan-mode
+        ``views : (v, d)`` (v <= ``MAX_VIEWS``)."""
         with self._sync_lock:
-            self._apply([index_id], [(index_id, key, vector)])
+            self._apply([index_id], [(index_id, key, vector, views)])
 
     def remove(self, index_id: int) -> None:
         self.remove_many([index_id])
@@ -293,26 +373,31 @@ class ShapeIndex:
                 for index_id in built.ids:
                     self._partition_of[index_id] = key
 
-    def _apply(
-        self,
-        removed: Iterable[int],
-        added: Iterable[tuple[int, PartitionKey, np.ndarray]],
-    ) -> None:
-        """Remove, then add, grouped by partition; call with ``_sync_lock`` held."""
+    def _apply(self, removed: Iterable[int], added: Iterable[_Added]) -> None:
+        """Remove, then add, models with their views, grouped by partition; call with
+        ``_sync_lock`` held."""
         gone: dict[PartitionKey, list[int]] = defaultdict(list)
         for index_id in removed:
             key = self._partition_of.pop(index_id, None)
             if key is not None:
                 gone[key].append(index_id)
+                gone[views_key(key)].extend(_view_ids(index_id, self._views_of.pop(index_id, 0)))
         for key, ids in gone.items():
-            partition = self._partitions[key]
-            with partition.lock.writing():
-                partition.remove(np.asarray(ids, dtype=np.int64))
+            partition = self._partitions.get(key)
+            if partition is not None and ids:
+                with partition.lock.writing():
+                    partition.remove(np.asarray(ids, dtype=np.int64))
         fresh: dict[PartitionKey, list[tuple[int, np.ndarray]]] = defaultdict(list)
-        for index_id, key, vector in added:
-            if index_id in self._partition_of:  # re-adding replaces
+        for index_id, key, vector, views in added:
+            if index_id in self._partition_of:  # re-adding replaces, views and all
                 self._apply([index_id], [])
             fresh[key].append((index_id, np.asarray(vector, dtype=np.float32)))
+            if views is not None and len(views):
+                views = np.asarray(views, dtype=np.float32)[:MAX_VIEWS]
+                fresh[views_key(key)].extend(
+                    zip(_view_ids(index_id, len(views)), views, strict=True)
+                )
+                self._views_of[index_id] = len(views)
         for key, rows in fresh.items():
             ids = np.array([i for i, _ in rows], dtype=np.int64)
             vectors = np.ascontiguousarray(np.stack([v for _, v in rows]))
@@ -327,8 +412,9 @@ class ShapeIndex:
                     sample = np.concatenate([held, vectors])
                     partition.compress(sample, expected=len(sample))
                 partition.add(ids, vectors)
-            for index_id in ids.tolist():
-                self._partition_of[index_id] = key
+            if not _holds_views(key):
+                for index_id in ids.tolist():
+                    self._partition_of[index_id] = key
 
     # --- following the database -------------------------------------------------------
 
@@ -343,39 +429,63 @@ class ShapeIndex:
                 revision = session.execute(
                     select(FeedState.revision).where(FeedState.id == 1)
                 ).scalar_one()
-                sizes = {
-                    (tenant, version): int(count)
-                    for tenant, version, count in session.execute(
-                        select(Model.tenant, Model.descriptor_version, func.count())
-                        .where(Model.status == "ready", Model.descriptor_version.is_not(None))
-                        .group_by(Model.tenant, Model.descriptor_version)
+                sizes: dict[PartitionKey, int] = {}
+                for tenant, version, count, view_bytes, vector_bytes in session.execute(
+                    select(
+                        Model.tenant,
+                        Model.descriptor_version,
+                        func.count(),
+                        func.sum(func.length(Model.view_descriptors)),
+                        func.max(func.length(Model.descriptor)),
                     )
-                }
+                    .where(Model.status == "ready", Model.descriptor_version.is_not(None))
+                    .group_by(Model.tenant, Model.descriptor_version)
+                ):
+                    sizes[(tenant, version)] = int(count)
+                    if view_bytes and vector_bytes:
+                        sizes[views_key((tenant, version))] = int(view_bytes) // int(vector_bytes)
             builders = {key: _Builder(self, size) for key, size in sizes.items()}
-            for index_id, tenant, version, descriptor in self._ready_rows():
+            views_of: dict[int, int] = {}
+            for index_id, tenant, version, descriptor, view_blob in self._ready_rows():
                 builder = builders.get((tenant, version))
                 if builder is None:  # became ready after the count: sync replays it
                     continue
-                builder.add_one(index_id, np.frombuffer(descriptor, dtype=np.float32))
+                vector = np.frombuffer(descriptor, dtype=np.float32)
+                builder.add_one(index_id, vector)
+                views = _views_array(view_blob, len(vector))
+                view_builder = builders.get(views_key((tenant, version)))
+                if views is not None and view_builder is not None:
+                    for entry, view in zip(_view_ids(index_id, len(views)), views, strict=True):
+                        view_builder.add_one(entry, view)
+                    views_of[index_id] = len(views)
             partitions: dict[PartitionKey, _Partition] = {}
             partition_of: dict[int, PartitionKey] = {}
             for key, builder in builders.items():
                 partition = builder.finish()
                 if partition is not None:
                     partitions[key] = partition
-                    partition_of.update(dict.fromkeys(builder.ids, key))
+                    if not _holds_views(key):
+                        partition_of.update(dict.fromkeys(builder.ids, key))
             self._partitions, self._partition_of = partitions, partition_of
+            self._views_of = views_of
             self.revision = int(revision)
         self.sync()
 
-    def _ready_rows(self) -> Iterator[tuple[int, str, str, bytes]]:
-        """Every ready descriptor, ``_ROW_CHUNK`` rows per query (keyset on index_id)."""
+    def _ready_rows(self) -> Iterator[tuple[int, str, str, bytes, bytes | None]]:
+        """Every ready descriptor with its views, ``_ROW_CHUNK`` rows per query (keyset on
+        index_id)."""
         assert self.sessions is not None
         last = -1
         while True:
             with self.sessions() as session:
                 rows = session.execute(
-                    select(Model.index_id, Model.tenant, Model.descriptor_version, Model.descriptor)
+                    select(
+                        Model.index_id,
+                        Model.tenant,
+                        Model.descriptor_version,
+                        Model.descriptor,
+                        Model.view_descriptors,
+                    )
                     .where(
                         Model.index_id > last,
                         Model.status == "ready",
@@ -414,22 +524,24 @@ class ShapeIndex:
                                 Model.tenant,
                                 Model.descriptor_version,
                                 Model.descriptor,
+                                Model.view_descriptors,
                             ).where(Model.index_id.in_(wanted), Model.status == "ready")
                         ).all()
                         if wanted
                         else []
                     )
-                # Models deleted meanwhile are simply not found.
-                self._apply(
-                    latest,
-                    [
-                        (i, (tenant, version), np.frombuffer(descriptor, dtype=np.float32))
-                        for i, tenant, version, descriptor in rows
-                        if descriptor is not None and version is not None
-                    ],
-                )
+                # Models deleted meanwhile are simply not found; their views go with them.
+                self._apply(latest, [_added(*row) for row in rows if row[3] and row[2]])
                 self.revision = int(events[-1].revision)
                 applied += len(events)
+
+
+def _added(
+    index_id: int, tenant: str, version: str, descriptor: bytes, view_blob: bytes | None
+) -> _Added:
+    """A ready row as ``_apply`` adds it."""
+    vector = np.frombuffer(descriptor, dtype=np.float32)
+    return index_id, (tenant, version), vector, _views_array(view_blob, len(vector))
 
 
 class _Builder:

@@ -16,7 +16,7 @@ import numpy as np
 from pydantic import Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from core.settings import CutoffSettings, EngineSettings
+from core.settings import MAX_VIEWS, CutoffSettings, EngineSettings
 
 __all__ = ["Settings", "engine_settings"]
 
@@ -214,6 +214,31 @@ class Settings(BaseSettings):
         ge=0,
         description="Descriptor: weight of the shape-DNA block.",
     )
+    scan_views: int = Field(
+        default=_ENGINE.views.count,
+        ge=0,
+        le=MAX_VIEWS,
+        description="Scan mode: virtual partial views described and indexed per model, next "
+        "to the model itself (0: none; search?mode=scan then compares whole models only). "
+        "Applies to models described from then on.",
+    )
+    scan_boundary_neighbours: int = Field(
+        default=_ENGINE.views.boundary_neighbours,
+        ge=3,
+        description="Scan mode: neighbours that decide whether a point lies on an open rim.",
+    )
+    scan_boundary_threshold: float = Field(
+        default=_ENGINE.views.boundary_threshold,
+        gt=0,
+        description="Scan mode: a point is on a rim when its neighbours' centroid is off by "
+        "more than this many mean neighbour distances.",
+    )
+    scan_boundary_reach: float = Field(
+        default=_ENGINE.views.boundary_reach,
+        gt=0,
+        description="Scan mode: distance from the rim, in square roots of the surface area, "
+        "over which a point's histogram weight rises from 0 to 1.",
+    )
 
     # --- workers and the job queue -------------------------------------------------------
     workers: int | None = Field(
@@ -380,6 +405,13 @@ def engine_settings(settings: Settings) -> EngineSettings:
             wks_slope_weight=settings.descriptor_wks_slope_weight,
             dna_count=settings.descriptor_dna_count,
             dna_weight=settings.descriptor_dna_weight,
+        ),
+        views=replace(
+            _ENGINE.views,
+            count=settings.scan_views,
+            boundary_neighbours=settings.scan_boundary_neighbours,
+            boundary_threshold=settings.scan_boundary_threshold,
+            boundary_reach=settings.scan_boundary_reach,
         ),
     )
     engine.validate()

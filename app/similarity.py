@@ -20,6 +20,13 @@ Metadata filters, two ways, and either way "k results whenever k matching models
   rounds are needed.
 
 SQL only narrows the candidates; ``metadata_matches`` decides, so both ways agree exactly.
+
+Two modes (``SearchMode``): ``shape`` compares the query with each model's descriptor;
+``scan``, for partial scans, also with the descriptors of each model's virtual partial views
+(``app.index.views_key``). A model's distance is then that of its best entry (the whole
+model or one view), recomputed exactly from the stored descriptors, and each model is one
+result. Both partitions are searched for more and more candidates until ``k`` of them are
+certain: no model not yet seen can be nearer than the last hit of a partition not exhausted.
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ from __future__ import annotations
 import json
 import uuid
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from sqlalchemy import (
@@ -47,11 +54,22 @@ from sqlalchemy import (
 from sqlalchemy.dialects.postgresql import ARRAY, JSONB
 
 from app.db.models import Model
-from app.index import PartitionKey, ShapeIndex
+from app.index import PartitionKey, ShapeIndex, views_key
 
-__all__ = ["Candidate", "Match", "find_similar", "matching_ids", "metadata_matches", "score_of"]
+__all__ = [
+    "Candidate",
+    "Match",
+    "SearchMode",
+    "find_similar",
+    "matching_ids",
+    "metadata_matches",
+    "score_of",
+]
 
 PUSHDOWN_MAX = 10_000
+
+#: ``shape``: whole models only (the default); ``scan``: best of each model and its views.
+SearchMode = Literal["shape", "scan"]
 
 
 @dataclass(frozen=True)
@@ -67,9 +85,13 @@ class Candidate:
 
 @dataclass(frozen=True)
 class Match:
+    """One result; ``view`` is the view that matched best in scan mode (None: the whole
+    model, and always in shape mode)."""
+
     model: Candidate
     distance: float
     score: float
+    view: int | None = None
 
 
 def score_of(distance: float) -> float:
@@ -154,13 +176,19 @@ def find_similar(
     filters: dict[str, str] | None = None,
     exclude: int | None = None,
     pushdown_max: int = PUSHDOWN_MAX,
+    mode: SearchMode = "shape",
 ) -> list[Match]:
-    """The ``k`` best matches in partition ``key`` (tenant, descriptor version)."""
+    """The ``k`` best matches in partition ``key`` (tenant, descriptor version); in
+    ``scan`` mode each model's best entry counts (see the module's docstring)."""
     filters = filters or {}
     vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
     allowed = matching_ids(connection, key, filters, pushdown_max) if filters else None
     if allowed is not None:
         allowed = [i for i in allowed if i != exclude]
+    if mode == "scan":
+        return _best_entries(
+            index, connection, key, vector, k, min_score, filters, exclude, allowed
+        )
     approximate = index.is_approximate(key)
     wanted = k + 1 if exclude is not None else k
     fetch = index.rerank_candidates(wanted) if approximate else wanted
@@ -231,3 +259,84 @@ def _id_in(connection: Connection, ids: list[int]) -> ColumnElement[bool]:
     if connection.dialect.name == "postgresql":
         return Model.index_id == any_(bindparam("ids", type_=ARRAY(BigInteger)))
     return Model.index_id.in_(bindparam("ids", expanding=True))
+
+
+def _best_entries(
+    index: ShapeIndex,
+    connection: Connection,
+    key: PartitionKey,
+    vector: np.ndarray,
+    k: int,
+    min_score: float | None,
+    filters: dict[str, str],
+    exclude: int | None,
+    allowed: list[int] | None,
+) -> list[Match]:
+    """Scan mode's ``find_similar``: the ``k`` models whose best entry is nearest."""
+    sizes = (index.partition_size(key), index.partition_size(views_key(key)))
+    # Views per model (on average): a model's views tend to be near the query together.
+    per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
+    fetch = (k + 1 if exclude is not None else k) * (4 if filters and allowed is None else 1)
+    if index.is_approximate(key) or index.is_approximate(views_key(key)):
+        fetch = index.rerank_candidates(fetch)  # estimated distances: a margin of candidates
+    matches: dict[int, Match] = {}
+    seen: set[int] = set()
+    while True:
+        wanted = (fetch, fetch * per_model)
+        model_hits = index.search(key, vector, wanted[0], allowed=allowed)
+        view_hits = index.search_views(key, vector, wanted[1], allowed=allowed)
+        found = [i for i, _ in model_hits] + [i for i, _, _ in view_hits]
+        fresh = [i for i in dict.fromkeys(found) if i not in seen and i != exclude]
+        seen.update(found)
+        for model, distance, view in _confirmed_best(connection, key[0], fresh, vector):
+            if metadata_matches(model.meta or {}, filters):
+                matches[model.index_id] = Match(model, distance, score_of(distance), view)
+        # A model not seen yet is no nearer than the last hit of each partition not yet
+        # exhausted (inf when both are): matches up to that bound are certain.
+        bound = float("inf")
+        for hits, asked, size in zip((model_hits, view_hits), wanted, sizes, strict=True):
+            if len(hits) == asked and asked < size:
+                bound = min(bound, hits[-1][-1])
+        ranked = sorted(matches.values(), key=lambda m: (m.distance, m.model.index_id))
+        if min_score is not None:
+            ranked = [m for m in ranked if m.score >= min_score]
+        # Exact distances against the index's float32 ones: allow for rounding.
+        certain = [m for m in ranked if m.distance <= bound + 1e-5]
+        past_min = min_score is not None and score_of(bound) < min_score
+        if len(certain) >= k or bound == float("inf") or past_min:
+            return certain[:k]
+        fetch *= 4
+
+
+def _confirmed_best(
+    connection: Connection, tenant: str, ids: list[int], query: np.ndarray
+) -> list[tuple[Candidate, float, int | None]]:
+    """The candidates still ready in the database, each with the exact distance of its
+    best entry (read from the stored descriptors) and which one it is (None: the model)."""
+    if not ids:
+        return []
+    statement = select(
+        Model.index_id,
+        Model.id,
+        Model.external_id,
+        Model.name,
+        Model.meta.label("meta"),
+        Model.descriptor,
+        Model.view_descriptors,
+    ).where(_id_in(connection, ids), Model.tenant == tenant, Model.status == "ready")
+    confirmed = []
+    for row in connection.execute(statement, {"ids": ids}):
+        if row.descriptor is None:
+            continue
+        entries = [np.frombuffer(row.descriptor, dtype=np.float32)]
+        if row.view_descriptors:
+            entries += list(
+                np.frombuffer(row.view_descriptors, np.float32).reshape(-1, len(entries[0]))
+            )
+        if len(entries[0]) != len(query):
+            continue
+        distances = np.linalg.norm(np.stack(entries) - query, axis=1)
+        best = int(np.argmin(distances))
+        candidate = Candidate(row.index_id, row.id, row.external_id, row.name, row.meta)
+        confirmed.append((candidate, float(distances[best]), None if best == 0 else best - 1))
+    return confirmed

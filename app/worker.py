@@ -28,8 +28,8 @@ from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
 from app.describing import (
     CutoffPredictorCache,
-    described_columns,
     descriptor_version,
+    ingest_columns,
     pin_blas_threads,
     problem_of_reason,
 )
@@ -62,7 +62,8 @@ TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
 def describe_handler(settings: Settings, sessions: Any = None) -> JobHandler:
     """The production handler: run the engine with the service's settings, in a sandbox
     (a child process with memory and time limits), so that a bomb fails its job instead of
-    growing or killing the worker.
+    growing or killing the worker. Each part is described with its scan-mode entries
+    (``ingest_columns``: the scan descriptor and ``SHAPESEARCH_SCAN_VIEWS`` virtual views).
 
     With ``sessions`` the adaptive cutoff is predicted from the stored models of the same
     descriptor version (refitted as they arrive); without, or with none stored, it seeds.
@@ -73,7 +74,7 @@ def describe_handler(settings: Settings, sessions: Any = None) -> JobHandler:
 
     def handle(content: bytes, filename: str) -> dict[str, Any]:
         predictor = None if cache is None else cache.predictor()
-        return sandbox.run(described_columns, content, filename, engine, predictor)
+        return sandbox.run(ingest_columns, content, filename, engine, predictor)
 
     return handle
 

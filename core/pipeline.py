@@ -4,6 +4,11 @@
     cutoff -> signatures -> histogram descriptor (+ extrinsic blocks of the points)
 
 Every stage is timed; the timings travel with the result so the service can store them.
+
+For scan mode (``core.views``) ``describe`` can also give the descriptor with the histogram
+areas faded out near an open rim (``scan=True``: how a partial scan is queried), and the
+descriptors of ``views`` virtual partial views of the shape, each described like a scan, from
+the points already loaded.
 """
 
 from __future__ import annotations
@@ -21,10 +26,12 @@ from core.cutoff import AdaptiveCutoff, CutoffResult, make_cutoff
 from core.cutoff_predictor import CutoffPredictor, shape_features
 from core.descriptor import DescriptorSpec
 from core.eigen import SpectralSolver, pin_blas_threads
+from core.errors import InvalidShapeError, SolverError
 from core.io import LoadedShape, load_points
 from core.laplacian import build_laplacian
 from core.normalise import centre, unit_area_mass, unit_bbox_scale
 from core.settings import EngineSettings
+from core.views import boundary_weights, virtual_views
 
 __all__ = [
     "Description",
@@ -32,6 +39,7 @@ __all__ = [
     "describe_points",
     "descriptor_from_eigenpairs",
     "normalised_operators",
+    "scan_weights",
 ]
 
 
@@ -61,6 +69,11 @@ class Description:
         Seconds per stage.
     features : (f,) float
         Pre-solve features (``core.cutoff_predictor.shape_features``), for cutoff predictors.
+    scan_descriptor : (d,) float32 or None
+        The descriptor with ``scan_weights`` on the areas (asked for with ``scan=True``).
+    views : (v, d) float32
+        ``scan_descriptor`` of each virtual view that could be described (``views=K``
+        asks for K; a view with fewer than ``min_points`` points, or that fails, is left out).
     """
 
     points: np.ndarray
@@ -73,6 +86,8 @@ class Description:
     descriptor_version: str
     timings: dict[str, float] = field(default_factory=dict)
     features: np.ndarray = field(default_factory=lambda: np.empty(0))
+    scan_descriptor: np.ndarray | None = None
+    views: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=np.float32))
 
     @property
     def n_points(self) -> int:
@@ -92,6 +107,8 @@ def describe(
     *,
     filename: str | None = None,
     predictor: CutoffPredictor | None = None,
+    scan: bool = False,
+    views: int = 0,
 ) -> Description:
     """Describe one shape file.
 
@@ -106,6 +123,10 @@ def describe(
     predictor : CutoffPredictor, optional
         Fitted on models of the same descriptor version: the adaptive cutoff then solves
         straight to the predicted n (same n, usually fewer solver calls).
+    scan : bool
+        Also give ``scan_descriptor`` (the shape described as a partial scan).
+    views : int
+        Also describe this many virtual views (``Description.views``); implies ``scan``.
 
     Raises
     ------
@@ -128,7 +149,9 @@ def describe(
             remove_outliers=settings.outlier_filter,
             outlier_ratio=settings.outlier_ratio,
         )
-    description = _describe_loaded(shape, settings, timings, predictor)
+    description = _describe_loaded(shape, settings, timings, predictor, scan or views > 0)
+    if views > 0:
+        _describe_views(description, settings, views)
     timings["total"] = round(time.perf_counter() - start, 6)
     return description
 
@@ -138,8 +161,10 @@ def describe_points(
     settings: EngineSettings | None = None,
     *,
     predictor: CutoffPredictor | None = None,
+    scan: bool = False,
+    views: int = 0,
 ) -> Description:
-    """Describe an in-memory point cloud, ``points : (n, 3) float``."""
+    """Describe an in-memory point cloud, ``points : (n, 3) float`` (see ``describe``)."""
     from core.io import validate_points
 
     settings = settings or EngineSettings()
@@ -156,7 +181,9 @@ def describe_points(
             outlier_ratio=settings.outlier_ratio,
         )
     shape = LoadedShape(points=checked, format="array", kind="points", n_input=len(points))
-    description = _describe_loaded(shape, settings, timings, predictor)
+    description = _describe_loaded(shape, settings, timings, predictor, scan or views > 0)
+    if views > 0:
+        _describe_views(description, settings, views)
     timings["total"] = round(time.perf_counter() - start, 6)
     return description
 
@@ -214,11 +241,56 @@ def descriptor_from_eigenpairs(
     return signature, descriptor, spec.version(settings)
 
 
+def scan_weights(points: np.ndarray, settings: EngineSettings) -> np.ndarray:
+    """``core.views.boundary_weights`` of ``points : (n, 3) float`` with ``settings.views``'
+    parameters: ``(n,)`` in [0, 1], all ones on a closed surface."""
+    views = settings.views
+    return boundary_weights(
+        points,
+        neighbours=views.boundary_neighbours,
+        threshold=views.boundary_threshold,
+        reach=views.boundary_reach,
+    )
+
+
+def _describe_views(description: Description, settings: EngineSettings, count: int) -> None:
+    """Fill ``description.views`` with the scan descriptors of ``count`` virtual views of
+    its (already loaded, normalised) points."""
+    timings = description.timings
+    rows = []
+    # Views of one shape need about the same n: each solves straight to the n of the one
+    # before (the first to the shape's), which changes the solver calls, never n.
+    prediction = int(description.cutoff.n)
+    with _timed(timings, "views"):
+        parts = virtual_views(
+            description.points, count, settings.views.distance, settings.views.hpr_exponent
+        )
+        for part in parts:
+            if len(part) < settings.min_points:  # too little seen to describe
+                continue
+            shape = LoadedShape(points=part, format="array", kind="points", n_input=len(part))
+            try:
+                view = _describe_loaded(shape, settings, {}, scan=True, prediction=prediction)
+            except (InvalidShapeError, SolverError, ValueError, np.linalg.LinAlgError):
+                # A degenerate view (a sliver of a face seen edge-on) is an extra entry that
+                # cannot be had; the model and its other views remain.
+                continue
+            assert view.scan_descriptor is not None
+            rows.append(view.scan_descriptor)
+            prediction = int(view.cutoff.n)
+    width = len(description.descriptor)
+    description.views = (
+        np.stack(rows).astype(np.float32) if rows else np.empty((0, width), dtype=np.float32)
+    )
+
+
 def _describe_loaded(
     shape: LoadedShape,
     settings: EngineSettings,
     timings: dict[str, float],
     predictor: CutoffPredictor | None = None,
+    scan: bool = False,
+    prediction: int | None = None,
 ) -> Description:
     with _timed(timings, "laplacian"):
         points, stiffness, mass = normalised_operators(shape.points, settings)
@@ -228,7 +300,8 @@ def _describe_loaded(
         solver = SpectralSolver(stiffness, mass)
         rule = make_cutoff(settings.cutoff)
         if isinstance(rule, AdaptiveCutoff):
-            prediction = None if predictor is None else predictor.predict(features)
+            if prediction is None and predictor is not None:
+                prediction = predictor.predict(features)
             cutoff = rule.select(solver, prediction=prediction)
         else:
             cutoff = rule.select(solver)
@@ -237,6 +310,16 @@ def _describe_loaded(
     signature, descriptor, version = descriptor_from_eigenpairs(
         eigenvalues, eigenvectors, areas, points, settings, timings
     )
+    scan_descriptor = None
+    if scan:
+        with _timed(timings, "boundary"):
+            weights = scan_weights(points, settings)
+            # A closed surface has no rim: its scan descriptor is its descriptor.
+            scan_descriptor = descriptor
+            if not np.all(weights == 1.0):
+                scan_descriptor = descriptor_from_eigenpairs(
+                    eigenvalues, eigenvectors, areas * weights, settings
+                )[1]
     return Description(
         points=points,
         format=shape.format,
@@ -248,4 +331,5 @@ def _describe_loaded(
         descriptor_version=version,
         timings=timings,
         features=features,
+        scan_descriptor=scan_descriptor,
     )

@@ -209,8 +209,8 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
             401: _UNAUTHORIZED,
             404: _NOT_FOUND,
             409: _NOT_READY,
-            422: _validation("query", "k", "Input should be less than or equal to 100",
-                             "less_than_equal"),
+            422: _validation("query", "mode", "Input should be 'shape' or 'scan'",
+                             "literal_error"),
         },
     },
     ("get", "/v1/models/{model_id}/preview"): {

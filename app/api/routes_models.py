@@ -34,12 +34,38 @@ from app.api.uploads import read_checked_upload
 from app.db.feed import record_event
 from app.db.models import Model, utcnow
 from app.revisions import create_model_rows, latest_jobs, lock_models
-from app.similarity import find_similar
+from app.similarity import SearchMode, find_similar
 from app.webhooks import record_model_event
 
-__all__ = ["load_model", "metadata_filters", "ready_query", "router"]
+__all__ = [
+    "SCAN_MODE_HELP",
+    "ModeQuery",
+    "load_model",
+    "metadata_filters",
+    "query_column",
+    "ready_query",
+    "router",
+]
 
 router = APIRouter(prefix="/v1", tags=["models"])
+
+SCAN_MODE_HELP = (
+    "mode=scan is for partial scans (one side of a part): the query is described with the "
+    "points near its open rim faded out, and every model is compared both whole and as "
+    "each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's "
+    "distance is that of its best view, one result per model. mode=shape (the default) "
+    "compares whole models only, which suits complete meshes and merged scans better."
+)
+ModeQuery = Annotated[
+    SearchMode,
+    Query(description="shape (default): whole models; scan: for partial scans, best view "
+          "of each model."),
+]
+
+
+def query_column(mode: SearchMode) -> str:
+    """The descriptor column a query uses in ``mode``: the scan descriptor in scan mode."""
+    return "scan_descriptor" if mode == "scan" else "descriptor"
 
 
 def _uuid_or_none(text: str) -> uuid.UUID | None:
@@ -58,7 +84,7 @@ def load_model(session: Session, tenant: str, model_id: str, *, descriptor: bool
     parsed = _uuid_or_none(model_id)
     query = select(Model).where(Model.id == parsed, Model.tenant == tenant)
     if descriptor:
-        query = query.options(undefer(Model.descriptor))
+        query = query.options(undefer(Model.descriptor), undefer(Model.scan_descriptor))
     model = session.scalar(query) if parsed is not None else None
     if model is None:
         raise _not_found(model_id)
@@ -281,7 +307,9 @@ def metadata_filters(request: Request) -> dict[str, str]:
     description="Best first, the model itself left out. Filter on metadata with query "
     "parameters `metadata.KEY=VALUE` (string values compare as text, others by their JSON "
     "form, e.g. `metadata.qty=3`); filters apply before the top-k cut. "
-    "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite.",
+    "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite. "
+    + SCAN_MODE_HELP + " Use mode=scan for a model that was uploaded as a partial scan (a "
+    "model described before scan mode existed is then queried with its plain descriptor).",
 )
 async def similar_models(
     model_id: str,
@@ -290,25 +318,34 @@ async def similar_models(
     services: ServicesDep,
     k: Annotated[int, Query(ge=1, le=100)] = 10,
     min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
+    mode: ModeQuery = "shape",
 ) -> SimilarResponse:
     # One hop for the whole query (database and FAISS) to a small pool of its own: the
     # event loop is never blocked, and a few threads per core contend less for the GIL
     # than one per concurrent request would. The index is kept in step by the
     # background sync, not polled per request.
     return await asyncio.get_running_loop().run_in_executor(
-        services.queries, _similar_models, services, tenant, model_id, k, min_score, filters
+        services.queries, _similar_models, services, tenant, model_id, k, min_score, filters, mode
     )
 
 
-def ready_query(connection: Connection, tenant: str, model_id: str) -> Row[Any]:
-    """The ``id, index_id, descriptor, descriptor_version`` of the tenant's ready model
-    ``model_id`` (only what a similarity query needs, not the whole row); 404 or 409."""
+def ready_query(
+    connection: Connection, tenant: str, model_id: str, mode: SearchMode = "shape"
+) -> Row[Any]:
+    """The ``id, index_id, descriptor, descriptor_version`` (and in scan mode
+    ``scan_descriptor``) of the tenant's ready model ``model_id``: only what a similarity
+    query needs, not the whole row; 404 or 409."""
     parsed = _uuid_or_none(model_id)
     model = None
     if parsed is not None:
         model = connection.execute(
             select(
-                Model.id, Model.index_id, Model.status, Model.descriptor, Model.descriptor_version
+                Model.id,
+                Model.index_id,
+                Model.status,
+                Model.descriptor,
+                Model.descriptor_version,
+                *([Model.scan_descriptor] if mode == "scan" else []),
             ).where(Model.id == parsed, Model.tenant == tenant)
         ).one_or_none()
     if model is None:
@@ -330,19 +367,22 @@ def _similar_models(
     k: int,
     min_score: float | None,
     filters: dict[str, str],
+    mode: SearchMode,
 ) -> SimilarResponse:
     with services.reader.connect() as connection:
-        model = ready_query(connection, tenant, model_id)
+        model = ready_query(connection, tenant, model_id, mode)
+        query = (model.scan_descriptor if mode == "scan" else None) or model.descriptor
         matches = find_similar(
             services.index,
             connection,
             (tenant, model.descriptor_version),
-            np.frombuffer(model.descriptor, dtype=np.float32),
+            np.frombuffer(query, dtype=np.float32),
             k=k,
             min_score=min_score,
             filters=filters,
             exclude=model.index_id,
             pushdown_max=services.settings.filter_pushdown_max,
+            mode=mode,
         )
         return SimilarResponse(
             query=SimilarQuery(model_id=model.id),

@@ -10,7 +10,7 @@ from fastapi import APIRouter, Depends, File, Query, Request, UploadFile
 from app.api.auth import TenantDep
 from app.api.deps import ServicesDep, SessionDep
 from app.api.problems import Problem, problem_responses
-from app.api.routes_models import metadata_filters
+from app.api.routes_models import SCAN_MODE_HELP, ModeQuery, metadata_filters, query_column
 from app.api.schemas import (
     SearchQuery,
     SearchResponse,
@@ -35,8 +35,8 @@ router = APIRouter(prefix="/v1", tags=["search"])
     summary="Find the models most similar to an uploaded scan (nothing is stored)",
     description="The scan is described synchronously, which takes seconds; at most "
     "SHAPESEARCH_SEARCH_MAX_CONCURRENT at a time (beyond: 503 with Retry-After). A file "
-    "seen before (same bytes) is answered without describing it again. Same filters and "
-    "score as /v1/models/{id}/similar.",
+    "seen before (same bytes, same mode) is answered without describing it again. Same "
+    "filters and score as /v1/models/{id}/similar. " + SCAN_MODE_HELP,
 )
 def search(
     request: Request,
@@ -49,12 +49,13 @@ def search(
     session: SessionDep,
     k: Annotated[int, Query(ge=1, le=100)] = 10,
     min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
+    mode: ModeQuery = "shape",
 ) -> SearchResponse:
     upload = read_checked_upload(file.file, file.filename, services.settings, parse=False)
     try:
         # A sync route runs in the threadpool, so describing does not block the event loop.
         described = request.app.state.search_describer.describe(
-            upload.content, upload.filename, upload.sha256, session, tenant
+            upload.content, upload.filename, upload.sha256, session, tenant, mode
         )
     except InvalidShapeError as error:
         raise invalid_shape_problem(error) from error
@@ -70,11 +71,12 @@ def search(
         services.index,
         session.connection(),
         (tenant, described["descriptor_version"]),
-        np.frombuffer(described["descriptor"], dtype=np.float32),
+        np.frombuffer(described[query_column(mode)], dtype=np.float32),
         k=k,
         min_score=min_score,
         filters=filters,
         pushdown_max=services.settings.filter_pushdown_max,
+        mode=mode,
     )
     cutoff = cutoff_info(described["cutoff"])
     assert cutoff is not None

@@ -8,9 +8,11 @@ MB in a sandboxed child process. ``SearchDescriber``
   Queueing would only hold the client, a thread and the upload for longer while the machine
   is busy, and every admitted request is Python work competing for the GIL with the event
   loop that answers /healthz;
-* answers an upload it has seen (same sha256 and descriptor version) without describing it:
-  from a small LRU cache of recent results, or from a ready model of the same tenant
-  uploaded with the same bytes.
+* answers an upload it has seen (same sha256, descriptor version and mode) without
+  describing it: from a small LRU cache of recent results, or from a ready model of the
+  same tenant uploaded with the same bytes (in scan mode, one that has a scan descriptor).
+
+In scan mode the upload is described as a scan (``scan_descriptor``, ``app.similarity``).
 """
 
 from __future__ import annotations
@@ -31,13 +33,17 @@ from app.describing import described_columns
 from app.metrics import observe_description
 from app.sandbox import sandbox_of
 from app.settings import Settings
+from app.similarity import SearchMode
 from core.descriptor import DescriptorSpec
 from core.settings import EngineSettings
 
 __all__ = ["SearchAdmission", "SearchDescriber"]
 
-# The columns a search answer needs (model_columns of the description).
-_COLUMNS = ("n_points", "cutoff", "descriptor", "descriptor_version")
+# The columns a search answer needs (model_columns of the description), per mode.
+_COLUMNS: dict[str, tuple[str, ...]] = {
+    "shape": ("n_points", "cutoff", "descriptor", "descriptor_version"),
+    "scan": ("n_points", "cutoff", "scan_descriptor", "descriptor_version"),
+}
 
 
 class SearchDescriber:
@@ -53,15 +59,25 @@ class SearchDescriber:
         self._lock = threading.Lock()
 
     def describe(
-        self, content: bytes, filename: str, sha256: str, session: Session, tenant: str
+        self,
+        content: bytes,
+        filename: str,
+        sha256: str,
+        session: Session,
+        tenant: str,
+        mode: SearchMode = "shape",
     ) -> dict[str, Any]:
-        """The description columns of an upload (see ``app.describing.model_columns``)."""
-        known = self._cached(sha256) or self._stored(session, tenant, sha256)
+        """The description columns of an upload (see ``app.describing.model_columns``) that
+        a search in ``mode`` needs."""
+        key = f"{mode}:{sha256}"
+        known = self._cached(key) or self._stored(session, tenant, sha256, mode)
         if known is not None:
             return known
-        columns = self.sandbox.run(described_columns, content, filename, self.engine)
+        columns = self.sandbox.run(
+            described_columns, content, filename, self.engine, None, mode == "scan"
+        )
         observe_description(columns)
-        self._remember(sha256, {name: columns[name] for name in _COLUMNS})
+        self._remember(key, {name: columns[name] for name in _COLUMNS[mode]})
         return columns
 
     @contextmanager
@@ -81,29 +97,31 @@ class SearchDescriber:
         finally:
             self._slots.release()
 
-    def _cached(self, sha256: str) -> dict[str, Any] | None:
+    def _cached(self, key: str) -> dict[str, Any] | None:
         with self._lock:
-            columns = self._cache.get(sha256)
+            columns = self._cache.get(key)
             if columns is not None:
-                self._cache.move_to_end(sha256)
+                self._cache.move_to_end(key)
             return columns
 
-    def _remember(self, sha256: str, columns: dict[str, Any]) -> None:
+    def _remember(self, key: str, columns: dict[str, Any]) -> None:
         if self.settings.search_cache_size == 0:
             return
         with self._lock:
-            self._cache[sha256] = columns
-            self._cache.move_to_end(sha256)
+            self._cache[key] = columns
+            self._cache.move_to_end(key)
             while len(self._cache) > self.settings.search_cache_size:
                 self._cache.popitem(last=False)
 
-    def _stored(self, session: Session, tenant: str, sha256: str) -> dict[str, Any] | None:
+    def _stored(
+        self, session: Session, tenant: str, sha256: str, mode: SearchMode
+    ) -> dict[str, Any] | None:
         """A ready model of this tenant made from the same bytes with the same descriptor.
         (Only this tenant's: another tenant's copy would reveal, by the speed of the answer,
         that it holds the file.)"""
         model = session.scalar(
             select(Model)
-            .options(undefer(Model.descriptor))
+            .options(undefer(Model.descriptor), undefer(Model.scan_descriptor))
             .where(
                 Model.tenant == tenant,
                 Model.file_sha256 == sha256,
@@ -112,9 +130,10 @@ class SearchDescriber:
             )
             .limit(1)
         )
-        if model is None or model.descriptor is None:
+        columns = _COLUMNS[mode]
+        if model is None or any(getattr(model, name) is None for name in columns):
             return None
-        return {name: getattr(model, name) for name in _COLUMNS}
+        return {name: getattr(model, name) for name in columns}
 
 
 class SearchAdmission:

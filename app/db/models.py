@@ -120,6 +120,11 @@ class Model(Base):
     # float32 bytes of a unit vector; deferred so that lists do not carry vectors.
     descriptor: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
     descriptor_version: Mapped[str | None] = mapped_column(String(200))
+    # Scan mode (app.index, app.similarity): the descriptors of the model's virtual partial
+    # views, (v, d) float32 bytes with v <= 16 (empty: none), and the model described as a
+    # scan, d float32 bytes; deferred like descriptor.
+    view_descriptors: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
+    scan_descriptor: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
     timings: Mapped[dict[str, Any] | None] = mapped_column(JSON)
     # app.previews blob for the viewer (points, HKS, eigenvalues); deferred like descriptor.
     preview: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))

@@ -31,7 +31,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from core.errors import InvalidShapeError, SolverError
 from core.evaluation.dataset import Model, load_dataset
@@ -46,6 +45,7 @@ from core.evaluation.scans import view_kind
 from core.evaluation.variants import EVAL_POINTS
 from core.pipeline import descriptor_from_eigenpairs
 from core.settings import DescriptorSettings, EngineSettings
+from core.views import boundary_weights
 
 __all__ = [
     "DESCRIPTORS",
@@ -79,46 +79,6 @@ DESCRIPTORS: dict[str, tuple[DescriptorSettings, bool]] = {
         True,
     ),
 }
-
-
-def boundary_weights(
-    points: np.ndarray, neighbours: int = 16, threshold: float = 0.35, reach: float = 0.1
-) -> np.ndarray:
-    """Histogram weights ``(n,)`` in [0, 1] that fade out towards an open boundary.
-
-    A point is on the boundary when the centroid of its ``neighbours`` nearest points, projected
-    on the local tangent plane (PCA), is off by more than ``threshold`` mean neighbour
-    distances: inside a surface the neighbours surround the point, on a rim they lie to one
-    side. The weight grows linearly with the distance to the nearest boundary point and
-    reaches 1 at ``reach`` times the square root of the surface area (estimated from the
-    point spacing): about the diffusion length of the descriptor's mid times on a unit-area
-    shape.
-
-    Parameters
-    ----------
-    points : (n, 3) float
-
-    Returns
-    -------
-    weights : (n,) float
-        All ones when no point is on a boundary (a closed surface).
-    """
-    tree = cKDTree(points)
-    distances, index = tree.query(points, k=neighbours + 1)
-    local = points[index[:, 1:]] - points[:, None, :]  # (n, k, 3)
-    centred = local - local.mean(axis=1, keepdims=True)
-    _, axes = np.linalg.eigh(np.einsum("nki,nkj->nij", centred, centred))
-    normal = axes[:, :, 0]  # smallest principal direction
-    offset = local.mean(axis=1)
-    tangential = offset - np.sum(offset * normal, axis=1, keepdims=True) * normal
-    spacing = distances[:, 1:].mean(axis=1)
-    on_rim = np.linalg.norm(tangential, axis=1) > threshold * spacing
-    if not on_rim.any():
-        return np.ones(len(points))
-    # n points at spacing s cover an area of about n s^2.
-    scale = reach * np.sqrt(len(points)) * float(np.median(distances[:, 1]))
-    to_rim, _ = cKDTree(points[on_rim]).query(points)
-    return np.clip(to_rim / scale, 0.0, 1.0)
 
 
 def view_subsets(views: int) -> list[tuple[int, ...]]:

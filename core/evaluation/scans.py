@@ -22,7 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull
+
+from core.views import hidden_point_removal, view_directions
 
 __all__ = [
     "SCAN_KINDS",
@@ -98,34 +99,6 @@ def random_viewpoint(points: np.ndarray, rng: np.random.Generator, distance: flo
     direction = rng.standard_normal(3)
     direction /= np.linalg.norm(direction)
     return (low + high) / 2.0 + distance * diagonal * direction
-
-
-def hidden_point_removal(
-    points: np.ndarray, viewpoint: np.ndarray, exponent: float = 3.0
-) -> np.ndarray:
-    """Indices of the points visible from ``viewpoint`` (Katz, Tal & Basri 2007).
-
-    Parameters
-    ----------
-    points : (n, 3) float
-    viewpoint : (3,) float
-    exponent : float
-        ``gamma``; the flipping sphere's radius is ``10**gamma * max |p - viewpoint|``.
-
-    Returns
-    -------
-    visible : (v,) int
-        Sorted indices into ``points``.
-    """
-    relative = points - viewpoint
-    norms = np.maximum(np.linalg.norm(relative, axis=1, keepdims=True), 1e-300)
-    radius = norms.max() * 10.0**exponent
-    # Spherical flipping: near points go far out along their ray, so the ones in front of the
-    # surface (seen from the viewpoint) end up on the convex hull.
-    flipped = relative + 2.0 * (radius - norms) * relative / norms
-    hull = ConvexHull(np.vstack([flipped, np.zeros((1, 3))]))
-    visible = hull.vertices[hull.vertices < len(points)]
-    return np.sort(visible)
 
 
 def add_noise_and_outliers(
@@ -382,15 +355,6 @@ def sensor_scan(
     scan = np.vstack(merged)
     scan = scan[scan[:, 2] > low[2] + settings.table_clip * metre]
     return add_noise_and_outliers(scan, rng, diagonal, (low, high), 0.0, settings.outliers)
-
-
-def view_directions(count: int) -> np.ndarray:
-    """``count`` near-uniform unit directions ``(count, 3)`` (Fibonacci spiral), fixed."""
-    index = np.arange(count) + 0.5
-    z = 1.0 - 2.0 * index / count
-    angle = np.pi * (1.0 + 5.0**0.5) * index
-    ring = np.sqrt(1.0 - z**2)
-    return np.column_stack([ring * np.cos(angle), ring * np.sin(angle), z])
 
 
 def virtual_view(points: np.ndarray, index: int, count: int, distance: float = 3.0) -> np.ndarray:

@@ -1,0 +1,480 @@
+"""Scan mode (issue 12): virtual partial views of every model as extra index entries.
+
+The geometry of the views and how they are described (``core.views``, ``core.pipeline``);
+the bookkeeping of the index (views in their own partition, one result per model, deletes
+remove every view, directly and through the change feed, re-describes replace them); the
+scoring (a model's distance is its best entry's, checked against a direct computation);
+the default mode untouched; the migration on both backends; and the API end to end.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import uuid
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+from alembic import command
+from conftest import make_settings, wait_for_status
+from fastapi.testclient import TestClient
+from shapes import fibonacci_sphere_points, plate_points, torus_points
+from sqlalchemy import delete, inspect, update
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.api.main import create_app
+from app.db.feed import record_event
+from app.db.migrate import alembic_config, upgrade
+from app.db.models import Model
+from app.db.session import make_engine, make_session_factory
+from app.describing import ingest_columns
+from app.index import VIEW_ID_BASE, ShapeIndex, view_id, view_of, views_key
+from app.settings import engine_settings
+from app.similarity import find_similar, score_of
+from core.pipeline import describe_points, scan_weights
+from core.settings import EngineSettings
+from core.views import hidden_point_removal, view_directions, virtual_views
+
+KEY = ("t", "v1")
+
+
+# --- geometry ---------------------------------------------------------------------------
+
+
+def test_views_of_a_sphere_each_see_the_near_cap_of_about_half_of_it() -> None:
+    points = fibonacci_sphere_points(4000)
+    views = virtual_views(points, 4)
+    diagonal = 2.0 * np.sqrt(3.0)  # of the unit sphere's bounding box
+    # A sphere seen from distance D sees the cap z > 1/D: (1 - 1/D) / 2 of its area.
+    expected = (1.0 - 1.0 / (3.0 * diagonal)) / 2.0
+    for view, direction in zip(views, view_directions(4), strict=True):
+        assert len(view) / len(points) == pytest.approx(expected, abs=0.03)
+        assert np.all(view @ direction > 0.0)  # all of it on the near side
+    # Different directions see different caps.
+    assert len({len(view) for view in views}) > 1 or not np.array_equal(views[0], views[1])
+
+
+def test_hidden_point_removal_keeps_only_the_side_facing_the_viewpoint() -> None:
+    # A large plate above a smaller one: seen from far above, the lower plate is hidden.
+    top = plate_points(3000, seed=1) + [0.0, 0.0, 1.0]
+    bottom = plate_points(1000, a=0.5, b=0.5, seed=2) + [0.25, 0.25, 0.0]
+    points = np.vstack([top, bottom])
+    visible = hidden_point_removal(points, np.array([0.5, 0.5, 50.0]))
+    assert np.mean(visible < len(top)) > 0.97  # what is seen is the top plate
+    assert np.isin(np.arange(len(top)), visible).mean() > 0.9  # most of it
+    # From below, the lower plate is in front and is seen.
+    from_below = hidden_point_removal(points, np.array([0.5, 0.5, -50.0]))
+    assert np.isin(np.arange(len(top), len(points)), from_below).mean() > 0.9
+
+
+def test_views_are_described_as_scans_of_the_loaded_points() -> None:
+    settings = EngineSettings(max_points=1500, outlier_filter=False)
+    whole = describe_points(torus_points(1500), settings, views=3)
+    assert whole.views.shape == (3, len(whole.descriptor))
+    np.testing.assert_allclose(np.linalg.norm(whole.views, axis=1), 1.0, atol=1e-5)
+    # Each view equals describing that part of the (normalised) points as a scan.
+    part = virtual_views(whole.points, 3)[1]
+    alone = describe_points(part, settings, scan=True)
+    assert alone.scan_descriptor is not None
+    np.testing.assert_allclose(whole.views[1], alone.scan_descriptor, atol=1e-5)
+    # A view has an open rim: its scan descriptor differs from its plain one.
+    assert scan_weights(alone.points, settings).min() < 0.5
+    assert np.linalg.norm(alone.scan_descriptor - alone.descriptor) > 1e-3
+
+
+def test_a_flat_part_seen_edge_on_loses_that_view_only() -> None:
+    # View 1 of 3 lies in the plane z = 0 (view_directions' middle ring): edge-on to a plate.
+    plate = plate_points(1200, a=1.0, b=0.6, seed=1)
+    assert abs(view_directions(3)[1][2]) < 1e-12
+    assert [len(view) > 0 for view in virtual_views(plate, 3)] == [True, False, True]
+    described = describe_points(plate, EngineSettings(max_points=1200), views=3)
+    assert described.views.shape == (2, len(described.descriptor))
+
+
+def test_a_closed_surface_described_as_a_scan_is_unchanged() -> None:
+    settings = EngineSettings(max_points=1500)
+    sphere = describe_points(fibonacci_sphere_points(1500), settings, scan=True)
+    assert sphere.scan_descriptor is not None
+    np.testing.assert_array_equal(sphere.scan_descriptor, sphere.descriptor)
+    assert sphere.views.shape[0] == 0  # none asked for
+
+
+# --- index and scoring ------------------------------------------------------------------
+
+
+@pytest.fixture
+def sessions(database_url: str) -> Iterator[sessionmaker[Session]]:
+    engine = make_engine(database_url)
+    upgrade(engine)
+    yield make_session_factory(engine)
+    engine.dispose()
+
+
+def unit(rows: np.ndarray) -> np.ndarray:
+    rows = np.asarray(rows, dtype=np.float32)
+    return rows / np.linalg.norm(rows, axis=-1, keepdims=True)
+
+
+def add_ready(
+    sessions: sessionmaker[Session],
+    vector: np.ndarray,
+    views: np.ndarray | None,
+    meta: dict[str, Any] | None = None,
+) -> int:
+    """A ready model with its views, committed with its change-feed event (as a worker)."""
+    with sessions.begin() as session:
+        model = Model(
+            id=uuid.uuid4(),
+            tenant=KEY[0],
+            meta=meta or {},
+            status="ready",
+            file_name="x.ply",
+            file_size=1,
+            file_sha256="0" * 64,
+            file_format="ply",
+            descriptor=unit(vector).tobytes(),
+            descriptor_version=KEY[1],
+            view_descriptors=None if views is None else unit(views).tobytes(),
+        )
+        session.add(model)
+        session.flush()
+        record_event(session, model.index_id, "ready")
+        return model.index_id
+
+
+def delete_model(sessions: sessionmaker[Session], index_id: int) -> None:
+    with sessions.begin() as session:
+        session.execute(delete(Model).where(Model.index_id == index_id))
+        record_event(session, index_id, "deleted")
+
+
+def catalogue(
+    sessions: sessionmaker[Session], count: int, views: int, seed: int = 0, d: int = 8
+) -> dict[int, np.ndarray]:
+    """``count`` random models with ``views`` random views each; id -> (1 + views, d) entries
+    (the model first), and the metadata ``{"even": parity}``."""
+    rng = np.random.default_rng(seed)
+    entries = {}
+    for number in range(count):
+        rows = unit(rng.normal(size=(1 + views, d)))
+        index_id = add_ready(sessions, rows[0], rows[1:], {"even": str(number % 2 == 0)})
+        entries[index_id] = rows
+    return entries
+
+
+def brute_force(
+    entries: dict[int, np.ndarray], query: np.ndarray, first_only: bool = False
+) -> list[tuple[int, float]]:
+    """Every model's best-entry distance (or its descriptor's), nearest first."""
+    distances = {
+        i: float(np.linalg.norm((rows[:1] if first_only else rows) - query, axis=1).min())
+        for i, rows in entries.items()
+    }
+    return sorted(distances.items(), key=lambda item: (item[1], item[0]))
+
+
+def scan_search(
+    index: ShapeIndex, sessions: sessionmaker[Session], query: np.ndarray, **options: Any
+) -> list[Any]:
+    with sessions() as session:
+        return find_similar(index, session.connection(), KEY, query, mode="scan", **options)
+
+
+def test_view_ids_are_deterministic_and_apart_from_model_ids() -> None:
+    assert view_id(7, 0) > VIEW_ID_BASE > 2**40
+    assert view_of(view_id(123456, 5)) == (123456, 5)
+    assert view_id(8, 0) == view_id(7, 15) + 1  # no overlap between models
+    assert views_key(KEY) != KEY
+
+
+def test_one_result_per_model_even_when_several_of_its_views_are_near(
+    sessions: sessionmaker[Session],
+) -> None:
+    rng = np.random.default_rng(3)
+    query = unit(rng.normal(size=8))
+    near_views = unit(query + 0.05 * rng.normal(size=(4, 8)))
+    crowd = add_ready(sessions, -query, near_views)  # far whole, four near views
+    others = [add_ready(sessions, rng.normal(size=8), rng.normal(size=(4, 8))) for _ in range(3)]
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    assert len(index) == 4 and index.partition_size(views_key(KEY)) == 16
+    found = scan_search(index, sessions, query, k=3)
+    ids = [m.model.index_id for m in found]
+    assert len(ids) == len(set(ids)) == 3
+    assert ids[0] == crowd
+    best = np.linalg.norm(near_views - query, axis=1)
+    assert found[0].view == int(np.argmin(best))
+    assert found[0].distance == pytest.approx(best.min(), abs=1e-5)
+    everything = scan_search(index, sessions, query, k=10)
+    assert sorted(m.model.index_id for m in everything) == sorted([crowd, *others])
+
+
+def test_best_view_scoring_agrees_with_a_direct_computation(
+    sessions: sessionmaker[Session],
+) -> None:
+    entries = catalogue(sessions, 40, views=3, seed=5)
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    rng = np.random.default_rng(6)
+    for _ in range(5):
+        query = unit(rng.normal(size=8))
+        expected = brute_force(entries, query)
+        found = scan_search(index, sessions, query, k=7)
+        assert [m.model.index_id for m in found] == [i for i, _ in expected[:7]]
+        for match, (_, distance) in zip(found, expected, strict=False):
+            assert match.distance == pytest.approx(distance, abs=1e-5)
+            assert match.score == pytest.approx(1.0 - distance**2 / 4.0, abs=1e-5)
+            assert match.score == score_of(match.distance)
+        # Filters and min_score apply to the best-entry ranking as in shape mode, both when
+        # pushed down to SQL and when candidates are filtered in rounds.
+        even = {i for i in entries if (list(entries).index(i) % 2 == 0)}
+        wanted = [(i, d) for i, d in expected if i in even]
+        cut = score_of(wanted[3][1]) - 1e-6  # below the 4th by rounding only
+        assert score_of(wanted[4][1]) < cut
+        for pushdown in (10_000, 0):
+            with sessions() as session:
+                filtered = find_similar(
+                    index,
+                    session.connection(),
+                    KEY,
+                    query,
+                    k=5,
+                    mode="scan",
+                    min_score=cut,
+                    filters={"even": "True"},
+                    pushdown_max=pushdown,
+                )
+            assert [m.model.index_id for m in filtered] == [i for i, _ in wanted[:4]]
+
+
+def box_points(n: int, seed: int = 0) -> np.ndarray:
+    """Area-uniform samples of the surface of a 2 x 1.2 x 0.8 box, ``(n, 3)``."""
+    rng = np.random.default_rng(seed)
+    half = np.array([1.0, 0.6, 0.4])
+    areas = 8.0 * np.array([half[1] * half[2], half[0] * half[2], half[0] * half[1]])
+    axis = rng.choice(3, size=n, p=areas / areas.sum())
+    points = rng.uniform(-1.0, 1.0, size=(n, 3)) * half
+    points[np.arange(n), axis] = rng.choice([-1.0, 1.0], size=n) * half[axis]
+    return points
+
+
+def catalogue_shapes(n: int) -> dict[str, np.ndarray]:
+    return {
+        "sphere": fibonacci_sphere_points(n),
+        "torus": torus_points(n, seed=1),
+        "plate": plate_points(n, a=1.0, b=0.6, seed=1),
+        "box": box_points(n),
+    }
+
+
+def sphere_scan(n: int, direction: np.ndarray) -> np.ndarray:
+    """What a viewpoint far along ``direction`` sees of another sampling of the sphere."""
+    sphere = fibonacci_sphere_points(n)
+    return sphere[hidden_point_removal(sphere, 20.0 * direction)]
+
+
+def test_scan_mode_on_compressed_partitions_agrees_with_a_direct_computation(
+    sessions: sessionmaker[Session],
+) -> None:
+    entries = catalogue(sessions, 60, views=3, seed=12, d=16)
+    index = ShapeIndex(sessions, exact_max=100)  # the 180 views are IVF-SQ8, the models flat
+    index.rebuild()
+    assert index.describe(views_key(KEY)) == "ivf-sq8" and index.describe(KEY) == "flat"
+    query = unit(np.random.default_rng(13).normal(size=16))
+    expected = brute_force(entries, query)[:5]
+    found = scan_search(index, sessions, query, k=5)
+    assert [m.model.index_id for m in found] == [i for i, _ in expected]
+    for match, (_, distance) in zip(found, expected, strict=True):
+        assert match.distance == pytest.approx(distance, abs=1e-5)  # exact, not the estimate
+
+
+def test_a_partial_scan_finds_its_model_first_by_its_best_view(
+    sessions: sessionmaker[Session],
+) -> None:
+    """Real descriptors: four shapes with their views; the query is the near cap of the
+    sphere seen from a direction between two of its views, described as a scan. Whole, the
+    sphere is far from a cap (the plate is nearer); its best view is near."""
+    settings = EngineSettings(max_points=1200)
+    ids, entries = {}, {}
+    for name, points in catalogue_shapes(1200).items():
+        description = describe_points(points, settings, views=3)
+        ids[name] = add_ready(sessions, description.descriptor, description.views)
+        entries[ids[name]] = np.vstack([description.descriptor, description.views])
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    direction = unit(view_directions(3)[0] + view_directions(3)[1])
+    scan = describe_points(sphere_scan(1500, direction), settings, scan=True)
+    assert scan.scan_descriptor is not None
+    found = scan_search(index, sessions, scan.scan_descriptor, k=4)
+    assert found[0].model.index_id == ids["sphere"]
+    best = np.linalg.norm(entries[ids["sphere"]] - scan.scan_descriptor, axis=1)
+    assert found[0].view is not None and found[0].view == int(np.argmin(best)) - 1
+    assert found[0].distance == pytest.approx(best.min(), abs=1e-5)
+    assert found[0].score == pytest.approx(1.0 - best.min() ** 2 / 4.0, abs=1e-5)
+    expected = brute_force(entries, scan.scan_descriptor)
+    assert [m.model.index_id for m in found] == [i for i, _ in expected]
+    # The default mode compares whole models: the sphere is not first there.
+    with sessions() as session:
+        whole = find_similar(index, session.connection(), KEY, scan.descriptor, k=4)
+    assert whole[0].model.index_id != ids["sphere"]
+
+
+def test_default_mode_answers_exactly_as_before(sessions: sessionmaker[Session]) -> None:
+    entries = catalogue(sessions, 30, views=4, seed=8)
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    rng = np.random.default_rng(9)
+    query = unit(rng.normal(size=8))
+    # A model whose view is the query itself: found first in scan mode, never by its view in
+    # the default mode.
+    planted = add_ready(sessions, -query, np.vstack([query, -query]))
+    entries[planted] = unit(np.vstack([-query, query, -query]))
+    index.sync()
+    with sessions() as session:
+        shape = find_similar(index, session.connection(), KEY, query, k=8)
+    expected = brute_force(entries, query, first_only=True)[:8]
+    assert [(m.model.index_id, m.view) for m in shape] == [(i, None) for i, _ in expected]
+    for match, (_, distance) in zip(shape, expected, strict=True):
+        assert match.distance == pytest.approx(distance, abs=1e-5)
+    assert planted not in [m.model.index_id for m in shape]
+    scan = scan_search(index, sessions, query, k=8)
+    assert scan[0].model.index_id == planted and scan[0].view == 0
+
+
+def test_deletes_remove_every_view_directly_and_through_the_change_feed(
+    sessions: sessionmaker[Session],
+) -> None:
+    entries = catalogue(sessions, 6, views=3, seed=10)
+    here, elsewhere = ShapeIndex(sessions), ShapeIndex(sessions)
+    here.rebuild()
+    elsewhere.rebuild()
+    gone = list(entries)[2]
+    query = entries[gone][2]  # exactly one of its views
+    assert scan_search(here, sessions, query, k=1)[0].model.index_id == gone
+    delete_model(sessions, gone)
+    here.remove(gone)  # this process's delete
+    assert elsewhere.sync() == 1  # another process's change feed
+    for index in (here, elsewhere):
+        assert gone not in index and index.views_held(gone) == 0
+        assert index.partition_size(views_key(KEY)) == 5 * 3
+        assert all(i != gone for i, _, _ in index.search_views(KEY, query, 100))
+        assert gone not in [m.model.index_id for m in scan_search(index, sessions, query, k=10)]
+    # A rebuild agrees.
+    fresh = ShapeIndex(sessions)
+    fresh.rebuild()
+    assert fresh.partition_size(views_key(KEY)) == 15 and len(fresh) == 5
+
+
+def test_a_redescribe_replaces_the_views_and_models_without_views_still_count(
+    sessions: sessionmaker[Session],
+) -> None:
+    entries = catalogue(sessions, 3, views=4, seed=11)
+    plain = add_ready(sessions, np.ones(8), None)  # described before scan mode
+    index, other = ShapeIndex(sessions), ShapeIndex(sessions)
+    index.rebuild()
+    other.rebuild()
+    changed = list(entries)[0]
+    one_view = unit(np.arange(8.0) + 1.0)
+    with sessions.begin() as session:
+        session.execute(
+            update(Model)
+            .where(Model.index_id == changed)
+            .values(view_descriptors=one_view.tobytes())
+        )
+        record_event(session, changed, "ready")
+    other.sync()
+    assert other.views_held(changed) == 1 and other.views_held(plain) == 0
+    assert other.partition_size(views_key(KEY)) == 4 + 4 + 1
+    found = scan_search(other, sessions, one_view, k=10)
+    assert found[0].model.index_id == changed and found[0].view == 0
+    assert sorted(m.model.index_id for m in found) == sorted([*entries, plain])
+    assert index.views_held(changed) == 4  # until it syncs too
+    index.sync()
+    assert index.views_held(changed) == 1
+
+
+def test_migration_0006_goes_up_and_down(database_url: str) -> None:
+    engine = make_engine(database_url)
+    try:
+        upgrade(engine)
+        columns = {c["name"] for c in inspect(engine).get_columns("models")}
+        assert {"view_descriptors", "scan_descriptor"} <= columns
+        config = alembic_config()
+        with engine.connect() as connection:
+            config.attributes["connection"] = connection
+            command.downgrade(config, "0005")
+            connection.commit()
+        columns = {c["name"] for c in inspect(engine).get_columns("models")}
+        assert not {"view_descriptors", "scan_descriptor"} & columns
+        upgrade(engine)
+        columns = {c["name"] for c in inspect(engine).get_columns("models")}
+        assert {"view_descriptors", "scan_descriptor"} <= columns
+    finally:
+        engine.dispose()
+
+
+# --- the API ----------------------------------------------------------------------------
+
+
+def xyz(points: np.ndarray) -> bytes:
+    buffer = io.StringIO()
+    np.savetxt(buffer, points, fmt="%.6f")
+    return buffer.getvalue().encode()
+
+
+def test_scan_mode_through_the_api(tmp_path: Any) -> None:
+    settings = make_settings(f"sqlite:///{tmp_path / 'shapesearch.db'}", workers=1, scan_views=3)
+    engine = engine_settings(settings)
+
+    def handler(content: bytes, filename: str) -> dict[str, Any]:
+        return ingest_columns(content, filename, engine)
+
+    shapes = catalogue_shapes(1500)
+    app = create_app(settings, embedded_worker=True, job_handler=handler)
+    with TestClient(app, raise_server_exceptions=False) as client:
+        ids = {}
+        for name, points in shapes.items():
+            answer = client.post(
+                "/v1/models",
+                files={"file": (f"{name}.xyz", xyz(points))},
+                data={"metadata": json.dumps({"kind": name})},
+            )
+            ids[name] = answer.json()["id"]
+        for model_id in ids.values():
+            assert wait_for_status(client, model_id)["status"] == "ready"
+        index = app.state.services.index
+        scan = sphere_scan(2000, unit(np.array([0.0, 15.0, 8.0])))
+        files = {"file": ("scan.xyz", xyz(scan))}
+        found = client.post("/v1/search", params={"mode": "scan", "k": 5}, files=files)
+        assert found.status_code == 200, found.text
+        results = found.json()["results"]
+        assert [r["model"]["id"] for r in results][0] == ids["sphere"]
+        assert len({r["model"]["id"] for r in results}) == len(results) == 4
+        # The describe cache keys on the mode: the same bytes in shape mode are described
+        # without the scan weights (a different query vector, so different distances).
+        shape = client.post("/v1/search", params={"k": 5}, files=files).json()["results"]
+        assert len(shape) == 4
+        assert {r["model"]["id"]: r["distance"] for r in shape} != {
+            r["model"]["id"]: r["distance"] for r in results
+        }
+        again = client.post("/v1/search", params={"mode": "scan", "k": 5}, files=files).json()
+        assert again["results"] == results
+        similar = client.get(
+            f"/v1/models/{ids['sphere']}/similar", params={"mode": "scan", "metadata.kind": "plate"}
+        )
+        assert similar.status_code == 200
+        assert [r["model"]["id"] for r in similar.json()["results"]] == [ids["plate"]]
+        refused = client.get(f"/v1/models/{ids['sphere']}/similar", params={"mode": "views"})
+        assert refused.status_code == 422
+        assert refused.headers["content-type"].startswith("application/problem+json")
+        # Deleting a model takes its views out of the index.
+        version = client.get(f"/v1/models/{ids['sphere']}").json()["descriptor_version"]
+        key = ("default", version)
+        held = index.partition_size(views_key(key))
+        assert held == 3 + 3 + 2 + 3  # the plate's edge-on view is left out
+        assert client.delete(f"/v1/models/{ids['sphere']}").status_code == 204
+        assert index.partition_size(views_key(key)) == held - 3
+        after = client.post("/v1/search", params={"mode": "scan"}, files=files).json()["results"]
+        assert ids["sphere"] not in [r["model"]["id"] for r in after]
