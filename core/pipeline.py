@@ -318,7 +318,7 @@ def _describe_loaded(
             scan_descriptor = descriptor
             if not np.all(weights == 1.0):
                 scan_descriptor = descriptor_from_eigenpairs(
-                    eigenvalues, eigenvectors, areas * weights, settings
+                    eigenvalues, eigenvectors, areas * weights, points, settings
                 )[1]
     return Description(
         points=points,
