@@ -204,7 +204,14 @@ class _Partition:
                 params = faiss.SearchParametersIVF(sel=selector, nprobe=self.index.nlist)
             else:
                 params = faiss.SearchParameters(sel=selector)
-        return self.index.search(self.pad(query), k, params=params)
+        squared, ids = self.index.search(self.pad(query), k, params=params)
+        if params is None and self.approximate and (ids[:, -1] < 0).any():
+            # The nprobe nearest lists held fewer than k vectors: a caller widening its
+            # search (filters, scan mode) would take that for the end of the partition.
+            # Probe every list instead, so k results come back whenever k exist.
+            every = faiss.SearchParametersIVF(nprobe=self.index.nlist)
+            squared, ids = self.index.search(self.pad(query), k, params=every)
+        return squared, ids
 
 
 class ShapeIndex:

@@ -108,7 +108,7 @@ def test_identical_uploads_are_described_once(database_url: str) -> None:
         return {**fake_describe(content, filename), "descriptor_version": describer.version}
 
     class CountingSandbox:
-        def run(self, function, content, filename, engine):  # noqa: ANN001, ANN201
+        def run(self, function, content, filename, *_):  # noqa: ANN001, ANN002, ANN201
             calls.append(content)
             return columns(content, filename)
 
