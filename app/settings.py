@@ -222,6 +222,11 @@ class Settings(BaseSettings):
         "to the model itself (0: none; search?mode=scan then compares whole models only). "
         "Applies to models described from then on.",
     )
+    scan_boundary_weights: bool = Field(
+        default=_ENGINE.views.boundary_weights,
+        description="Scan mode: fade points near an open rim out of the histograms of views "
+        "and scan queries.",
+    )
     scan_boundary_neighbours: int = Field(
         default=_ENGINE.views.boundary_neighbours,
         ge=3,
@@ -409,6 +414,7 @@ def engine_settings(settings: Settings) -> EngineSettings:
         views=replace(
             _ENGINE.views,
             count=settings.scan_views,
+            boundary_weights=settings.scan_boundary_weights,
             boundary_neighbours=settings.scan_boundary_neighbours,
             boundary_threshold=settings.scan_boundary_threshold,
             boundary_reach=settings.scan_boundary_reach,

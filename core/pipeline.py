@@ -243,8 +243,11 @@ def descriptor_from_eigenpairs(
 
 def scan_weights(points: np.ndarray, settings: EngineSettings) -> np.ndarray:
     """``core.views.boundary_weights`` of ``points : (n, 3) float`` with ``settings.views``'
-    parameters: ``(n,)`` in [0, 1], all ones on a closed surface."""
+    parameters: ``(n,)`` in [0, 1], all ones on a closed surface, and everywhere when
+    ``settings.views.boundary_weights`` is off."""
     views = settings.views
+    if not views.boundary_weights:
+        return np.ones(len(points))
     return boundary_weights(
         points,
         neighbours=views.boundary_neighbours,

@@ -155,8 +155,14 @@ class ViewSettings:
     directions are fixed (``core.views.view_directions``), ``distance`` bounding-box diagonals
     from the centre, seen by hidden point removal with exponent ``hpr_exponent``. Views and
     scan queries fade out points near an open rim (``core.views.boundary_weights`` with
-    ``boundary_neighbours``, ``boundary_threshold`` and ``boundary_reach``). None of these
-    change the model's own descriptor, so they are not part of the descriptor version.
+    ``boundary_neighbours``, ``boundary_threshold`` and ``boundary_reach``) when
+    ``boundary_weights`` is on. None of these change the model's own descriptor, so they are
+    not part of the descriptor version.
+
+    ``boundary_weights`` is off by default: with the ``ss3`` descriptor, on the whole of capod
+    (where it was chosen) scan mode without them scored mAP 0.691 / 0.812 for single-view /
+    merged scans against 0.666 / 0.778 with them, and the parts test split agreed
+    (docs/results.md, "Issue 12, second pass").
     """
 
     # bench/views.py (29 parts and capod models, CPU seconds): the part with 3 views costs
@@ -164,6 +170,7 @@ class ViewSettings:
     count: int = 3
     distance: float = 3.0
     hpr_exponent: float = 3.0
+    boundary_weights: bool = False
     boundary_neighbours: int = 16
     boundary_threshold: float = 0.35
     boundary_reach: float = 0.1

@@ -13,6 +13,7 @@ import io
 import json
 import uuid
 from collections.abc import Iterator
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -34,7 +35,7 @@ from app.index import VIEW_ID_BASE, ShapeIndex, view_id, view_of, views_key
 from app.settings import engine_settings
 from app.similarity import find_similar, score_of
 from core.pipeline import describe_points, scan_weights
-from core.settings import EngineSettings
+from core.settings import EngineSettings, ViewSettings
 from core.views import hidden_point_removal, view_directions, virtual_views
 
 KEY = ("t", "v1")
@@ -70,7 +71,9 @@ def test_hidden_point_removal_keeps_only_the_side_facing_the_viewpoint() -> None
 
 
 def test_views_are_described_as_scans_of_the_loaded_points() -> None:
-    settings = EngineSettings(max_points=1500, outlier_filter=False)
+    settings = EngineSettings(
+        max_points=1500, outlier_filter=False, views=ViewSettings(boundary_weights=True)
+    )
     whole = describe_points(torus_points(1500), settings, views=3)
     assert whole.views.shape == (3, len(whole.descriptor))
     np.testing.assert_allclose(np.linalg.norm(whole.views, axis=1), 1.0, atol=1e-5)
@@ -82,6 +85,20 @@ def test_views_are_described_as_scans_of_the_loaded_points() -> None:
     # A view has an open rim: its scan descriptor differs from its plain one.
     assert scan_weights(alone.points, settings).min() < 0.5
     assert np.linalg.norm(alone.scan_descriptor - alone.descriptor) > 1e-3
+
+
+def test_boundary_weights_are_a_switch_off_by_default() -> None:
+    settings = EngineSettings(max_points=1500, outlier_filter=False)
+    assert not settings.views.boundary_weights
+    whole = describe_points(torus_points(1500), settings)
+    part = virtual_views(whole.points, 3)[1]
+    plain = describe_points(part, settings, scan=True)
+    np.testing.assert_array_equal(scan_weights(plain.points, settings), 1.0)
+    np.testing.assert_array_equal(plain.scan_descriptor, plain.descriptor)
+    on = replace(settings, views=ViewSettings(boundary_weights=True))
+    weighted = describe_points(part, on, scan=True)
+    np.testing.assert_array_equal(weighted.descriptor, plain.descriptor)
+    assert np.linalg.norm(weighted.scan_descriptor - weighted.descriptor) > 1e-3
 
 
 def test_a_flat_part_seen_edge_on_loses_that_view_only() -> None:
