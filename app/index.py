@@ -85,10 +85,19 @@ def _views_array(blob: bytes | None, dim: int) -> np.ndarray | None:
     views = np.frombuffer(blob, dtype=np.float32)
     return views.reshape(-1, dim)[:MAX_VIEWS] if len(views) % dim == 0 else None
 
+
 # One model added: (index_id, partition, (d,) descriptor, (v, d) views or None).
 _Added = tuple[int, PartitionKey, np.ndarray, "np.ndarray | None"]
 
 _EVENT_BATCH = 5000
+# What the index holds of a model: the rows a rebuild streams and a sync reads.
+_INDEXED = (
+    Model.index_id,
+    Model.tenant,
+    Model.descriptor_version,
+    Model.descriptor,
+    Model.view_descriptors,
+)
 _ROW_CHUNK = 2000  # rows per query of a streamed rebuild
 _TRAIN_PER_LIST = 16  # k-means training vectors per inverted list
 _TRAIN_ITERATIONS = 8
@@ -486,13 +495,7 @@ class ShapeIndex:
         while True:
             with self.sessions() as session:
                 rows = session.execute(
-                    select(
-                        Model.index_id,
-                        Model.tenant,
-                        Model.descriptor_version,
-                        Model.descriptor,
-                        Model.view_descriptors,
-                    )
+                    select(*_INDEXED)
                     .where(
                         Model.index_id > last,
                         Model.status == "ready",
@@ -526,13 +529,9 @@ class ShapeIndex:
                     wanted = [i for i, kind in latest.items() if kind == "ready"]
                     rows = (
                         session.execute(
-                            select(
-                                Model.index_id,
-                                Model.tenant,
-                                Model.descriptor_version,
-                                Model.descriptor,
-                                Model.view_descriptors,
-                            ).where(Model.index_id.in_(wanted), Model.status == "ready")
+                            select(*_INDEXED).where(
+                                Model.index_id.in_(wanted), Model.status == "ready"
+                            )
                         ).all()
                         if wanted
                         else []

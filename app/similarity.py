@@ -41,6 +41,7 @@ from sqlalchemy import (
     BigInteger,
     ColumnElement,
     Connection,
+    Row,
     and_,
     any_,
     bindparam,
@@ -227,29 +228,36 @@ def _confirmed(
     exact: bool,
 ) -> list[tuple[Candidate, float]]:
     """The candidates still ready in the database, with exact distances when ``exact``
-    (read from their stored descriptors) and the index's own otherwise.
-
-    Plain rows of the columns an answer needs, not ORM objects: building and tracking a
-    few dozen ``Model`` instances per query cost more than the query itself."""
-    if not ids:
-        return []
-    columns = [Model.index_id, Model.id, Model.external_id, Model.name, Model.meta.label("meta")]
-    if exact:
-        columns.append(Model.descriptor)
-    statement = select(*columns).where(
-        _id_in(connection, ids), Model.tenant == tenant, Model.status == "ready"
-    )
+    (read from their stored descriptors) and the index's own otherwise."""
     confirmed = []
-    for row in connection.execute(statement, {"ids": ids}):
+    for row in _ready_candidates(connection, tenant, ids, *([Model.descriptor] if exact else [])):
         distance = distances[row.index_id]
         if exact and row.descriptor is not None:
             stored = np.frombuffer(row.descriptor, dtype=np.float32)
             distance = (
                 float(np.linalg.norm(stored - query)) if len(stored) == len(query) else distance
             )
-        candidate = Candidate(row.index_id, row.id, row.external_id, row.name, row.meta)
-        confirmed.append((candidate, distance))
+        confirmed.append((_candidate(row), distance))
     return confirmed
+
+
+def _ready_candidates(
+    connection: Connection, tenant: str, ids: list[int], *extra: ColumnElement[Any]
+) -> list[Row[Any]]:
+    """The tenant's ready models among ``ids``: the columns of a ``Candidate`` and ``extra``.
+
+    Plain rows of the columns an answer needs, not ORM objects: building and tracking a
+    few dozen ``Model`` instances per query cost more than the query itself."""
+    if not ids:
+        return []
+    statement = select(
+        Model.index_id, Model.id, Model.external_id, Model.name, Model.meta.label("meta"), *extra
+    ).where(_id_in(connection, ids), Model.tenant == tenant, Model.status == "ready")
+    return list(connection.execute(statement, {"ids": ids}))
+
+
+def _candidate(row: Row[Any]) -> Candidate:
+    return Candidate(row.index_id, row.id, row.external_id, row.name, row.meta)
 
 
 def _id_in(connection: Connection, ids: list[int]) -> ColumnElement[bool]:
@@ -313,19 +321,8 @@ def _confirmed_best(
 ) -> list[tuple[Candidate, float, int | None]]:
     """The candidates still ready in the database, each with the exact distance of its
     best entry (read from the stored descriptors) and which one it is (None: the model)."""
-    if not ids:
-        return []
-    statement = select(
-        Model.index_id,
-        Model.id,
-        Model.external_id,
-        Model.name,
-        Model.meta.label("meta"),
-        Model.descriptor,
-        Model.view_descriptors,
-    ).where(_id_in(connection, ids), Model.tenant == tenant, Model.status == "ready")
     confirmed = []
-    for row in connection.execute(statement, {"ids": ids}):
+    for row in _ready_candidates(connection, tenant, ids, Model.descriptor, Model.view_descriptors):
         if row.descriptor is None:
             continue
         entries = [np.frombuffer(row.descriptor, dtype=np.float32)]
@@ -337,6 +334,5 @@ def _confirmed_best(
             continue
         distances = np.linalg.norm(np.stack(entries) - query, axis=1)
         best = int(np.argmin(distances))
-        candidate = Candidate(row.index_id, row.id, row.external_id, row.name, row.meta)
-        confirmed.append((candidate, float(distances[best]), None if best == 0 else best - 1))
+        confirmed.append((_candidate(row), float(distances[best]), None if best == 0 else best - 1))
     return confirmed
