@@ -19,7 +19,11 @@ the model's integer ``index_id``. A partition is
 * ``ivf-sq8``: above that, ``IndexIVFScalarQuantizer`` with 8-bit codes (d bytes per vector,
   4x smaller) in ``sqrt(n)`` inverted lists, ``nprobe`` of them searched per query. Its
   distances are approximate: callers fetch ``rerank_candidates(k)`` and re-rank them
-  exactly against the full vectors in the database (``app.similarity``).
+  exactly against the full vectors in the database (``app.similarity``);
+* ``ivf-sq6``: the same with 6-bit codes (0.75 d bytes per vector: 1.2 GB at 10^6 models
+  instead of 1.6) for a partition built with more than ``compact_min`` vectors. Its scan
+  has no SIMD kernel in FAISS and costs about 3x the 8-bit one per code, which the
+  benchmark shows is affordable at that size (bench/search_scale.py, README).
 
 Searches hold a partition's read lock and run side by side (FAISS releases the GIL);
 writes (batched per sync) take the write lock briefly. A rebuild builds new partitions
@@ -101,6 +105,7 @@ _INDEXED = (
 _ROW_CHUNK = 2000  # rows per query of a streamed rebuild
 _TRAIN_PER_LIST = 16  # k-means training vectors per inverted list
 _TRAIN_ITERATIONS = 8
+_QUANTIZERS = {8: faiss.ScalarQuantizer.QT_8bit, 6: faiss.ScalarQuantizer.QT_6bit}
 
 
 class _ReadWriteLock:
@@ -143,7 +148,8 @@ class _ReadWriteLock:
 
 
 class _Partition:
-    """The vectors of one (tenant, descriptor_version), flat or IVF-SQ8."""
+    """The vectors of one (tenant, descriptor_version), flat or IVF with scalar-quantised
+    codes of ``bits`` 8 or 6."""
 
     def __init__(self, dim: int, nprobe: int) -> None:
         self.dim = dim
@@ -152,23 +158,25 @@ class _Partition:
         self.padded = -(-dim // 16) * 16
         self.nprobe = nprobe
         self.index: faiss.Index = faiss.IndexIDMap2(faiss.IndexFlatL2(self.padded))
+        self.bits = 32  # float32 while flat
         self.lock = _ReadWriteLock()
 
     @property
     def kind(self) -> str:
-        return "flat" if isinstance(self.index, faiss.IndexIDMap2) else "ivf-sq8"
+        return "flat" if self.bits == 32 else f"ivf-sq{self.bits}"
 
     @property
     def approximate(self) -> bool:
         return self.kind != "flat"
 
-    def compress(self, sample: np.ndarray, expected: int) -> None:
-        """Switch to IVF-SQ8 trained on ``sample : (m, d) float32``; moves what is held."""
+    def compress(self, sample: np.ndarray, expected: int, bits: int = 8) -> None:
+        """Switch to IVF with ``bits``-bit codes (8 or 6) trained on ``sample : (m, d)
+        float32``; moves what is held."""
         nlist = int(np.clip(math.sqrt(expected), 16, 4096))
         nlist = min(nlist, max(1, len(sample) // 4))
         quantizer = faiss.IndexFlatL2(self.padded)
         ivf = faiss.IndexIVFScalarQuantizer(
-            quantizer, self.padded, nlist, faiss.ScalarQuantizer.QT_8bit, faiss.METRIC_L2
+            quantizer, self.padded, nlist, _QUANTIZERS[bits], faiss.METRIC_L2
         )
         ivf.cp.niter = _TRAIN_ITERATIONS
         ivf.cp.min_points_per_centroid = 1  # a small sample is enough for coarse lists
@@ -179,13 +187,13 @@ class _Partition:
         if held.ntotal:
             ids = faiss.vector_to_array(held.id_map).astype(np.int64)
             ivf.add_with_ids(held.index.reconstruct_n(0, held.ntotal), ids)  # padded already
-        self.index = ivf
+        self.index, self.bits = ivf, bits
 
     def nbytes(self) -> int:
         n = int(self.index.ntotal)
         if not self.approximate:
             return n * (4 * self.padded + 16)  # float32 rows, the id map both ways
-        # 8-bit codes and an id per vector, ~24 bytes of direct map, float32 centroids.
+        # Codes and an id per vector, ~24 bytes of direct map, float32 centroids.
         return n * (self.index.code_size + 8 + 24) + self.index.nlist * self.padded * 4
 
     def pad(self, vectors: np.ndarray) -> np.ndarray:
@@ -232,10 +240,12 @@ class ShapeIndex:
         The database; None for an index filled only with ``build_partition`` (benchmarks).
     exact_max : int
         Largest partition searched exactly; larger ones are IVF-SQ8.
+    compact_min : int
+        Partitions built with more vectors than this are IVF-SQ6 instead of IVF-SQ8.
     nprobe : int
-        Inverted lists searched per query in an IVF-SQ8 partition.
+        Inverted lists searched per query in an IVF partition.
     rerank_factor : int
-        Candidates per wanted result fetched from an IVF-SQ8 partition for exact re-ranking.
+        Candidates per wanted result fetched from an IVF partition for exact re-ranking.
     """
 
     def __init__(
@@ -243,11 +253,13 @@ class ShapeIndex:
         sessions: sessionmaker[Session] | None,
         *,
         exact_max: int = 20_000,
+        compact_min: int = 500_000,
         nprobe: int = 8,
         rerank_factor: int = 2,
     ) -> None:
         self.sessions = sessions
         self.exact_max = exact_max
+        self.compact_min = compact_min
         self.nprobe = nprobe
         self.rerank_factor = rerank_factor
         self.revision = 0  # last change-feed revision applied
@@ -278,7 +290,7 @@ class ShapeIndex:
         return sum(partition.nbytes() for partition in list(self._partitions.values()))
 
     def describe(self, key: PartitionKey) -> str:
-        """The kind of a partition: "flat", "ivf-sq8" or "empty"."""
+        """The kind of a partition: "flat", "ivf-sq8", "ivf-sq6" or "empty"."""
         partition = self._partitions.get(key)
         return "empty" if partition is None else partition.kind
 
@@ -323,13 +335,10 @@ class ShapeIndex:
             if held == 0 or (allowed_ids is not None and len(allowed_ids) == 0):
                 return [[] for _ in queries]
             squared, ids = partition.search(queries, min(k, held), allowed_ids)
+        distances = np.sqrt(np.maximum(squared, 0.0)).tolist()  # plain floats, one call
         return [
-            [
-                (int(i), float(np.sqrt(max(0.0, d))))
-                for i, d in zip(row_ids, row_d, strict=True)
-                if i >= 0
-            ]
-            for row_ids, row_d in zip(ids, squared, strict=True)
+            [(i, d) for i, d in zip(row_ids, row_d, strict=True) if i >= 0]
+            for row_ids, row_d in zip(ids.tolist(), distances, strict=True)
         ]
 
     def search_views(
@@ -551,8 +560,9 @@ def _added(
 
 
 class _Builder:
-    """Fills one new partition from a stream of rows: flat, or IVF-SQ8 trained on the first
-    ``_TRAIN_PER_LIST * nlist`` vectors when ``expected`` exceeds ``exact_max``."""
+    """Fills one new partition from a stream of rows: flat, or IVF trained on the first
+    ``_TRAIN_PER_LIST * nlist`` vectors when ``expected`` exceeds ``exact_max`` (6-bit codes
+    when it exceeds ``compact_min``)."""
 
     def __init__(self, index: ShapeIndex, expected: int) -> None:
         self.index = index
@@ -597,7 +607,8 @@ class _Builder:
         self._pending, self._pending_count = [], 0
         self.partition = _Partition(vectors.shape[1], self.index.nprobe)
         if self.expected > self.index.exact_max:
-            self.partition.compress(vectors, self.expected)
+            bits = 6 if self.expected > self.index.compact_min else 8
+            self.partition.compress(vectors, self.expected, bits)
         self.partition.add(ids, vectors)
 
     def finish(self) -> _Partition | None:

@@ -229,16 +229,22 @@ def _confirmed(
 ) -> list[tuple[Candidate, float]]:
     """The candidates still ready in the database, with exact distances when ``exact``
     (read from their stored descriptors) and the index's own otherwise."""
-    confirmed = []
-    for row in _ready_candidates(connection, tenant, ids, *([Model.descriptor] if exact else [])):
-        distance = distances[row.index_id]
-        if exact and row.descriptor is not None:
-            stored = np.frombuffer(row.descriptor, dtype=np.float32)
-            distance = (
-                float(np.linalg.norm(stored - query)) if len(stored) == len(query) else distance
-            )
-        confirmed.append((_candidate(row), distance))
-    return confirmed
+    rows = _ready_candidates(connection, tenant, ids, *([Model.descriptor] if exact else []))
+    found = [distances[row.index_id] for row in rows]
+    if exact:
+        # One vectorised pass over the stored descriptors (a few dozen); a row whose
+        # descriptor is missing or of another length keeps the index's distance.
+        usable = [
+            i
+            for i, row in enumerate(rows)
+            if row.descriptor and len(row.descriptor) == 4 * len(query)
+        ]
+        if usable:
+            stored = np.frombuffer(b"".join(rows[i].descriptor for i in usable), dtype=np.float32)
+            exact_distances = np.linalg.norm(stored.reshape(len(usable), -1) - query, axis=1)
+            for i, distance in zip(usable, exact_distances.tolist(), strict=True):
+                found[i] = distance
+    return [(_candidate(row), distance) for row, distance in zip(rows, found, strict=True)]
 
 
 def _ready_candidates(

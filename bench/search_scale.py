@@ -20,7 +20,8 @@ Phases (each prints its figures):
            schema dropped at the end) filled with ``--models`` ready models, one metadata
            value ``family`` shared by 0.1% of them; then an API process (``shapesearch
            serve --no-worker``): start-up seconds and peak RSS; in-process similar p50/p99;
-           HTTP ``similar`` p50/p99 and requests/s at each ``--concurrency`` (the load
+           HTTP ``similar`` p50/p99 and requests/s at each ``--concurrency`` (the API runs
+           ``--api-processes`` processes, 2 by default as on a 2-core host; the load
            generator is a second process on 127.0.0.1, bounded by ``--requests`` and
            ``--seconds`` per level); filtered similar (0.1%-selective); 1,000 deletes.
 
@@ -156,11 +157,14 @@ def rss_mb() -> float:
 
 
 def peak_rss_mb(pid: int) -> float:
-    with open(f"/proc/{pid}/status") as status:
-        for line in status:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024
-    return float("nan")
+    """Peak RSS of process ``pid`` or, when it is uvicorn's supervisor of several API
+    processes, of the largest of them (each holds its own index)."""
+    children = Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
+    peaks = []
+    for process in [pid, *map(int, children)]:
+        with open(f"/proc/{process}/status") as status:
+            peaks += [int(line.split()[1]) / 1024 for line in status if line.startswith("VmHWM:")]
+    return max(peaks, default=float("nan"))
 
 
 def percentiles(seconds: list[float]) -> str:
@@ -176,14 +180,12 @@ def load_average() -> str:
 
 
 def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
-    from app.index import ShapeIndex
-
     total = args.descriptors
     print(f"\n== index: {total} descriptors of {real.shape[1]} dims (load {load_average()})")
     import faiss
 
     faiss.omp_set_num_threads(1)  # as in the API process (pin_blas_threads)
-    index = ShapeIndex(None, exact_max=args.exact_max, nprobe=args.nprobe)
+    index = ShapeIndexFromArgs(None, args)
     key = ("bench", "v")
     before = rss_mb()
     start = time.perf_counter()
@@ -313,12 +315,13 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         f"in-process rebuild {time.perf_counter() - t0:.1f} s, kind {index.describe(KEY)}, "
         f"index payload {index.nbytes() / 1e6:.0f} MB"
     )
+    reader = read_only(engine)  # as the API process reads
     rng = np.random.default_rng(5)
     for label, filters in (("similar", {}), ("similar, family=f7 (0.1%)", {"family": "f7"})):
         times, counts = [], []
         for model_id in rng.choice(model_ids, size=args.queries):
             t0 = time.perf_counter()
-            with read_only(engine).connect() as connection:  # as the route does
+            with reader.connect() as connection:  # as the route does
                 model = ready_query(connection, "default", str(model_id))
                 matches = find_similar(
                     index,
@@ -349,6 +352,7 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
 
         plan = session.execute(text(explain + str(compiled))).all()
         print("filter plan: " + " / ".join(str(row[-1]) for row in plan))
+    reader.dispose()
     engine.dispose()
 
 
@@ -358,7 +362,9 @@ KEY = ("default", "bench")
 def ShapeIndexFromArgs(sessions: object, args: argparse.Namespace) -> object:  # noqa: N802
     from app.index import ShapeIndex
 
-    return ShapeIndex(sessions, exact_max=args.exact_max, nprobe=args.nprobe)
+    return ShapeIndex(
+        sessions, exact_max=args.exact_max, compact_min=args.compact_min, nprobe=args.nprobe
+    )
 
 
 def free_port() -> int:
@@ -376,6 +382,8 @@ def start_api(url: str, args: argparse.Namespace) -> tuple[subprocess.Popen[byte
         "SHAPESEARCH_DATABASE_URL": url,
         "SHAPESEARCH_INDEX_EXACT_MAX": str(args.exact_max),
         "SHAPESEARCH_INDEX_NPROBE": str(args.nprobe),
+        "SHAPESEARCH_INDEX_COMPACT_MIN": str(args.compact_min),
+        "SHAPESEARCH_API_PROCESSES": str(args.api_processes),
     }
     OUT.mkdir(parents=True, exist_ok=True)
     log = (OUT / "api.log").open("wb")
@@ -398,11 +406,15 @@ def start_api(url: str, args: argparse.Namespace) -> tuple[subprocess.Popen[byte
     while True:
         if process.poll() is not None:
             raise RuntimeError((OUT / "api.log").read_text()[-2000:])
+        # Every API process built its index (one "startup complete" line each), and the
+        # port answers ready.
+        started = (OUT / "api.log").read_text().count("Application startup complete")
         try:
-            if httpx.get(f"{base}/readyz", timeout=5).status_code == 200:
-                return process, base, time.perf_counter() - t0
+            ready = httpx.get(f"{base}/readyz", timeout=5).status_code == 200
         except httpx.HTTPError:
-            pass
+            ready = False
+        if ready and started >= args.api_processes:
+            return process, base, time.perf_counter() - t0
         time.sleep(0.2)
 
 
@@ -568,7 +580,13 @@ def main() -> None:
         "--descriptors", type=int, default=1_000_000, help="vectors in the index phase"
     )
     parser.add_argument("--exact-max", type=int, default=20_000, help="SHAPESEARCH_INDEX_EXACT_MAX")
+    parser.add_argument(
+        "--compact-min", type=int, default=500_000, help="SHAPESEARCH_INDEX_COMPACT_MIN"
+    )
     parser.add_argument("--nprobe", type=int, default=8, help="SHAPESEARCH_INDEX_NPROBE")
+    parser.add_argument(
+        "--api-processes", type=int, default=2, help="SHAPESEARCH_API_PROCESSES (db phase)"
+    )
     parser.add_argument("--real", type=int, default=40, help="real models to describe")
     parser.add_argument("--points", type=int, default=3000, help="points per real model")
     parser.add_argument("--noise", type=float, default=0.08, help="norm of the synthetic noise")

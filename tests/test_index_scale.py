@@ -1,4 +1,4 @@
-"""The index at scale, in miniature: compressed (IVF-SQ8) partitions re-ranked exactly,
+"""The index at scale, in miniature: compressed (IVF-SQ8, IVF-SQ6) partitions re-ranked exactly,
 batched removals, growth past the exact limit, and metadata filters pushed down to SQL."""
 
 from __future__ import annotations
@@ -32,8 +32,9 @@ def exact_order(vectors: dict[int, np.ndarray], query: np.ndarray) -> list[int]:
     return sorted(vectors, key=lambda i: (float(np.linalg.norm(vectors[i] - query)), i))
 
 
+@pytest.mark.parametrize(("compact_min", "kind"), [(10**6, "ivf-sq8"), (200, "ivf-sq6")])
 def test_a_compressed_partition_answers_exactly_after_re_ranking(
-    sessions: sessionmaker[Session],
+    sessions: sessionmaker[Session], compact_min: int, kind: str
 ) -> None:
     rng = np.random.default_rng(0)
     centres = [unit(1000 + c, D) for c in range(6)]
@@ -42,9 +43,9 @@ def test_a_compressed_partition_answers_exactly_after_re_ranking(
         vector = centres[i % 6] + 0.15 * rng.normal(size=D).astype(np.float32) / np.sqrt(D)
         vector /= np.linalg.norm(vector)
         vectors[add_ready(sessions, vector)] = vector
-    index = ShapeIndex(sessions, exact_max=100, nprobe=4)
+    index = ShapeIndex(sessions, exact_max=100, compact_min=compact_min, nprobe=4)
     index.rebuild()
-    assert index.describe(KEY) == "ivf-sq8" and len(index) == 300
+    assert index.describe(KEY) == kind and len(index) == 300
     assert index.nbytes() < 300 * 4 * D  # under half of what float32 rows would hold
     with sessions() as session:
         for q in range(5):
@@ -55,6 +56,20 @@ def test_a_compressed_partition_answers_exactly_after_re_ranking(
             for m in matches:
                 exact = float(np.linalg.norm(vectors[m.model.index_id] - query))
                 assert m.distance == pytest.approx(exact, abs=1e-5)
+
+
+def test_six_bit_codes_take_three_quarters_of_the_eight_bit_ones(
+    sessions: sessionmaker[Session],
+) -> None:
+    for i in range(300):
+        add_ready(sessions, unit(i, D))
+    sizes = {}
+    for compact_min in (10**6, 200):
+        index = ShapeIndex(sessions, exact_max=100, compact_min=compact_min, nprobe=4)
+        index.rebuild()
+        sizes[index.describe(KEY)] = index.nbytes()
+    # Same lists and ids; each of the 300 codes of 48 padded dims shrinks from 48 to 36 bytes.
+    assert sizes["ivf-sq8"] - sizes["ivf-sq6"] == 300 * (48 - 36)
 
 
 def test_removals_are_batched_and_growth_past_the_limit_compresses(

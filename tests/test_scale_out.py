@@ -137,3 +137,70 @@ def test_two_apis_and_two_workers_share_one_postgresql(cluster: Cluster) -> None
     assert second.get(f"/v1/models/{other}").status_code == 404
     for api in (first, second):
         assert api.get("/readyz").status_code == 200
+
+
+def answering_processes(base_url: str, path: str, tries: int = 200) -> dict[str, dict]:
+    """The JSON answers of ``path`` by the API process that served them, each request on a
+    fresh connection (the kernel hands connections to the processes sharing the port). A
+    process is known by its made-up request ids' first 16 hex digits (``app.logs``)."""
+    answers: dict[str, dict] = {}
+    for _ in range(tries):
+        response = httpx.get(base_url + path, timeout=30)
+        assert response.status_code == 200, response.text
+        answers[response.headers["x-request-id"][:16]] = response.json()
+        if len(answers) == 2:
+            break
+    return answers
+
+
+def test_one_serve_runs_several_api_processes_on_its_port(
+    new_database_url: Callable[[str], str],
+) -> None:
+    """SHAPESEARCH_API_PROCESSES=2 on the embedded default (SQLite, the worker shared out):
+    two processes answer on one port, each finds a new model and drops a deleted one."""
+    deployment = Cluster(new_database_url("sqlite"))
+    deployment.env.update({"SHAPESEARCH_API_PROCESSES": "2", "SHAPESEARCH_WORKERS": "2"})
+    try:
+        port = free_port()
+        process = deployment.start("serve", "--port", str(port))
+        base_url = f"http://127.0.0.1:{port}"
+        client = httpx.Client(base_url=base_url, timeout=30)
+
+        def ready() -> bool:
+            assert process.poll() is None, process.stderr.read().decode()[-2000:]  # type: ignore[union-attr]
+            try:
+                return client.get("/readyz").status_code == 200
+            except httpx.HTTPError:
+                return False
+
+        wait_until(ready, 60, "serve ready")
+        ids = []
+        for name in ("20mm-xyz-cube.stl", "cylinder.stl"):
+            response = client.post(
+                "/v1/models",
+                files={"file": (name, (PARTS / name).read_bytes(), "application/octet-stream")},
+            )
+            assert response.status_code == 202, response.text
+            ids.append(response.json()["id"])
+        anchor, other = ids
+        wait_until(
+            lambda: all(client.get(f"/v1/models/{i}").json()["status"] == "ready" for i in ids),
+            120,
+            "both models described by the embedded workers",
+        )
+        similar = f"/v1/models/{anchor}/similar?k=10"
+
+        def both_find(present: bool) -> bool:
+            answers = answering_processes(base_url, similar)
+            assert len(answers) == 2, "one process answered every connection"
+            found = [
+                other in {r["model"]["id"] for r in answer["results"]}
+                for answer in answers.values()
+            ]
+            return all(f == present for f in found)
+
+        wait_until(lambda: both_find(True), SYNC_INTERVAL + SLACK, "the new model in both")
+        assert client.delete(f"/v1/models/{other}").status_code == 204
+        wait_until(lambda: both_find(False), SYNC_INTERVAL + SLACK, "the deleted model in none")
+    finally:
+        deployment.stop()

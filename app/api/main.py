@@ -82,6 +82,7 @@ def create_app(
         index = ShapeIndex(
             sessions,
             exact_max=settings.index_exact_max,
+            compact_min=settings.index_compact_min,
             nprobe=settings.index_nprobe,
             rerank_factor=settings.index_rerank_factor,
         )
@@ -127,6 +128,7 @@ def create_app(
             stop.set()
             follower.join()
             app.state.services.queries.shutdown()
+            app.state.services.reader.dispose()
             engine.dispose()
 
     # Swagger UI and ReDoc from assets shipped in a wheel: the docs work without internet.
