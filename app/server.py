@@ -1,14 +1,19 @@
-"""``shapesearch serve``: the API under uvicorn, with the embedded worker unless --no-worker."""
+"""``shapesearch serve``: the API under uvicorn, with the embedded worker unless --no-worker;
+``SHAPESEARCH_API_PROCESSES`` API processes on one port (``SO_REUSEPORT``)."""
 
 from __future__ import annotations
 
 import ipaddress
+import logging
+import multiprocessing
+import multiprocessing.connection
 import os
+import signal
+import socket
 import sys
 from typing import Any
 
 import uvicorn
-from fastapi import FastAPI
 
 from app.api.main import create_app
 from app.db.migrate import upgrade
@@ -17,11 +22,9 @@ from app.keys import keys_exist
 from app.logs import configure_logging
 from app.settings import Settings
 
-__all__ = ["app_in_process", "is_loopback", "serve"]
+__all__ = ["is_loopback", "serve"]
 
-# How ``serve`` tells the API processes it spawns whether to embed a worker: they build
-# their app in a fresh interpreter (``app_in_process``) and inherit the environment.
-_EMBEDDED_WORKER = "_SHAPESEARCH_EMBEDDED_WORKER"
+log = logging.getLogger(__name__)
 
 
 def is_loopback(host: str) -> bool:
@@ -54,27 +57,75 @@ def serve(host: str | None = None, port: int | None = None, embedded_worker: boo
         )
         return 2
 
-    # log_config=None keeps the JSON logging configured above (uvicorn's default config
-    # would replace it and add a second, plain access line per request on stdout).
-    options: dict[str, Any] = {"host": host, "port": port, "log_config": None, "access_log": False}
     if settings.api_processes == 1:
-        uvicorn.run(create_app(settings, embedded_worker=embedded_worker), **options)
+        uvicorn.run(
+            create_app(settings, embedded_worker=embedded_worker), **_UVICORN, host=host, port=port
+        )
         return 0
-    os.environ[_EMBEDDED_WORKER] = "1" if embedded_worker else ""
-    uvicorn.run(
-        f"{__name__}:app_in_process", factory=True, workers=settings.api_processes, **options
-    )
-    return 0
+    return _serve_processes(settings.api_processes, host, port, embedded_worker)
 
 
-def app_in_process() -> FastAPI:
-    """The app of one of ``api_processes`` API processes (a uvicorn worker): the embedded
-    worker's threads, when there is one, are shared out so the processes run as many
-    describes together as one process would."""
+# log_config=None keeps the JSON logging configured by ``configure_logging`` (uvicorn's
+# default config would replace it and add a second, plain access line per request).
+_UVICORN: dict[str, Any] = {"log_config": None, "access_log": False}
+
+
+def _serve_processes(count: int, host: str, port: int, embedded_worker: bool) -> int:
+    """Run ``count`` API processes on one port until one of them stops.
+
+    Each process listens on a socket of its own bound with ``SO_REUSEPORT``, so the kernel
+    spreads new connections over them evenly. (With one shared listening socket, as
+    uvicorn's ``--workers`` has it, the process that wakes first accepts a whole burst of
+    connections: 16 clients connecting at once mostly ended up on one process, which then
+    did nearly all the work.) When any process exits, the others are stopped and ``serve``
+    exits non-zero, for the service manager to restart the whole service.
+    """
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as reserved:
+        # Bound, never listening: the port is ours (or this fails now, clearly), and a
+        # socket that does not listen receives no connections.
+        reserved.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+        reserved.bind((host, port))
+        spawn = multiprocessing.get_context("spawn")  # fresh interpreters: no forked threads
+        processes = [
+            spawn.Process(target=_api_process, args=(host, port, embedded_worker, count),
+                          name=f"shapesearch-api-{i}")
+            for i in range(count)
+        ]  # fmt: skip
+        stopping = False
+
+        def stop(signum: int, _frame: object) -> None:
+            nonlocal stopping
+            stopping = True
+            for process in processes:
+                if process.is_alive():
+                    os.kill(process.pid, signal.SIGTERM)  # uvicorn's graceful shutdown
+
+        for signum in (signal.SIGTERM, signal.SIGINT):
+            signal.signal(signum, stop)
+        for process in processes:
+            process.start()
+        multiprocessing.connection.wait([process.sentinel for process in processes])
+        if not stopping:
+            log.error("an API process exited; stopping the others")
+            stop(signal.SIGTERM, None)
+        for process in processes:
+            process.join()
+        return 0 if stopping else 1
+
+
+def _api_process(host: str, port: int, embedded_worker: bool, count: int) -> None:
+    """One of ``count`` API processes: the embedded worker's threads, when there is one,
+    are shared out so the processes run as many describes together as one process would."""
     configure_logging()
     settings = Settings()
-    threads = -(-settings.worker_count // settings.api_processes)  # 0 stays 0
-    return create_app(
-        settings.model_copy(update={"workers": threads}),
-        embedded_worker=bool(os.environ.get(_EMBEDDED_WORKER)),
+    threads = -(-settings.worker_count // count)  # 0 stays 0
+    app = create_app(
+        settings.model_copy(update={"workers": threads}), embedded_worker=embedded_worker
     )
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    listener = socket.socket(family, socket.SOCK_STREAM)
+    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+    listener.bind((host, port))
+    uvicorn.Server(uvicorn.Config(app, **_UVICORN)).run(sockets=[listener])

@@ -21,7 +21,8 @@ Phases (each prints its figures):
            value ``family`` shared by 0.1% of them; then an API process (``shapesearch
            serve --no-worker``): start-up seconds and peak RSS; in-process similar p50/p99;
            HTTP ``similar`` p50/p99 and requests/s at each ``--concurrency`` (the API runs
-           ``--api-processes`` processes, 2 by default as on a 2-core host; the load
+           ``--api-processes`` processes of ``--query-threads`` query threads, by default
+           2 of 1, the deployment the README gives for a 2-core host; the load
            generator is a second process on 127.0.0.1, bounded by ``--requests`` and
            ``--seconds`` per level); filtered similar (0.1%-selective); 1,000 deletes.
 
@@ -384,6 +385,7 @@ def start_api(url: str, args: argparse.Namespace) -> tuple[subprocess.Popen[byte
         "SHAPESEARCH_INDEX_NPROBE": str(args.nprobe),
         "SHAPESEARCH_INDEX_COMPACT_MIN": str(args.compact_min),
         "SHAPESEARCH_API_PROCESSES": str(args.api_processes),
+        "SHAPESEARCH_QUERY_THREADS": str(args.query_threads),
     }
     OUT.mkdir(parents=True, exist_ok=True)
     log = (OUT / "api.log").open("wb")
@@ -586,6 +588,9 @@ def main() -> None:
     parser.add_argument("--nprobe", type=int, default=8, help="SHAPESEARCH_INDEX_NPROBE")
     parser.add_argument(
         "--api-processes", type=int, default=2, help="SHAPESEARCH_API_PROCESSES (db phase)"
+    )
+    parser.add_argument(
+        "--query-threads", type=int, default=1, help="SHAPESEARCH_QUERY_THREADS (db phase)"
     )
     parser.add_argument("--real", type=int, default=40, help="real models to describe")
     parser.add_argument("--points", type=int, default=3000, help="points per real model")
