@@ -23,7 +23,10 @@ import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
+from sqlalchemy.orm import Session, sessionmaker
 
+from app.db.migrate import upgrade
+from app.db.session import make_engine, make_session_factory
 from app.settings import Settings
 
 PARTS = Path(__file__).parent / "fixtures" / "parts"
@@ -124,6 +127,15 @@ def backend(request: pytest.FixtureRequest) -> str:
 @pytest.fixture
 def database_url(backend: str, new_database_url: Callable[[str], str]) -> str:
     return new_database_url(backend)
+
+
+@pytest.fixture
+def sessions(database_url: str) -> Iterator[sessionmaker[Session]]:
+    """A session factory on a fresh, migrated database of each backend."""
+    engine = make_engine(database_url)
+    upgrade(engine)
+    yield make_session_factory(engine)
+    engine.dispose()
 
 
 def make_settings(database_url: str, **overrides: Any) -> Settings:

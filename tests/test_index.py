@@ -4,7 +4,6 @@ partitioned by tenant and descriptor version."""
 from __future__ import annotations
 
 import uuid
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -12,19 +11,9 @@ from sqlalchemy import delete
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.feed import record_event
-from app.db.migrate import upgrade
 from app.db.models import Model
-from app.db.session import make_engine, make_session_factory
 from app.index import ShapeIndex
 from app.similarity import find_similar, metadata_matches, score_of
-
-
-@pytest.fixture
-def sessions(database_url: str) -> Iterator[sessionmaker[Session]]:
-    engine = make_engine(database_url)
-    upgrade(engine)
-    yield make_session_factory(engine)
-    engine.dispose()
 
 
 def unit(seed: int, d: int = 8) -> np.ndarray:
@@ -39,8 +28,10 @@ def add_ready(
     tenant: str = "t",
     version: str = "v1",
     meta: dict[str, object] | None = None,
+    views: np.ndarray | None = None,
 ) -> int:
-    """A ready model, committed with its change-feed event, as a worker would."""
+    """A ready model (with the descriptors of its virtual ``views``, when given), committed
+    with its change-feed event, as a worker would."""
     with sessions.begin() as session:
         model = Model(
             id=uuid.uuid4(),
@@ -53,6 +44,7 @@ def add_ready(
             file_format="stl",
             descriptor=vector.astype(np.float32).tobytes(),
             descriptor_version=version,
+            view_descriptors=None if views is None else views.astype(np.float32).tobytes(),
         )
         session.add(model)
         session.flush()

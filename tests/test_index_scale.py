@@ -3,28 +3,16 @@ batched removals, growth past the exact limit, and metadata filters pushed down 
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import numpy as np
 import pytest
 from sqlalchemy.orm import Session, sessionmaker
 
-from app.db.migrate import upgrade
-from app.db.session import make_engine, make_session_factory
 from app.index import ShapeIndex
 from app.similarity import find_similar, matching_ids
 from tests.test_index import add_ready, delete_model, unit
 
 D = 40
 KEY = ("t", "v1")
-
-
-@pytest.fixture
-def sessions(database_url: str) -> Iterator[sessionmaker[Session]]:
-    engine = make_engine(database_url)
-    upgrade(engine)
-    yield make_session_factory(engine)
-    engine.dispose()
 
 
 def exact_order(vectors: dict[int, np.ndarray], query: np.ndarray) -> list[int]:

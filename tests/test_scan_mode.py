@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import io
 import json
-import uuid
-from collections.abc import Iterator
 from dataclasses import replace
 from typing import Any
 
@@ -22,14 +20,14 @@ from alembic import command
 from conftest import make_settings, wait_for_status
 from fastapi.testclient import TestClient
 from shapes import fibonacci_sphere_points, plate_points, torus_points
-from sqlalchemy import delete, inspect, update
+from sqlalchemy import inspect, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.api.main import create_app
 from app.db.feed import record_event
 from app.db.migrate import alembic_config, upgrade
 from app.db.models import Model
-from app.db.session import make_engine, make_session_factory
+from app.db.session import make_engine
 from app.describing import ingest_columns
 from app.index import VIEW_ID_BASE, ShapeIndex, view_id, view_of, views_key
 from app.settings import engine_settings
@@ -37,6 +35,8 @@ from app.similarity import find_similar, score_of
 from core.pipeline import describe_points, scan_weights
 from core.settings import EngineSettings, ViewSettings
 from core.views import hidden_point_removal, view_directions, virtual_views
+from tests.test_index import add_ready as add_model
+from tests.test_index import delete_model
 
 KEY = ("t", "v1")
 
@@ -121,14 +121,6 @@ def test_a_closed_surface_described_as_a_scan_is_unchanged() -> None:
 # --- index and scoring ------------------------------------------------------------------
 
 
-@pytest.fixture
-def sessions(database_url: str) -> Iterator[sessionmaker[Session]]:
-    engine = make_engine(database_url)
-    upgrade(engine)
-    yield make_session_factory(engine)
-    engine.dispose()
-
-
 def unit(rows: np.ndarray) -> np.ndarray:
     rows = np.asarray(rows, dtype=np.float32)
     return rows / np.linalg.norm(rows, axis=-1, keepdims=True)
@@ -140,31 +132,15 @@ def add_ready(
     views: np.ndarray | None,
     meta: dict[str, Any] | None = None,
 ) -> int:
-    """A ready model with its views, committed with its change-feed event (as a worker)."""
-    with sessions.begin() as session:
-        model = Model(
-            id=uuid.uuid4(),
-            tenant=KEY[0],
-            meta=meta or {},
-            status="ready",
-            file_name="x.ply",
-            file_size=1,
-            file_sha256="0" * 64,
-            file_format="ply",
-            descriptor=unit(vector).tobytes(),
-            descriptor_version=KEY[1],
-            view_descriptors=None if views is None else unit(views).tobytes(),
-        )
-        session.add(model)
-        session.flush()
-        record_event(session, model.index_id, "ready")
-        return model.index_id
-
-
-def delete_model(sessions: sessionmaker[Session], index_id: int) -> None:
-    with sessions.begin() as session:
-        session.execute(delete(Model).where(Model.index_id == index_id))
-        record_event(session, index_id, "deleted")
+    """A ready model of partition ``KEY`` with its views, unit vectors all."""
+    return add_model(
+        sessions,
+        unit(vector),
+        tenant=KEY[0],
+        version=KEY[1],
+        meta=meta,
+        views=None if views is None else unit(views),
+    )
 
 
 def catalogue(

@@ -6,27 +6,16 @@ from __future__ import annotations
 import threading
 import time
 import uuid
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
-from sqlalchemy import Engine, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
 from test_queue import RESULT, add_jobs, make_queue
 
-from app.db.migrate import upgrade
 from app.db.models import Job, Model
-from app.db.session import make_engine, make_session_factory
 from app.worker import Worker, WorkerPool
 from core.errors import InvalidShapeError, SolverError
-
-
-@pytest.fixture
-def sessions(database_url: str) -> Iterator[sessionmaker[Session]]:
-    engine: Engine = make_engine(database_url)
-    upgrade(engine)
-    yield make_session_factory(engine)
-    engine.dispose()
 
 
 def statuses(sessions: sessionmaker[Session]) -> dict[uuid.UUID, tuple[str, Any]]:
