@@ -7,6 +7,7 @@ import ipaddress
 import logging
 import multiprocessing
 import multiprocessing.connection
+import multiprocessing.process
 import os
 import signal
 import socket
@@ -85,33 +86,41 @@ def _serve_processes(count: int, host: str, port: int, embedded_worker: bool) ->
         # Bound, never listening: the port is ours (or this fails now, clearly), and a
         # socket that does not listen receives no connections.
         reserved.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
-        reserved.bind((host, port))
+        try:
+            reserved.bind((host, port))
+        except OSError as error:
+            print(f"error: cannot listen on {host}:{port}: {error.strerror}", file=sys.stderr)
+            return 1
         spawn = multiprocessing.get_context("spawn")  # fresh interpreters: no forked threads
         processes = [
             spawn.Process(target=_api_process, args=(host, port, embedded_worker, count),
                           name=f"shapesearch-api-{i}")
             for i in range(count)
         ]  # fmt: skip
-        stopping = False
+        asked_to_stop = False
 
-        def stop(signum: int, _frame: object) -> None:
-            nonlocal stopping
-            stopping = True
-            for process in processes:
-                if process.is_alive():
-                    os.kill(process.pid, signal.SIGTERM)  # uvicorn's graceful shutdown
+        def on_signal(_signum: int, _frame: object) -> None:
+            nonlocal asked_to_stop
+            asked_to_stop = True
+            _terminate(processes)
 
         for signum in (signal.SIGTERM, signal.SIGINT):
-            signal.signal(signum, stop)
+            signal.signal(signum, on_signal)
         for process in processes:
             process.start()
         multiprocessing.connection.wait([process.sentinel for process in processes])
-        if not stopping:
+        if not asked_to_stop:
             log.error("an API process exited; stopping the others")
-            stop(signal.SIGTERM, None)
+            _terminate(processes)
         for process in processes:
             process.join()
-        return 0 if stopping else 1
+        return 0 if asked_to_stop else 1
+
+
+def _terminate(processes: list[multiprocessing.process.BaseProcess]) -> None:
+    for process in processes:
+        if process.is_alive() and process.pid is not None:
+            os.kill(process.pid, signal.SIGTERM)  # uvicorn's graceful shutdown
 
 
 def _api_process(host: str, port: int, embedded_worker: bool, count: int) -> None:

@@ -6,6 +6,7 @@ interval, and a delete through one API process leaves the other's answers within
 from __future__ import annotations
 
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -202,5 +203,69 @@ def test_one_serve_runs_several_api_processes_on_its_port(
         wait_until(lambda: both_find(True), SYNC_INTERVAL + SLACK, "the new model in both")
         assert client.delete(f"/v1/models/{other}").status_code == 204
         wait_until(lambda: both_find(False), SYNC_INTERVAL + SLACK, "the deleted model in none")
+
+        # One API process dies: serve stops the other and exits non-zero, for the service
+        # manager to restart it whole (a half-served port would hide the failure).
+        first, second = api_processes(process.pid)
+        os.kill(first, signal.SIGKILL)
+        assert process.wait(60) == 1
+        assert gone(second)
     finally:
         deployment.stop()
+
+
+def api_processes(serve_pid: int) -> list[int]:
+    """The API processes (multiprocessing spawn children) of a ``serve`` process."""
+    try:
+        children = Path(f"/proc/{serve_pid}/task/{serve_pid}/children").read_text().split()
+    except FileNotFoundError:
+        return []
+    return [
+        int(pid)
+        for pid in children
+        if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()
+    ]
+
+
+def test_several_api_processes_stop_on_sigterm_and_refuse_a_taken_port(
+    new_database_url: Callable[[str], str],
+) -> None:
+    deployment = Cluster(new_database_url("sqlite"))
+    deployment.env.update({"SHAPESEARCH_API_PROCESSES": "2", "SHAPESEARCH_WORKERS": "0"})
+    try:
+        with socket.socket() as taken:
+            taken.bind(("127.0.0.1", 0))
+            taken.listen()
+            refused = deployment.start("serve", "--port", str(taken.getsockname()[1]))
+            assert refused.wait(60) == 1
+            assert b"cannot listen on 127.0.0.1" in refused.stderr.read()  # type: ignore[union-attr]
+
+        port = free_port()
+        process = deployment.start("serve", "--port", str(port))
+        wait_until(lambda: len(api_processes(process.pid)) == 2, 60, "two API processes")
+        children = api_processes(process.pid)
+        wait_until(
+            lambda: httpx.get(f"http://127.0.0.1:{port}/healthz").status_code == 200
+            if _port_open(port)
+            else False,
+            60,
+            "serve answering",
+        )
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(60) == 0  # asked to stop: a clean exit
+        assert all(gone(child) for child in children)
+    finally:
+        deployment.stop()
+
+
+def gone(pid: int) -> bool:
+    """The process has exited (a zombie that nobody reaped yet counts as exited)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    except FileNotFoundError:
+        return True
+
+
+def _port_open(port: int) -> bool:
+    with socket.socket() as probe:
+        return probe.connect_ex(("127.0.0.1", port)) == 0
