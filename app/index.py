@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import threading
+import uuid
 from collections import defaultdict
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
@@ -90,8 +91,9 @@ def _views_array(blob: bytes | None, dim: int) -> np.ndarray | None:
     return views.reshape(-1, dim)[:MAX_VIEWS] if len(views) % dim == 0 else None
 
 
-# One model added: (index_id, partition, (d,) descriptor, (v, d) views or None).
-_Added = tuple[int, PartitionKey, np.ndarray, "np.ndarray | None"]
+# One model added: (index_id, partition, (d,) descriptor, (v, d) views or None, its public
+# id or None).
+_Added = tuple[int, PartitionKey, np.ndarray, "np.ndarray | None", "uuid.UUID | None"]
 
 _EVENT_BATCH = 5000
 # What the index holds of a model: the rows a rebuild streams and a sync reads.
@@ -101,6 +103,7 @@ _INDEXED = (
     Model.descriptor_version,
     Model.descriptor,
     Model.view_descriptors,
+    Model.id,
 )
 _ROW_CHUNK = 2000  # rows per query of a streamed rebuild
 _TRAIN_PER_LIST = 16  # k-means training vectors per inverted list
@@ -266,6 +269,11 @@ class ShapeIndex:
         self._partitions: dict[PartitionKey, _Partition] = {}
         self._partition_of: dict[int, PartitionKey] = {}  # models only
         self._views_of: dict[int, int] = {}  # model index_id -> views it has in the index
+        # Public model id (its 128-bit int) <-> index_id, both ways, so that a similar query
+        # by model id finds the query vector here (``locate``, ``vector``). Ints, not UUID
+        # objects: ~170 bytes per model for both maps.
+        self._index_id_of: dict[int, int] = {}
+        self._public_id_of: dict[int, int] = {}
         self._sync_lock = threading.Lock()  # one writer of the maps at a time
 
     # --- reading ----------------------------------------------------------------------
@@ -280,6 +288,27 @@ class ShapeIndex:
 
     def __contains__(self, index_id: int) -> bool:
         return index_id in self._partition_of
+
+    def locate(self, tenant: str, model_id: uuid.UUID) -> tuple[int, PartitionKey] | None:
+        """The ``index_id`` and partition of the tenant's model ``model_id`` as this index
+        holds it, or None. The index may lag the database by a sync: confirm in SQL."""
+        index_id = self._index_id_of.get(model_id.int)
+        key = None if index_id is None else self._partition_of.get(index_id)
+        if index_id is None or key is None or key[0] != tenant:
+            return None
+        return index_id, key
+
+    def vector(self, key: PartitionKey, index_id: int) -> np.ndarray | None:
+        """The ``(d,) float32`` vector of ``index_id`` as partition ``key`` holds it: exact
+        in a flat partition, decoded from its codes (approximate) in an IVF one."""
+        partition = self._partitions.get(key)
+        if partition is None:
+            return None
+        with partition.lock.reading():
+            try:
+                return partition.index.reconstruct(index_id)[: partition.dim]
+            except RuntimeError:  # not held (removed meanwhile)
+                return None
 
     def partition_size(self, key: PartitionKey) -> int:
         partition = self._partitions.get(key)
@@ -368,11 +397,12 @@ class ShapeIndex:
         key: PartitionKey,
         vector: np.ndarray,
         views: np.ndarray | None = None,
+        model_id: uuid.UUID | None = None,
     ) -> None:
-        """Add (or replace) model ``index_id`` with ``vector : (d,)`` and its scan-mode
-        ``views : (v, d)`` (v <= ``MAX_VIEWS``)."""
+        """Add (or replace) model ``index_id`` (public id ``model_id``) with ``vector : (d,)``
+        and its scan-mode ``views : (v, d)`` (v <= ``MAX_VIEWS``)."""
         with self._sync_lock:
-            self._apply([index_id], [(index_id, key, vector, views)])
+            self._apply([index_id], [(index_id, key, vector, views, model_id)])
 
     def remove(self, index_id: int) -> None:
         self.remove_many([index_id])
@@ -404,6 +434,9 @@ class ShapeIndex:
         gone: dict[PartitionKey, list[int]] = defaultdict(list)
         for index_id in removed:
             key = self._partition_of.pop(index_id, None)
+            public = self._public_id_of.pop(index_id, None)
+            if public is not None:
+                self._index_id_of.pop(public, None)
             if key is not None:
                 gone[key].append(index_id)
                 gone[views_key(key)].extend(_view_ids(index_id, self._views_of.pop(index_id, 0)))
@@ -413,9 +446,12 @@ class ShapeIndex:
                 with partition.lock.writing():
                     partition.remove(np.asarray(ids, dtype=np.int64))
         fresh: dict[PartitionKey, list[tuple[int, np.ndarray]]] = defaultdict(list)
-        for index_id, key, vector, views in added:
+        for index_id, key, vector, views, model_id in added:
             if index_id in self._partition_of:  # re-adding replaces, views and all
                 self._apply([index_id], [])
+            if model_id is not None:
+                self._index_id_of[model_id.int] = index_id
+                self._public_id_of[index_id] = model_id.int
             fresh[key].append((index_id, np.asarray(vector, dtype=np.float32)))
             if views is not None and len(views):
                 views = np.asarray(views, dtype=np.float32)[:MAX_VIEWS]
@@ -471,12 +507,14 @@ class ShapeIndex:
                         sizes[views_key((tenant, version))] = int(view_bytes) // int(vector_bytes)
             builders = {key: _Builder(self, size) for key, size in sizes.items()}
             views_of: dict[int, int] = {}
-            for index_id, tenant, version, descriptor, view_blob in self._ready_rows():
+            index_id_of: dict[int, int] = {}
+            for index_id, tenant, version, descriptor, view_blob, model_id in self._ready_rows():
                 builder = builders.get((tenant, version))
                 if builder is None:  # became ready after the count: sync replays it
                     continue
                 vector = np.frombuffer(descriptor, dtype=np.float32)
                 builder.add_one(index_id, vector)
+                index_id_of[model_id.int] = index_id
                 views = _views_array(view_blob, len(vector))
                 view_builder = builders.get(views_key((tenant, version)))
                 if views is not None and view_builder is not None:
@@ -493,10 +531,12 @@ class ShapeIndex:
                         partition_of.update(dict.fromkeys(builder.ids, key))
             self._partitions, self._partition_of = partitions, partition_of
             self._views_of = views_of
+            self._index_id_of = index_id_of
+            self._public_id_of = {index_id: public for public, index_id in index_id_of.items()}
             self.revision = int(revision)
         self.sync()
 
-    def _ready_rows(self) -> Iterator[tuple[int, str, str, bytes, bytes | None]]:
+    def _ready_rows(self) -> Iterator[tuple[int, str, str, bytes, bytes | None, uuid.UUID]]:
         """Every ready descriptor with its views, ``_ROW_CHUNK`` rows per query (keyset on
         index_id)."""
         assert self.sessions is not None
@@ -552,11 +592,16 @@ class ShapeIndex:
 
 
 def _added(
-    index_id: int, tenant: str, version: str, descriptor: bytes, view_blob: bytes | None
+    index_id: int,
+    tenant: str,
+    version: str,
+    descriptor: bytes,
+    view_blob: bytes | None,
+    model_id: uuid.UUID,
 ) -> _Added:
     """A ready row as ``_apply`` adds it."""
     vector = np.frombuffer(descriptor, dtype=np.float32)
-    return index_id, (tenant, version), vector, _views_array(view_blob, len(vector))
+    return index_id, (tenant, version), vector, _views_array(view_blob, len(vector)), model_id
 
 
 class _Builder:

@@ -60,6 +60,7 @@ from app.index import PartitionKey, ShapeIndex, views_key
 __all__ = [
     "Candidate",
     "Match",
+    "QueryChanged",
     "SearchMode",
     "find_similar",
     "matching_ids",
@@ -178,9 +179,17 @@ def find_similar(
     exclude: int | None = None,
     pushdown_max: int = PUSHDOWN_MAX,
     mode: SearchMode = "shape",
+    indexed_query: bool = False,
 ) -> list[Match]:
     """The ``k`` best matches in partition ``key`` (tenant, descriptor version); in
-    ``scan`` mode each model's best entry counts (see the module's docstring)."""
+    ``scan`` mode each model's best entry counts (see the module's docstring).
+
+    ``indexed_query`` (shape mode): ``vector`` is the index's copy of model ``exclude``
+    (``ShapeIndex.vector``), not read from the database. That model's row is then confirmed
+    in the statement that confirms the first candidates, one statement for the whole query,
+    and in an approximate partition its stored descriptor replaces the decoded copy for the
+    exact distances. Raises ``QueryChanged`` when the row is no longer ready under ``key``.
+    """
     filters = filters or {}
     vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
     allowed = matching_ids(connection, key, filters, pushdown_max) if filters else None
@@ -197,13 +206,21 @@ def find_similar(
         fetch *= 4
     matches: list[Match] = []
     seen: set[int] = set()
+    query_id = exclude if indexed_query else None
     while True:
         hits = index.search(key, vector, fetch, allowed=allowed)
         fresh = [i for i, _ in hits if i not in seen and i != exclude]
         seen.update(i for i, _ in hits)
-        for model, distance in _confirmed(
-            connection, key[0], fresh, vector, dict(hits), approximate
-        ):
+        extra = [Model.descriptor] if approximate else []
+        if query_id is None:
+            rows = _ready_candidates(connection, key[0], fresh, *extra)
+        else:  # the query model's own row rides along, once
+            rows = _ready_candidates(
+                connection, key[0], [*fresh, query_id], *extra, Model.descriptor_version
+            )
+            vector, rows = _stored_query(rows, query_id, key, vector, approximate)
+            query_id = None
+        for model, distance in _confirmed(rows, vector, dict(hits), approximate):
             if metadata_matches(model.meta or {}, filters):
                 matches.append(Match(model, distance, score_of(distance)))
         matches.sort(key=lambda match: (match.distance, match.model.index_id))
@@ -219,17 +236,30 @@ def find_similar(
         fetch *= 4
 
 
+class QueryChanged(LookupError):
+    """The query model of an ``indexed_query`` is no longer ready under the partition the
+    index holds it in (deleted, re-described or being described since the last sync)."""
+
+
+def _stored_query(
+    rows: list[Row[Any]], query_id: int, key: PartitionKey, vector: np.ndarray, exact: bool
+) -> tuple[np.ndarray, list[Row[Any]]]:
+    """The query vector to re-rank with (the stored descriptor when ``exact``) and the
+    candidate rows without the query model's own."""
+    own = [row for row in rows if row.index_id == query_id]
+    if not own or own[0].descriptor_version != key[1]:
+        raise QueryChanged(query_id)
+    stored = own[0].descriptor if exact else None
+    if stored is not None and len(stored) == 4 * len(vector):
+        vector = np.frombuffer(stored, dtype=np.float32)
+    return vector, [row for row in rows if row.index_id != query_id]
+
+
 def _confirmed(
-    connection: Connection,
-    tenant: str,
-    ids: list[int],
-    query: np.ndarray,
-    distances: dict[int, float],
-    exact: bool,
+    rows: list[Row[Any]], query: np.ndarray, distances: dict[int, float], exact: bool
 ) -> list[tuple[Candidate, float]]:
-    """The candidates still ready in the database, with exact distances when ``exact``
-    (read from their stored descriptors) and the index's own otherwise."""
-    rows = _ready_candidates(connection, tenant, ids, *([Model.descriptor] if exact else []))
+    """The candidates of ``rows`` (still ready in the database), with exact distances when
+    ``exact`` (from their stored descriptors) and the index's own otherwise."""
     found = [distances[row.index_id] for row in rows]
     if exact:
         # One vectorised pass over the stored descriptors (a few dozen); a row whose

@@ -303,7 +303,6 @@ def fill(url: str, real: np.ndarray, total: int, noise: float) -> tuple[list[str
 
 
 def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None:
-    from app.api.routes_models import ready_query
     from app.db.session import make_engine, make_session_factory, read_only
     from app.similarity import find_similar
 
@@ -322,16 +321,17 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         times, counts = [], []
         for model_id in rng.choice(model_ids, size=args.queries):
             t0 = time.perf_counter()
-            with reader.connect() as connection:  # as the route does
-                model = ready_query(connection, "default", str(model_id))
+            with reader.connect() as connection:  # as the route does: vector from the index
+                index_id, key = index.locate("default", uuid.UUID(str(model_id)))
                 matches = find_similar(
                     index,
                     connection,
-                    KEY,
-                    np.frombuffer(model.descriptor, dtype=np.float32),
+                    key,
+                    index.vector(key, index_id),
                     k=K,
                     filters=filters,
-                    exclude=model.index_id,
+                    exclude=index_id,
+                    indexed_query=True,
                 )
             times.append(time.perf_counter() - t0)
             counts.append(len(matches))

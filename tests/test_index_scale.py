@@ -3,12 +3,16 @@ batched removals, growth past the exact limit, and metadata filters pushed down 
 
 from __future__ import annotations
 
+import uuid
+
 import numpy as np
 import pytest
+from sqlalchemy import select, update
 from sqlalchemy.orm import Session, sessionmaker
 
+from app.db.models import Model
 from app.index import ShapeIndex
-from app.similarity import find_similar, matching_ids
+from app.similarity import QueryChanged, find_similar, matching_ids
 from tests.test_index import add_ready, delete_model, unit
 
 D = 40
@@ -129,3 +133,69 @@ def test_a_selective_filter_is_pushed_down_and_still_returns_k(
         # Fewer matching models than k: all of them, nothing else.
         seven = find_similar(index, session.connection(), KEY, query, k=5, filters={"family": "7"})
         assert [m.model.index_id for m in seven] == [numeric]
+
+
+def public_id(sessions: sessionmaker[Session], index_id: int) -> uuid.UUID:
+    with sessions() as session:
+        return session.scalars(select(Model.id).where(Model.index_id == index_id)).one()
+
+
+@pytest.mark.parametrize("exact_max", [10**6, 100], ids=["flat", "ivf-sq8"])
+def test_a_query_by_model_id_from_the_index_answers_as_the_database_would(
+    sessions: sessionmaker[Session], exact_max: int
+) -> None:
+    """The query vector from the index (decoded codes in IVF) and the query's row confirmed
+    with the candidates': the same results and exact distances as with the stored vector."""
+    rng = np.random.default_rng(1)
+    vectors = {}
+    for i in range(300):
+        vector = unit(2000 + i % 5, D) + 0.2 * rng.normal(size=D).astype(np.float32) / np.sqrt(D)
+        vector /= np.linalg.norm(vector)
+        vectors[add_ready(sessions, vector)] = vector
+    index = ShapeIndex(sessions, exact_max=exact_max, nprobe=16)
+    index.rebuild()
+    with sessions() as session:
+        for query_id in list(vectors)[::60]:
+            located = index.locate("t", public_id(sessions, query_id))
+            assert located == (query_id, KEY)
+            copy = index.vector(KEY, query_id)
+            assert copy is not None and copy.shape == (D,)
+            if exact_max == 100:  # decoded 8-bit codes: close, not equal
+                assert 0 < np.linalg.norm(copy - vectors[query_id]) < 0.05
+            answer = find_similar(
+                index, session.connection(), KEY, copy, k=10, exclude=query_id, indexed_query=True
+            )
+            stored = find_similar(
+                index, session.connection(), KEY, vectors[query_id], k=10, exclude=query_id
+            )
+            assert [m.model.index_id for m in answer] == [m.model.index_id for m in stored]
+            assert [m.distance for m in answer] == pytest.approx([m.distance for m in stored])
+    assert index.locate("other-tenant", public_id(sessions, query_id)) is None
+
+
+def test_a_query_model_gone_from_the_database_is_not_answered_from_the_index(
+    sessions: sessionmaker[Session],
+) -> None:
+    ids = [add_ready(sessions, unit(i, D)) for i in range(20)]
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    gone, changed = ids[0], ids[1]
+    model_ids = {i: public_id(sessions, i) for i in (gone, changed)}
+    delete_model(sessions, gone)  # the index has not synced: it still holds both
+    with sessions.begin() as session:
+        session.execute(update(Model).where(Model.index_id == changed).values(status="processing"))
+    for index_id in (gone, changed):
+        assert index.locate("t", model_ids[index_id]) == (index_id, KEY)
+        with sessions() as session, pytest.raises(QueryChanged):
+            find_similar(
+                index,
+                session.connection(),
+                KEY,
+                index.vector(KEY, index_id),
+                k=5,
+                exclude=index_id,
+                indexed_query=True,
+            )
+    index.sync()
+    assert index.locate("t", model_ids[gone]) is None
+    assert index.vector(KEY, gone) is None

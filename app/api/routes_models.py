@@ -34,7 +34,7 @@ from app.api.uploads import read_checked_upload
 from app.db.feed import record_event
 from app.db.models import Model, utcnow
 from app.revisions import create_model_rows, latest_jobs, lock_models
-from app.similarity import SearchMode, find_similar
+from app.similarity import Match, QueryChanged, SearchMode, find_similar
 from app.webhooks import record_model_event
 
 __all__ = [
@@ -369,25 +369,67 @@ def _similar_models(
     filters: dict[str, str],
     mode: SearchMode,
 ) -> SimilarResponse:
+    options: dict[str, Any] = {
+        "k": k,
+        "min_score": min_score,
+        "filters": filters,
+        "pushdown_max": services.settings.filter_pushdown_max,
+        "mode": mode,
+    }
     with services.reader.connect() as connection:
+        found = _similar_by_index(services, connection, tenant, model_id, mode, options)
+        if found is not None:
+            return found
         model = ready_query(connection, tenant, model_id, mode)
         query = (model.scan_descriptor if mode == "scan" else None) or model.descriptor
+        vector = np.frombuffer(query, dtype=np.float32)
+        key = (tenant, model.descriptor_version)
+        matches = find_similar(
+            services.index, connection, key, vector, exclude=model.index_id, **options
+        )
+        return _similar_response(model.id, matches)
+
+
+def _similar_by_index(
+    services: Services,
+    connection: Connection,
+    tenant: str,
+    model_id: str,
+    mode: SearchMode,
+    options: dict[str, Any],
+) -> SimilarResponse | None:
+    """The answer with the query vector taken from the index and the query model's row
+    confirmed with the candidates': one statement instead of two. None when this path does
+    not apply (scan mode's own descriptor, a model the index does not hold) or the model
+    changed since the index saw it: then the database decides, with its 404 or 409."""
+    parsed = _uuid_or_none(model_id)
+    located = None if parsed is None or mode != "shape" else services.index.locate(tenant, parsed)
+    if located is None:
+        return None
+    index_id, key = located
+    vector = services.index.vector(key, index_id)
+    if vector is None:
+        return None
+    try:
         matches = find_similar(
             services.index,
             connection,
-            (tenant, model.descriptor_version),
-            np.frombuffer(query, dtype=np.float32),
-            k=k,
-            min_score=min_score,
-            filters=filters,
-            exclude=model.index_id,
-            pushdown_max=services.settings.filter_pushdown_max,
-            mode=mode,
+            key,
+            vector,
+            exclude=index_id,
+            indexed_query=True,
+            **options,
         )
-        return SimilarResponse(
-            query=SimilarQuery(model_id=model.id),
-            results=[
-                SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
-                for m in matches
-            ],
-        )
+    except QueryChanged:
+        return None
+    return _similar_response(parsed, matches)
+
+
+def _similar_response(model_id: uuid.UUID, matches: list[Match]) -> SimilarResponse:
+    return SimilarResponse(
+        query=SimilarQuery(model_id=model_id),
+        results=[
+            SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
+            for m in matches
+        ],
+    )
