@@ -25,6 +25,9 @@ the model's integer ``index_id``. A partition is
   has no SIMD kernel in FAISS and costs about 3x the 8-bit one per code, which the
   benchmark shows is affordable at that size (bench/search_scale.py, README).
 
+The index also knows each model's public id (``locate``) and gives back the vector it holds
+(``vector``), so a similar query by model id needs no read of the query's row first.
+
 Searches hold a partition's read lock and run side by side (FAISS releases the GIL);
 writes (batched per sync) take the write lock briefly. A rebuild builds new partitions
 aside and swaps them in, so searches never wait for it.
