@@ -334,6 +334,35 @@ def test_readyz_fails_when_the_index_is_out_of_step(
     assert "index" in body["detail"] and body["checks"]["index"] != "ok"
 
 
+def test_similar_by_id_answers_from_the_database_when_the_index_lags(
+    make_client: ClientFactory, database_url: str
+) -> None:
+    """The query vector comes from the index, but the database decides: a model changed
+    behind the index's back (no change-feed event, so the index still holds it) is 409
+    while it is being described and 404 once gone, not answered from the stale copy."""
+    client = make_client(index_sync_interval=3600)
+    models = [upload(client, path).json() for path in (CUBE, PARTS / "cylinder.stl")]
+    for model in models:
+        wait_for_status(client, model["id"])
+    query, other = models
+    similar = f"/v1/models/{query['id']}/similar"
+    assert [r["model"]["id"] for r in client.get(similar).json()["results"]] == [other["id"]]
+
+    engine = create_engine(database_url)
+    ids = {"a": uuid.UUID(query["id"]).hex, "b": query["id"]}
+    where = "WHERE CAST(id AS TEXT) IN (:a, :b)"
+    with engine.begin() as connection:
+        connection.execute(text(f"UPDATE models SET status = 'processing' {where}"), ids)
+    assert assert_problem(client.get(similar), 409)["model_status"] == "processing"
+    with engine.begin() as connection:
+        connection.execute(text("DELETE FROM jobs"))
+        connection.execute(text("DELETE FROM uploads"))
+        connection.execute(text("DELETE FROM model_revisions"))
+        connection.execute(text(f"DELETE FROM models {where}"), ids)
+    engine.dispose()
+    assert_problem(client.get(similar), 404)
+
+
 # --- OpenAPI ----------------------------------------------------------------------------
 
 
