@@ -258,7 +258,7 @@ class ShapeIndex:
         self,
         sessions: sessionmaker[Session] | None,
         *,
-        exact_max: int = 20_000,
+        exact_max: int = 5_000,
         compact_min: int = 500_000,
         nprobe: int = 8,
         rerank_factor: int = 2,

@@ -420,6 +420,20 @@ def start_api(url: str, args: argparse.Namespace) -> tuple[subprocess.Popen[byte
         time.sleep(0.2)
 
 
+def server_time(offset: int) -> str:
+    """p50/p99 of the time the API spent in each similar request (its access lines'
+    ``duration_ms``, from the first ASGI call to the last byte handed to uvicorn) logged after
+    byte ``offset`` of the API log: what is left of the client's latency is queueing in the
+    kernel and the event loop, and the load generator's own scheduling."""
+    with (OUT / "api.log").open("rb") as log:
+        log.seek(offset)
+        lines = [json.loads(line) for line in log if b'"shapesearch.access"' in line]
+    ms = [line["duration_ms"] for line in lines if line.get("route", "").endswith("/similar")]
+    if not ms:
+        return "server time: no access lines"
+    return f"server time p50 {np.percentile(ms, 50):.1f} ms, p99 {np.percentile(ms, 99):.1f} ms"
+
+
 def load(
     base: str, args: argparse.Namespace, concurrency: int, paths: list[str], method: str
 ) -> dict:
@@ -453,11 +467,12 @@ def phase_db(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
         rng = np.random.default_rng(9)
         similar = [f"/v1/models/{m}/similar?k={K}" for m in rng.choice(model_ids, 5000)]
         for concurrency in args.concurrency:
+            logged = (OUT / "api.log").stat().st_size
             r = load(base, args, concurrency, similar, "GET")
             print(
                 f"HTTP similar c={concurrency:>2}: {r['rps']:.0f} req/s, p50 {r['p50']:.1f} ms, "
                 f"p99 {r['p99']:.1f} ms ({r['count']} requests, errors {r['errors']}; "
-                f"load {load_average()})"
+                f"load {load_average()}); {server_time(logged)}"
             )
         filtered = [f"{p}&metadata.family=f{i % FAMILIES}" for i, p in enumerate(similar)]
         r = load(base, args, 1, filtered, "GET")
@@ -581,7 +596,7 @@ def main() -> None:
     parser.add_argument(
         "--descriptors", type=int, default=1_000_000, help="vectors in the index phase"
     )
-    parser.add_argument("--exact-max", type=int, default=20_000, help="SHAPESEARCH_INDEX_EXACT_MAX")
+    parser.add_argument("--exact-max", type=int, default=5_000, help="SHAPESEARCH_INDEX_EXACT_MAX")
     parser.add_argument(
         "--compact-min", type=int, default=500_000, help="SHAPESEARCH_INDEX_COMPACT_MIN"
     )
