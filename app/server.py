@@ -81,6 +81,9 @@ def _serve_processes(count: int, host: str, port: int, embedded_worker: bool) ->
     did nearly all the work.) When any process exits, the others are stopped and ``serve``
     exits non-zero, for the service manager to restart the whole service.
     """
+    if not hasattr(socket, "SO_REUSEPORT"):
+        print("error: SHAPESEARCH_API_PROCESSES > 1 needs SO_REUSEPORT (Linux)", file=sys.stderr)
+        return 1
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
     with socket.socket(family, socket.SOCK_STREAM) as reserved:
         # Bound, never listening: the port is ours (or this fails now, clearly), and a

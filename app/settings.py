@@ -306,10 +306,10 @@ class Settings(BaseSettings):
     api_processes: int = Field(
         default=1,
         ge=1,
-        description="API processes `shapesearch serve` runs on its port. Each holds its own "
-        "index and follows the change feed; the embedded worker's threads are shared out "
-        "among them. Two on two cores served 1.6x the similar requests of one (README, "
-        "Scale-out).",
+        description="API processes `shapesearch serve` runs on its port (Linux: each has a "
+        "socket of its own, SO_REUSEPORT). Each holds its own index and follows the change "
+        "feed; the embedded worker's threads are shared out among them. Two on two cores "
+        "served 1.6x the similar requests of one (README, Scale-out).",
     )
     query_threads: int = Field(
         default=4,
