@@ -173,7 +173,7 @@ class _Partition:
 
     @property
     def approximate(self) -> bool:
-        return self.kind != "flat"
+        return self.bits != 32
 
     def compress(self, sample: np.ndarray, expected: int, bits: int = 8) -> None:
         """Switch to IVF with ``bits``-bit codes (8 or 6) trained on ``sample : (m, d)

@@ -8,7 +8,6 @@ import logging
 import multiprocessing
 import multiprocessing.connection
 import multiprocessing.process
-import os
 import signal
 import socket
 import sys
@@ -84,16 +83,14 @@ def _serve_processes(count: int, host: str, port: int, embedded_worker: bool) ->
     if not hasattr(socket, "SO_REUSEPORT"):
         print("error: SHAPESEARCH_API_PROCESSES > 1 needs SO_REUSEPORT (Linux)", file=sys.stderr)
         return 1
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    with socket.socket(family, socket.SOCK_STREAM) as reserved:
+    try:
         # Bound, never listening: the port is ours (or this fails now, clearly), and a
         # socket that does not listen receives no connections.
-        reserved.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
-        try:
-            reserved.bind((host, port))
-        except OSError as error:
-            print(f"error: cannot listen on {host}:{port}: {error.strerror}", file=sys.stderr)
-            return 1
+        reserved = _port_socket(host, port)
+    except OSError as error:
+        print(f"error: cannot listen on {host}:{port}: {error.strerror}", file=sys.stderr)
+        return 1
+    with reserved:
         spawn = multiprocessing.get_context("spawn")  # fresh interpreters: no forked threads
         processes = [
             spawn.Process(target=_api_process, args=(host, port, embedded_worker, count),
@@ -122,8 +119,22 @@ def _serve_processes(count: int, host: str, port: int, embedded_worker: bool) ->
 
 def _terminate(processes: list[multiprocessing.process.BaseProcess]) -> None:
     for process in processes:
-        if process.is_alive() and process.pid is not None:
-            os.kill(process.pid, signal.SIGTERM)  # uvicorn's graceful shutdown
+        if process.is_alive():
+            process.terminate()  # SIGTERM: uvicorn's graceful shutdown
+
+
+def _port_socket(host: str, port: int) -> socket.socket:
+    """A TCP socket bound to ``host:port`` that shares the port with the others bound so."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    bound = socket.socket(family, socket.SOCK_STREAM)
+    bound.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    bound.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+    try:
+        bound.bind((host, port))
+    except OSError:
+        bound.close()
+        raise
+    return bound
 
 
 def _api_process(host: str, port: int, embedded_worker: bool, count: int) -> None:
@@ -135,9 +146,4 @@ def _api_process(host: str, port: int, embedded_worker: bool, count: int) -> Non
     app = create_app(
         settings.model_copy(update={"workers": threads}), embedded_worker=embedded_worker
     )
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    listener = socket.socket(family, socket.SOCK_STREAM)
-    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
-    listener.bind((host, port))
-    uvicorn.Server(uvicorn.Config(app, **_UVICORN)).run(sockets=[listener])
+    uvicorn.Server(uvicorn.Config(app, **_UVICORN)).run(sockets=[_port_socket(host, port)])

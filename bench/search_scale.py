@@ -158,7 +158,7 @@ def rss_mb() -> float:
 
 
 def peak_rss_mb(pid: int) -> float:
-    """Peak RSS of process ``pid`` or, when it is uvicorn's supervisor of several API
+    """Peak RSS of process ``pid`` or, when it is ``serve`` supervising several API
     processes, of the largest of them (each holds its own index)."""
     children = Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
     peaks = []
@@ -596,11 +596,15 @@ def main() -> None:
     parser.add_argument(
         "--descriptors", type=int, default=1_000_000, help="vectors in the index phase"
     )
-    parser.add_argument("--exact-max", type=int, default=5_000, help="SHAPESEARCH_INDEX_EXACT_MAX")
-    parser.add_argument(
-        "--compact-min", type=int, default=500_000, help="SHAPESEARCH_INDEX_COMPACT_MIN"
-    )
-    parser.add_argument("--nprobe", type=int, default=8, help="SHAPESEARCH_INDEX_NPROBE")
+    from app.settings import Settings
+
+    for setting in ("index_exact_max", "index_compact_min", "index_nprobe"):  # the service's
+        parser.add_argument(
+            "--" + setting.removeprefix("index_").replace("_", "-"),
+            type=int,
+            default=Settings.model_fields[setting].default,
+            help=f"SHAPESEARCH_{setting.upper()}",
+        )
     parser.add_argument(
         "--api-processes", type=int, default=2, help="SHAPESEARCH_API_PROCESSES (db phase)"
     )
