@@ -15,7 +15,7 @@ does the same to all its views in the same batch. Vectors are unit-norm float32 
 the model's integer ``index_id``. A partition is
 
 * ``flat``: exact ``IndexIDMap2(IndexFlatL2)`` while it holds at most ``exact_max``
-  vectors (4 d bytes each: 614 MB for 10^5 vectors of 1534 dims, hence the limit);
+  vectors (4 d bytes each: ~680 MB for 10^5 vectors of 1686 dims, hence the limit);
 * ``ivf-sq8``: above that, ``IndexIVFScalarQuantizer`` with 8-bit codes (d bytes per vector,
   4x smaller) in ``sqrt(n)`` inverted lists, ``nprobe`` of them searched per query. Its
   distances are approximate: callers fetch ``rerank_candidates(k)`` and re-rank them

@@ -69,16 +69,19 @@ K = 10
 
 
 def real_descriptors(count: int, points: int) -> np.ndarray:
-    """``(count, d) float32`` unit descriptors of real models, described once and cached."""
-    cache = OUT / f"real_{count}_{points}.npy"
-    if cache.exists():
-        return np.load(cache)
+    """``(count, d) float32`` unit descriptors of real models, described once and cached
+    (per descriptor version: a new default layout is described afresh)."""
     from app.describing import pin_blas_threads
+    from core.descriptor import DescriptorSpec
     from core.pipeline import describe
     from core.settings import EngineSettings
 
-    pin_blas_threads()
     settings = EngineSettings(max_points=points)
+    version = DescriptorSpec.from_settings(settings.descriptor).version(settings)
+    cache = OUT / f"real_{count}_{points}_{version.rsplit(';', 1)[-1]}.npy"
+    if cache.exists():
+        return np.load(cache)
+    pin_blas_threads()
     files = sorted(p for p in (DATASETS / "capod").glob("*/*") if p.suffix in {".obj", ".off"})
     parts = sorted(
         p for p in (DATASETS / "parts").iterdir() if p.suffix.lower() in {".stl", ".ply", ".obj"}

@@ -7,16 +7,22 @@ dense patch of a scan does not outvote a sparse one. Histograms are square-roote
 is scaled to unit norm, then weighted; the whole vector has unit norm, so L2 distance and
 inner product rank alike in FAISS.
 
-The spectral blocks are intrinsic (unchanged by bending); two extrinsic blocks describe the
-embedding itself, both invariant to rotation, translation and scale:
+The spectral blocks are intrinsic (unchanged by bending); the extrinsic blocks describe the
+embedding itself from ``core.extrinsic``'s measurements, all invariant to rotation,
+translation and scale:
 
-- D2 (Osada et al. 2002): histogram of distances between random area-weighted point pairs,
-  over their mean distance, square-rooted like the others;
-- spread: square roots of the sorted eigenvalues of the area-weighted covariance of the
-  points over their sum (a rod ~ (1, 0, 0), a plate ~ (0.7, 0.7, 0), a ball ~ (0.58, ...)).
+- D2 and D1 (Osada et al. 2002): histograms of the distances between random area-weighted
+  point pairs and of the distances from the centroid, each over its mean;
+- spread: square roots of the principal variances over their sum;
+- normals: per principal axis, an area-weighted histogram of ``|cos|`` between the surface
+  normals and that axis;
+- symmetry: the distances of the surface from its seven mirror, half-turn and inversion
+  images in its principal frame;
+- axes: per principal axis, an area-weighted histogram of the points' offsets from the
+  centroid along it, over the RMS radius.
 
-Layout: ``[HKS | WKS | WKS slope | eigenvalue channel | D2 | spread]``, blocks of weight 0
-left out.
+Layout: ``[HKS | WKS | WKS slope | eigenvalue channel | D2 | spread | D1 | normals |
+symmetry | axes]``, blocks of weight 0 left out.
 
 Everything that changes the vector is written into ``descriptor_version``: vectors with
 different versions must never be compared.
@@ -29,13 +35,39 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from core.extrinsic import (
+    axis_offsets,
+    centroid_distance_ratios,
+    normal_axis_cosines,
+    pair_distance_ratios,
+    reflection_symmetry,
+    spread_profile,
+    surface_normals,
+)
 from core.settings import DescriptorSettings, EngineSettings
 from core.signatures import heat_kernel_signature, wave_kernel_signature, zero_eigenvalue_count
 
-__all__ = ["DescriptorSpec", "area_histograms", "distance_distribution", "spread_profile"]
+__all__ = [
+    "BLOCK_WEIGHTS",
+    "VERSION_LENGTH",
+    "DescriptorSpec",
+    "area_histograms",
+    "distance_distribution",
+]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
-_LAYOUT = "ss3"
+_LAYOUT = "ss4"
+
+#: Longest ``descriptor_version`` (the width of the database column).
+VERSION_LENGTH = 200
+
+#: Every block's name (``DescriptorSpec.blocks``), in layout order, and the
+#: ``DescriptorSettings`` field that weighs it.
+BLOCK_WEIGHTS: dict[str, str] = {
+    "hks": "hks_weight", "wks": "wks_weight", "slope": "wks_slope_weight", "dna": "dna_weight",
+    "d2": "d2_weight", "spread": "spread_weight", "d1": "d1_weight", "normals": "normal_weight",
+    "symmetry": "symmetry_weight", "axes": "axis_weight",
+}
 
 
 def area_histograms(
@@ -90,28 +122,8 @@ def distance_distribution(
     histogram : (b,) float
         Sums to 1.
     """
-    rng = np.random.default_rng(seed)
-    probability = areas / areas.sum()
-    ends = rng.choice(points.shape[0], size=(2, pairs), p=probability)
-    distances = np.linalg.norm(points[ends[0]] - points[ends[1]], axis=1)
-    mean = distances.mean()
-    ratios = distances / mean if mean > 0 else distances
+    ratios = pair_distance_ratios(points, areas, pairs, seed)
     return area_histograms(ratios[:, None], np.ones(pairs), edges)[0]
-
-
-def spread_profile(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
-    """How the surface spreads along its principal axes, ``(3,) float`` of unit norm.
-
-    Square roots of the eigenvalues of the area-weighted covariance of ``points : (n, 3)``
-    (about their area-weighted centroid), largest first, over their sum: the eigenvalues
-    do not change under rotation and the ratio does not change under scaling.
-    """
-    weights = areas / areas.sum()
-    offsets = points - weights @ points
-    covariance = (offsets * weights[:, None]).T @ offsets
-    variances = np.maximum(np.sort(np.linalg.eigvalsh(covariance))[::-1], 0.0)
-    total = variances.sum()
-    return np.sqrt(variances / total) if total > 0 else np.zeros(3)
 
 
 def _unit_block(block: np.ndarray) -> np.ndarray:
@@ -144,6 +156,14 @@ class DescriptorSpec:
     d2_seed: int
     d2_weight: float
     spread_weight: float
+    d1_edges: tuple[float, ...]
+    d1_weight: float
+    normal_neighbours: int
+    normal_edges: tuple[float, ...]
+    normal_weight: float
+    symmetry_weight: float
+    axis_edges: tuple[float, ...]
+    axis_weight: float
 
     @classmethod
     def from_settings(cls, settings: DescriptorSettings) -> DescriptorSpec:
@@ -171,6 +191,14 @@ class DescriptorSpec:
             d2_seed=settings.d2_seed,
             d2_weight=settings.d2_weight,
             spread_weight=settings.spread_weight,
+            d1_edges=tuple(np.linspace(*settings.d1_range, settings.bins + 1).tolist()),
+            d1_weight=settings.d1_weight,
+            normal_neighbours=settings.normal_neighbours,
+            normal_edges=tuple(np.linspace(0.0, 1.0, settings.normal_bins + 1).tolist()),
+            normal_weight=settings.normal_weight,
+            symmetry_weight=settings.symmetry_weight,
+            axis_edges=tuple(np.linspace(*settings.axis_range, settings.axis_bins + 1).tolist()),
+            axis_weight=settings.axis_weight,
         )
 
     def signature(self, eigenvalues: np.ndarray, eigenvectors: np.ndarray) -> np.ndarray:
@@ -194,7 +222,7 @@ class DescriptorSpec:
     @property
     def extrinsic(self) -> bool:
         """True when the vector depends on the points, not only on the spectrum."""
-        return self.d2_weight > 0 or self.spread_weight > 0
+        return max(getattr(self, name) for name in DescriptorSettings.EXTRINSIC_WEIGHTS) > 0
 
     def histogram(
         self,
@@ -228,40 +256,73 @@ class DescriptorSpec:
         histograms lose which values occur together at one point, and the slope keeps the
         part of that joint information that separates classes best (measured on capod).
         """
+        blocks = self.blocks(signature, areas, eigenvalues, points)
+        return _unit_block(np.concatenate(list(blocks.values()))).astype(np.float32)
+
+    def blocks(
+        self,
+        signature: np.ndarray,
+        areas: np.ndarray,
+        eigenvalues: np.ndarray,
+        points: np.ndarray | None = None,
+    ) -> dict[str, np.ndarray]:
+        """The weighted blocks of ``histogram`` by name (``BLOCK_WEIGHTS``), in layout
+        order, before the whole is scaled to unit norm; blocks of weight 0 are left out.
+        Same parameters.
+
+        With every weight 1 they are the unit blocks (``spread`` is unit by construction,
+        ``symmetry`` raw) that a weight search recombines.
+        """
         n_times = len(self.times)
-        blocks = []
+        blocks: dict[str, np.ndarray] = {}
         if self.hks_weight > 0:
             hks = area_histograms(signature[:, :n_times], areas, np.asarray(self.hks_edges))
-            blocks.append(self.hks_weight * _unit_block(np.sqrt(hks)))
+            blocks["hks"] = self.hks_weight * _unit_block(np.sqrt(hks))
         if self.energies:
             log_wks = signature[:, n_times:]
             if self.wks_weight > 0:
                 wks = area_histograms(log_wks, areas, np.asarray(self.wks_edges))
-                blocks.append(self.wks_weight * _unit_block(np.sqrt(wks)))
+                blocks["wks"] = self.wks_weight * _unit_block(np.sqrt(wks))
             if self.slope_weight > 0:
                 slope = area_histograms(
                     np.diff(log_wks, axis=1), areas, np.asarray(self.slope_edges)
                 )
-                blocks.append(self.slope_weight * _unit_block(np.sqrt(slope)))
+                blocks["slope"] = self.slope_weight * _unit_block(np.sqrt(slope))
         if self.dna_count and self.dna_weight > 0:
-            blocks.append(self.dna_weight * _unit_block(self._eigenvalue_channel(eigenvalues)))
+            blocks["dna"] = self.dna_weight * _unit_block(self._eigenvalue_channel(eigenvalues))
         if self.extrinsic:
-            blocks.extend(self._extrinsic_blocks(points, areas, signature.shape[0]))
-        return _unit_block(np.concatenate(blocks)).astype(np.float32)
+            blocks.update(self._extrinsic_blocks(points, areas, signature.shape[0]))
+        return blocks
 
     def _extrinsic_blocks(
         self, points: np.ndarray | None, areas: np.ndarray, count: int
-    ) -> list[np.ndarray]:
+    ) -> dict[str, np.ndarray]:
         if points is None or points.shape != (count, 3):
-            raise ValueError("the D2 and spread blocks need the (n, 3) points of the signature")
-        blocks = []
+            raise ValueError("the extrinsic blocks need the (n, 3) points of the signature")
+        blocks: dict[str, np.ndarray] = {}
         if self.d2_weight > 0:
             d2 = distance_distribution(
                 points, areas, np.asarray(self.d2_edges), self.d2_pairs, self.d2_seed
             )
-            blocks.append(self.d2_weight * _unit_block(np.sqrt(d2)))
+            blocks["d2"] = self.d2_weight * _unit_block(np.sqrt(d2))
         if self.spread_weight > 0:
-            blocks.append(self.spread_weight * spread_profile(points, areas))
+            blocks["spread"] = self.spread_weight * spread_profile(points, areas)
+        if self.d1_weight > 0:
+            ratios = centroid_distance_ratios(points, areas)
+            d1 = area_histograms(ratios[:, None], areas, np.asarray(self.d1_edges))
+            blocks["d1"] = self.d1_weight * _unit_block(np.sqrt(d1))
+        if self.normal_weight > 0:
+            normals = surface_normals(points, self.normal_neighbours)
+            cosines = normal_axis_cosines(points, areas, normals)
+            facing = area_histograms(cosines, areas, np.asarray(self.normal_edges))
+            blocks["normals"] = self.normal_weight * _unit_block(np.sqrt(facing))
+        if self.symmetry_weight > 0:
+            # Raw distances, not unit norm: how symmetric a part is, not only in which way.
+            blocks["symmetry"] = self.symmetry_weight * reflection_symmetry(points, areas)
+        if self.axis_weight > 0:
+            edges = np.asarray(self.axis_edges)
+            offsets = area_histograms(axis_offsets(points, areas), areas, edges)
+            blocks["axes"] = self.axis_weight * _unit_block(np.sqrt(offsets))
         return blocks
 
     def _eigenvalue_channel(self, eigenvalues: np.ndarray) -> np.ndarray:
@@ -306,16 +367,22 @@ class DescriptorSpec:
             )
         if self.dna_count:
             parts.append(f"dna={self.dna_count}w{self.dna_weight:g}")
-        if self.d2_weight > 0:
-            parts.append(
-                f"d2={len(self.d2_edges) - 1}[{self.d2_edges[0]:g},{self.d2_edges[-1]:g}]"
-                f"p{self.d2_pairs}s{self.d2_seed}w{self.d2_weight:g}"
-            )
-        if self.spread_weight > 0:
-            parts.append(f"spread=w{self.spread_weight:g}")
+        extrinsic = {
+            "d2": self.d2_weight, "spr": self.spread_weight, "d1": self.d1_weight,
+            "nrm": self.normal_weight, "sym": self.symmetry_weight, "ax": self.axis_weight,
+        }
+        if self.extrinsic:
+            # Names, and weights other than 1; bins, pairs and neighbours are in the digest.
+            parts.append("ext=" + ",".join(
+                name if weight == 1 else f"{name}:{weight:g}"
+                for name, weight in extrinsic.items() if weight > 0
+            ))
         # The readable part rounds; the digest pins every exact value (a custom time grid).
         exact = repr((self, settings.laplacian, settings.normalisation, settings.max_points,
                       settings.sample_seed, settings.outlier_filter, settings.outlier_ratio,
                       cutoff))
-        parts.append(hashlib.sha256(exact.encode()).hexdigest()[:10])
-        return ";".join(parts)
+        digest = hashlib.sha256(exact.encode()).hexdigest()[:10]
+        # The database keeps VERSION_LENGTH characters: an unusual setting's long readable
+        # part is cut, never the digest that tells versions apart.
+        readable = ";".join(parts)[: VERSION_LENGTH - len(digest) - 1]
+        return f"{readable};{digest}"

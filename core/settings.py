@@ -6,7 +6,8 @@ in one place, ``validate()``, so every caller gets the same refusal for the same
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import numpy as np
 
@@ -70,17 +71,21 @@ class DescriptorSettings:
     area-weighted histograms of log scaled HKS per time (when ``hks_weight > 0``), of log WKS
     per energy and of the WKS slope between neighbouring energies (when ``wks_energies > 0``;
     the slope when ``wks_slope_weight > 0``), a normalised eigenvalue channel (when
-    ``dna_count > 0``), and two extrinsic blocks of the points themselves: the D2 shape
-    distribution (``d2_weight``) and the spread, the sorted eigenvalues of the points'
-    covariance (``spread_weight``).
+    ``dna_count > 0``), and extrinsic blocks of the points themselves (``core.extrinsic``):
+    the D2 and D1 shape distributions (``d2_weight``, ``d1_weight``), the spread of the
+    principal extents (``spread_weight``), the directions the surface faces relative to its
+    principal axes (``normal_weight``), its distance from its mirror, half-turn and inversion
+    images (``symmetry_weight``, raw distances rather than a unit block) and where it lies
+    along each principal axis (``axis_weight``).
 
-    The spectral blocks are intrinsic: they cannot tell a bent sheet from a flat one, nor
-    most engineering families apart by their proportions; the extrinsic blocks can. Weights
-    were chosen on the generated parts' *tune* split together with capod, by maximising the
-    mean of both mAPs subject to capod mAP >= 0.93 (issue 12): the previous WKS-dominated
-    default (HKS 0.2, slope 1.0, no extrinsic block) had mAP 0.530 on parts/tune and 0.934 on
-    capod; these defaults have 0.596 and 0.954. On the held-out parts/test split, scored
-    once after the choice: NN 0.804 -> 0.904, mAP 0.512 -> 0.577.
+    The spectral blocks are intrinsic: they cannot tell a bent sheet from a flat one, nor a
+    U profile from a Z profile with the same web and flanges; the extrinsic blocks can.
+    Weights were chosen on the generated parts' *tune* split together with capod (issue 12,
+    docs/results.md "third pass"): the mean of six mAPs (clean, and merged and single-view
+    scans in scan mode, on both sets) subject to capod clean mAP >= 0.93
+    (``bench/descriptor_weights.py``). On the held-out parts *test* split, scored once after
+    the choice: NN 0.904 -> 0.950, mAP 0.577 -> 0.637 against the previous default (``ss3``:
+    D2 and spread only).
     """
 
     hks_times: tuple[float, ...] = tuple(np.geomspace(1e-3, 1e-1, 16).tolist())
@@ -110,13 +115,37 @@ class DescriptorSettings:
     d2_pairs: int = 20000
     d2_seed: int = 0
     spread_weight: float = 1.0
+    # D1: distances from the centroid over their mean; 3 is far beyond any part's tail.
+    d1_weight: float = 1.0
+    d1_range: tuple[float, float] = (0.0, 3.0)
+    # Normals by local PCA of the 12 nearest points; 10 bins of |cos| per principal axis.
+    normal_weight: float = 0.5
+    normal_bins: int = 10
+    normal_neighbours: int = 12
+    symmetry_weight: float = 1.0
+    # Offsets along the principal axes over the RMS radius: the ends of a thin rod lie at
+    # sqrt(3) ~ 1.73, so 2.5 holds every point of most parts; beyond it the end bin.
+    axis_weight: float = 0.5
+    axis_range: tuple[float, float] = (0.0, 2.5)
+    axis_bins: int = 16
+
+    #: The weights of the blocks computed from the points rather than the spectrum.
+    EXTRINSIC_WEIGHTS: ClassVar[tuple[str, ...]] = (
+        "d2_weight", "spread_weight", "d1_weight", "normal_weight", "symmetry_weight",
+        "axis_weight",
+    )
+
+    def intrinsic(self) -> DescriptorSettings:
+        """The same settings with every extrinsic block off: a purely spectral descriptor."""
+        return replace(self, **dict.fromkeys(self.EXTRINSIC_WEIGHTS, 0.0))
 
     def validate(self) -> None:
         if not self.hks_times or min(self.hks_times) <= 0:
             raise ValueError("hks_times must be a non-empty list of positive times")
         if self.bins < 2:
             raise ValueError("descriptor needs at least 2 histogram bins")
-        for name in ("hks_range", "wks_range", "wks_log_range", "wks_slope_range", "d2_range"):
+        for name in ("hks_range", "wks_range", "wks_log_range", "wks_slope_range", "d2_range",
+                     "d1_range", "axis_range"):
             low, high = getattr(self, name)
             if not low < high:
                 raise ValueError(f"{name} must be (low, high) with low < high")
@@ -124,12 +153,14 @@ class DescriptorSettings:
             raise ValueError("wks_energies and dna_count must be >= 0")
         if self.wks_sigma <= 0:
             raise ValueError("wks_sigma must be positive")
+        extrinsic = [getattr(self, name) for name in self.EXTRINSIC_WEIGHTS]
         weights = (
-            self.hks_weight, self.wks_weight, self.wks_slope_weight, self.dna_weight,
-            self.d2_weight, self.spread_weight,
+            self.hks_weight, self.wks_weight, self.wks_slope_weight, self.dna_weight, *extrinsic
         )
         if min(weights) < 0:
             raise ValueError("channel weights must be >= 0")
+        if min(self.normal_bins, self.axis_bins) < 2 or self.normal_neighbours < 3:
+            raise ValueError("normal_bins and axis_bins must be >= 2, normal_neighbours >= 3")
         if self.d2_pairs < 100:
             raise ValueError("d2_pairs must be at least 100")
         if not (
@@ -137,8 +168,7 @@ class DescriptorSettings:
             or (self.wks_energies > 0 and self.wks_weight > 0)
             or (self.wks_energies > 1 and self.wks_slope_weight > 0)
             or (self.dna_count > 0 and self.dna_weight > 0)
-            or self.d2_weight > 0
-            or self.spread_weight > 0
+            or max(extrinsic) > 0
         ):
             raise ValueError("descriptor has no block with a positive weight")
 
@@ -159,10 +189,10 @@ class ViewSettings:
     ``boundary_weights`` is on. None of these change the model's own descriptor, so they are
     not part of the descriptor version.
 
-    ``boundary_weights`` is off by default: with the ``ss3`` descriptor, on the whole of capod
-    (where it was chosen) scan mode without them scored mAP 0.691 / 0.812 for single-view /
-    merged scans against 0.666 / 0.778 with them, and the parts test split agreed
-    (docs/results.md, "Issue 12, second pass").
+    ``boundary_weights`` is off by default: on the whole of capod (where it was chosen) scan
+    mode without them scored mAP 0.691 / 0.812 for single-view / merged scans against 0.666 /
+    0.778 with them (``ss3`` descriptor; with ``ss4`` 0.748 / 0.867 against 0.717 / 0.846),
+    and the parts test split agreed (docs/results.md, "Issue 12, second pass").
     """
 
     # bench/views.py (29 parts and capod models, CPU seconds): the part with 3 views costs

@@ -8,12 +8,14 @@ import numpy as np
 import pytest
 
 from core.descriptor import (
+    BLOCK_WEIGHTS,
+    VERSION_LENGTH,
     DescriptorSpec,
     area_histograms,
     distance_distribution,
-    spread_profile,
 )
 from core.evaluation.scans import random_rotation
+from core.extrinsic import spread_profile
 from core.settings import CutoffSettings, DescriptorSettings, EngineSettings
 from tests.shapes import plate_points, sphere_points, torus_points
 
@@ -55,6 +57,9 @@ def fake_points(n_points: int = 400, seed: int = 0) -> np.ndarray:
         DescriptorSettings(hks_weight=0.0, wks_weight=0.0),
         DescriptorSettings(d2_weight=0.0),
         DescriptorSettings(spread_weight=0.0, bins=8),
+        DescriptorSettings(d1_weight=0.0, normal_bins=4),
+        DescriptorSettings(normal_weight=0.0, symmetry_weight=0.0, axis_bins=5),
+        DescriptorSettings(axis_weight=0.0),
         DescriptorSettings(
             hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0
         ),
@@ -66,7 +71,8 @@ def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> No
     signature = spec.signature(eigenvalues, eigenvectors)
     descriptor = spec.histogram(signature, areas, eigenvalues, fake_points())
     # Blocks: HKS (times x bins), WKS (energies x bins), WKS slope ((energies - 1) x bins),
-    # eigenvalue channel (dna_count), D2 (bins), spread (3); a block with weight 0 is left out.
+    # eigenvalue channel (dna_count), D2 (bins), spread (3), D1 (bins), normals (3 x
+    # normal_bins), symmetry (7), axes (3 x axis_bins); a block with weight 0 is left out.
     energies = settings.wks_energies
     length = (
         (len(settings.hks_times) * settings.bins if settings.hks_weight > 0 else 0)
@@ -75,6 +81,10 @@ def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> No
         + (settings.dna_count if settings.dna_weight > 0 else 0)
         + (settings.bins if settings.d2_weight > 0 else 0)
         + (3 if settings.spread_weight > 0 else 0)
+        + (settings.bins if settings.d1_weight > 0 else 0)
+        + (3 * settings.normal_bins if settings.normal_weight > 0 else 0)
+        + (7 if settings.symmetry_weight > 0 else 0)
+        + (3 * settings.axis_bins if settings.axis_weight > 0 else 0)
     )
     assert descriptor.dtype == np.float32
     assert descriptor.shape == (length,)
@@ -105,7 +115,8 @@ def test_wks_block_uses_its_own_log_range_centred_near_zero() -> None:
 def test_a_descriptor_without_blocks_is_refused() -> None:
     with pytest.raises(ValueError, match="no block"):
         DescriptorSettings(
-            hks_weight=0.0, wks_energies=0, dna_count=0, d2_weight=0.0, spread_weight=0.0
+            hks_weight=0.0, wks_energies=0, dna_count=0, d2_weight=0.0, spread_weight=0.0,
+            d1_weight=0.0, normal_weight=0.0, symmetry_weight=0.0, axis_weight=0.0,
         ).validate()
 
 
@@ -138,13 +149,34 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(d2_seed=1),
         DescriptorSettings(d2_range=(0.0, 2.5)),
         DescriptorSettings(spread_weight=0.5),
+        DescriptorSettings(d1_weight=0.5),
+        DescriptorSettings(d1_range=(0.0, 2.5)),
+        DescriptorSettings(normal_weight=1.0),
+        DescriptorSettings(normal_bins=8),
+        DescriptorSettings(normal_neighbours=16),
+        DescriptorSettings(symmetry_weight=0.5),
+        DescriptorSettings(axis_weight=1.0),
+        DescriptorSettings(axis_range=(0.0, 2.0)),
+        DescriptorSettings(axis_bins=8),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 23
+    assert len(versions) == 32
+    assert max(len(version) for version in versions) <= VERSION_LENGTH
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)
 
 
-# --- extrinsic blocks: D2 and spread --------------------------------------------------------
+def test_a_long_version_keeps_its_digest_within_the_column() -> None:
+    # Unusual settings make the readable part longer than the database column: it is cut,
+    # the digest that tells the two apart is not.
+    cutoff = CutoffSettings(xi=1.2345e-10, t=0.012345, n_min=1000, n_max=10000)
+    base = EngineSettings(max_points=100000, cutoff=cutoff)
+    other = replace(base, descriptor=DescriptorSettings(symmetry_weight=0.5))
+    first, second = (DescriptorSpec.from_settings(s.descriptor).version(s) for s in (base, other))
+    assert len(first) == len(second) == VERSION_LENGTH
+    assert first[:150] == second[:150] and first != second
+
+
+# --- extrinsic blocks (their measurements: tests/test_extrinsic.py) --------------------------
 
 D2_EDGES = np.linspace(0.0, 3.0, 33)
 
@@ -182,6 +214,7 @@ def test_extrinsic_blocks_ignore_rotation_translation_and_scale() -> None:
     moved = 3.7 * points @ rotation.T + np.array([5.0, -2.0, 1.0])
     np.testing.assert_allclose(_d2(moved, areas), _d2(points, areas), atol=1e-12)
     np.testing.assert_allclose(spread_profile(moved, areas), spread_profile(points, areas))
+    np.testing.assert_allclose(_extrinsic(moved, areas), _extrinsic(points, areas), atol=1e-6)
 
 
 def test_spread_of_a_rod_a_plate_and_a_sphere() -> None:
@@ -195,12 +228,13 @@ def test_spread_of_a_rod_a_plate_and_a_sphere() -> None:
     assert np.linalg.norm(sphere) == pytest.approx(1.0)
 
 
-def _extrinsic(points: np.ndarray) -> np.ndarray:
-    """The D2 and spread part of the default descriptor, unit norm."""
+def _extrinsic(points: np.ndarray, areas: np.ndarray | None = None) -> np.ndarray:
+    """The extrinsic part of the default descriptor, unit norm."""
     spec = DescriptorSpec.from_settings(
         DescriptorSettings(hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0)
     )
-    eigenvalues, eigenvectors, areas = fake_spectrum(len(points))
+    eigenvalues, eigenvectors, uniform = fake_spectrum(len(points))
+    areas = uniform if areas is None else areas
     signature = spec.signature(eigenvalues, eigenvectors)
     return spec.histogram(signature, areas, eigenvalues, points)
 
@@ -241,6 +275,30 @@ def test_extrinsic_blocks_need_the_points() -> None:
         spec.histogram(signature, areas, eigenvalues)
     with pytest.raises(ValueError, match="points"):
         spec.histogram(signature, areas, eigenvalues, fake_points(300))
-    spectral = DescriptorSpec.from_settings(DescriptorSettings(d2_weight=0.0, spread_weight=0.0))
+    spectral = DescriptorSpec.from_settings(DescriptorSettings().intrinsic())
     assert not spectral.extrinsic
     assert spectral.histogram(signature, areas, eigenvalues).shape == (1534,)
+
+
+def test_unit_blocks_reweighted_give_the_descriptor_of_those_weights() -> None:
+    # What the weight search (bench/descriptor_weights.py) relies on: the blocks of a spec
+    # with every weight 1, scaled by w and joined, are the descriptor of weights w.
+    ones = DescriptorSpec.from_settings(
+        DescriptorSettings(**dict.fromkeys(BLOCK_WEIGHTS.values(), 1.0))
+    )
+    weights = {"hks": 0.5, "wks": 1.0, "slope": 0.0, "dna": 0.2, "d2": 1.5, "spread": 1.0,
+               "d1": 0.0, "normals": 0.5, "symmetry": 2.0, "axes": 1.0}
+    chosen = DescriptorSpec.from_settings(
+        DescriptorSettings(**{BLOCK_WEIGHTS[block]: weight for block, weight in weights.items()})
+    )
+    eigenvalues, eigenvectors, areas = fake_spectrum()
+    points = fake_points()
+    signature = ones.signature(eigenvalues, eigenvectors)
+    unit = ones.blocks(signature, areas, eigenvalues, points)
+    assert list(unit) == list(weights)
+    joined = np.concatenate([weights[name] * unit[name] for name in unit if weights[name] > 0])
+    np.testing.assert_allclose(
+        chosen.histogram(signature, areas, eigenvalues, points),
+        joined / np.linalg.norm(joined),
+        atol=1e-6,
+    )

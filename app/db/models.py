@@ -38,6 +38,8 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, deferred, mapped_column
 
+from core.descriptor import VERSION_LENGTH
+
 __all__ = [
     "ApiKey",
     "Base",
@@ -119,7 +121,7 @@ class Model(Base):
     eigenvalues: Mapped[list[float] | None] = deferred(mapped_column(JSON))
     # float32 bytes of a unit vector; deferred so that lists do not carry vectors.
     descriptor: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
-    descriptor_version: Mapped[str | None] = mapped_column(String(200))
+    descriptor_version: Mapped[str | None] = mapped_column(String(VERSION_LENGTH))
     # Scan mode (app.index, app.similarity): the descriptors of the model's virtual partial
     # views, (v, d) float32 bytes with v <= 16 (empty: none), and the model described as a
     # scan, d float32 bytes; deferred like descriptor.

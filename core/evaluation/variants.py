@@ -44,16 +44,14 @@ NAIVE_DESCRIPTOR = DescriptorSettings(
     hks_weight=1.0,
     wks_energies=0,
     dna_count=0,
-    d2_weight=0.0,
-    spread_weight=0.0,
-)
+).intrinsic()
 
 
 #: The default before issue 12: spectral blocks only, WKS-dominated (HKS weight 0.2, WKS slope
 #: 1.0), chosen on capod alone; kept to compare against and as the base of the signature
 #: variants below, so their figures stay those of docs/results.md.
 SPECTRAL_DESCRIPTOR = replace(
-    DescriptorSettings(), hks_weight=0.2, wks_slope_weight=1.0, d2_weight=0.0, spread_weight=0.0
+    DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0
 )
 
 
@@ -106,15 +104,18 @@ def _variants() -> dict[str, EngineSettings]:
         ),
         "wks+slope": _engine(descriptor=replace(spectral, hks_weight=0.0, dna_count=0)),
         "hks+wks+slope": _engine(descriptor=replace(spectral, dna_count=0)),
-        # Issue 12: the previous default, and the present one without each extrinsic block
-        # or with nothing else.
+        # Issue 12: the spectral default before it, the first extrinsic default (ss3: D2 and
+        # spread), and the present one without each extrinsic block or with nothing else.
         "spectral": _engine(descriptor=spectral),
-        "default-no-d2": _engine(descriptor=replace(default, d2_weight=0.0)),
-        "default-no-spread": _engine(descriptor=replace(default, spread_weight=0.0)),
-        "default-no-extrinsic": _engine(
-            descriptor=replace(default, d2_weight=0.0, spread_weight=0.0)
-        ),
-        "d2+spread": _engine(
+        "ss3": _engine(descriptor=replace(default.intrinsic(), d2_weight=1.0, spread_weight=1.0)),
+        **{
+            f"default-no-{name.removesuffix('_weight')}": _engine(
+                descriptor=replace(default, **{name: 0.0})
+            )
+            for name in DescriptorSettings.EXTRINSIC_WEIGHTS
+        },
+        "default-no-extrinsic": _engine(descriptor=default.intrinsic()),
+        "extrinsic": _engine(
             descriptor=replace(
                 default, hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0
             )

@@ -1,0 +1,151 @@
+"""Extrinsic measurements: analytic answers on spheres, planes and boxes, invariances, and
+the profile families they were added to tell apart."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from manifold3d import CrossSection
+
+from core.evaluation.scans import random_rotation
+from core.extrinsic import (
+    SIGN_FLIPS,
+    axis_offsets,
+    centroid_distance_ratios,
+    normal_axis_cosines,
+    principal_frame,
+    reflection_symmetry,
+    surface_normals,
+)
+from tests.shapes import fibonacci_sphere_points, plate_points, sphere_points, torus_points
+
+
+def _profile_points(outline: list[tuple[float, float]], length: float, count: int = 4000):
+    """Area-uniform samples of an extruded outline's surface, and their (equal) areas."""
+    mesh = CrossSection([np.asarray(outline, dtype=np.float64)]).extrude(length).to_mesh()
+    solid = trimesh.Trimesh(np.asarray(mesh.vert_properties)[:, :3], np.asarray(mesh.tri_verts))
+    points, _ = trimesh.sample.sample_surface_even(solid, count, seed=0)
+    return np.asarray(points), np.full(len(points), 1.0 / len(points))
+
+
+# A U and a Z section with the same web, flanges and thickness: the same surface, with one
+# flange moved to the other side (intrinsically alike: the spectral blocks barely differ).
+U_SECTION = [(0, 0), (60, 0), (60, 40), (54, 40), (54, 6), (6, 6), (6, 40), (0, 40)]
+Z_SECTION = [(0, -34), (6, -34), (6, 0), (60, 0), (60, 40), (54, 40), (54, 6), (0, 6)]
+
+
+def test_unit_sphere_centroid_distances_are_all_one() -> None:
+    points = fibonacci_sphere_points(2000) + np.array([3.0, -1.0, 2.0])
+    np.testing.assert_allclose(centroid_distance_ratios(points, np.ones(2000)), 1.0, atol=1e-3)
+
+
+def test_centroid_distances_are_over_their_area_weighted_mean() -> None:
+    points = torus_points(1000)
+    areas = np.random.default_rng(0).uniform(0.2, 2.0, 1000)
+    ratios = centroid_distance_ratios(points, areas)
+    assert (areas / areas.sum()) @ ratios == pytest.approx(1.0)
+
+
+def test_normals_of_a_plane_and_a_sphere() -> None:
+    plane = plate_points(1500)
+    normals = surface_normals(plane, 12)
+    np.testing.assert_allclose(np.abs(normals[:, 2]), 1.0, atol=1e-9)
+    sphere = sphere_points(3000)
+    radial = np.abs(np.sum(surface_normals(sphere, 12) * sphere, axis=1))
+    # Twelve neighbours span ~4 degrees of a 3000-point sphere: the normal is nearly radial.
+    assert np.median(radial) > 0.995
+
+
+def test_a_sphere_faces_every_axis_evenly() -> None:
+    # On the unit sphere the cosine between the normal and any fixed axis is uniform on
+    # [-1, 1] (Archimedes' hat-box theorem), so |cos| is uniform on [0, 1].
+    sphere = sphere_points(20000)
+    cosines = normal_axis_cosines(sphere, np.ones(20000), sphere)
+    for axis in range(3):
+        histogram, _ = np.histogram(cosines[:, axis], bins=5, range=(0.0, 1.0))
+        np.testing.assert_allclose(histogram / 20000, 0.2, atol=0.015)
+
+
+def test_a_box_faces_its_own_axes() -> None:
+    box = trimesh.creation.box(extents=(4.0, 2.0, 1.0))
+    points, faces = trimesh.sample.sample_surface_even(box, 3000, seed=0)
+    areas = np.ones(len(points))
+    cosines = normal_axis_cosines(points, areas, box.face_normals[faces])
+    # Every face is square to two principal axes and faces the third (up to the few
+    # thousandths of a radian by which sampling turns the axes).
+    assert np.all(np.isclose(cosines, 0.0, atol=0.01) | np.isclose(cosines, 1.0, atol=0.01))
+    # The largest faces (4 x 2) face the smallest extent, the third axis.
+    share = (cosines > 0.5).mean(axis=0)
+    np.testing.assert_allclose(share, np.array([2.0, 4.0, 8.0]) / 14.0, atol=0.03)
+
+
+def test_principal_frame_orders_the_axes_by_extent() -> None:
+    rod = np.column_stack([np.linspace(-5, 5, 300), np.zeros(300), np.zeros(300)])
+    rotation = random_rotation(np.random.default_rng(3))
+    coordinates, variances, axes = principal_frame(rod @ rotation.T, np.ones(300))
+    assert variances[0] > 0 and variances[1] == pytest.approx(0.0, abs=1e-12)
+    np.testing.assert_allclose(np.abs(coordinates[:, 0]), np.abs(np.linspace(-5, 5, 300)),
+                               atol=1e-9)
+    np.testing.assert_allclose(axes.T @ axes, np.eye(3), atol=1e-12)
+
+
+def test_axis_offsets_of_a_rod_and_a_box() -> None:
+    # A uniform rod on [-1, 1] has RMS radius ~1 / sqrt(3): its offsets |x| / RMS are
+    # uniform on [0, ~sqrt(3)], and nothing lies off its other axes.
+    x = np.linspace(-1.0, 1.0, 2001)
+    rod = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
+    rotation = random_rotation(np.random.default_rng(4))
+    offsets = axis_offsets(rod @ rotation.T + 5.0, np.ones(len(x)))
+    np.testing.assert_allclose(offsets[:, 0], np.abs(x) / np.sqrt(np.mean(x**2)), atol=1e-9)
+    np.testing.assert_allclose(offsets[:, 1:], 0.0, atol=1e-9)
+    # The surface of a 4 x 2 x 1 box: a quarter of its area (the 4 x 1 faces) lies at the
+    # half-width 1 along the second axis; over the RMS radius that is 1 / RMS.
+    box = trimesh.creation.box(extents=(4.0, 2.0, 1.0))
+    points, _ = trimesh.sample.sample_surface_even(box, 4000, seed=0)
+    offsets = axis_offsets(points, np.ones(len(points)))
+    radius = np.sqrt(np.trace(np.cov(points.T, bias=True)))
+    on_sides = np.isclose(offsets[:, 1], 1.0 / radius, atol=0.01)
+    assert on_sides.mean() == pytest.approx(8.0 / 28.0, abs=0.03)
+
+
+def test_a_box_is_symmetric_under_every_flip() -> None:
+    box = trimesh.creation.box(extents=(4.0, 2.0, 1.0))
+    points, _ = trimesh.sample.sample_surface_even(box, 4000, seed=0)
+    symmetry = reflection_symmetry(points, np.ones(len(points)))
+    assert symmetry.shape == (len(SIGN_FLIPS),)
+    # Only sampling: the flipped points fall between samples of the same faces.
+    spacing = np.sqrt(box.area / len(points)) / np.sqrt(np.trace(np.cov(points.T)))
+    assert symmetry.max() < spacing
+
+
+def test_symmetry_tells_a_u_section_from_a_z_section() -> None:
+    # Principal axes: 1 along the length, 2 along the web (U) or the flanges (Z), 3 across.
+    # A U section is its own mirror image in the planes normal to axes 1 and 2 and turns
+    # into itself about axis 3; a Z section only in the plane normal to axis 1, about axis 1
+    # and through its centre. Which of the seven flips leave each unchanged is exact.
+    expected = {"U": [0, 1, 3], "Z": [0, 5, 6]}
+    for name, section in (("U", U_SECTION), ("Z", Z_SECTION)):
+        symmetry = reflection_symmetry(*_profile_points(section, 200.0))
+        kept = np.flatnonzero(symmetry < 0.5 * symmetry.max())
+        assert kept.tolist() == expected[name], (name, symmetry)
+        # What is left is sampling: the flipped points fall between samples.
+        assert symmetry[kept].max() < 0.3 * symmetry.max(), (name, symmetry)
+
+
+@pytest.mark.parametrize("measure", ["centroid", "normals", "symmetry", "axes"])
+def test_measurements_ignore_rotation_translation_scale_and_normal_signs(measure: str) -> None:
+    points = torus_points(1200, r=0.3) * np.array([1.0, 1.6, 1.0])  # no degenerate axes
+    areas = np.random.default_rng(1).uniform(0.5, 1.5, 1200)
+    rotation = random_rotation(np.random.default_rng(2))
+    moved = 2.5 * points @ rotation.T + np.array([4.0, -1.0, 7.0])
+    if measure == "centroid":
+        before, after = (centroid_distance_ratios(p, areas) for p in (points, moved))
+    elif measure == "normals":
+        flipped = surface_normals(moved, 12) * np.where(np.arange(1200) % 2, 1.0, -1.0)[:, None]
+        before = normal_axis_cosines(points, areas, surface_normals(points, 12))
+        after = normal_axis_cosines(moved, areas, flipped)
+    else:
+        measurement = reflection_symmetry if measure == "symmetry" else axis_offsets
+        before, after = (measurement(p, areas) for p in (points, moved))
+    np.testing.assert_allclose(after, before, atol=1e-8)
