@@ -18,6 +18,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
+from core.extrinsic import surface_normals
+
 __all__ = ["boundary_weights", "hidden_point_removal", "view_directions", "virtual_views"]
 
 
@@ -119,13 +121,9 @@ def boundary_weights(
     weights : (n,) float
         All ones when no point is on a boundary (a closed surface).
     """
-    tree = cKDTree(points)
-    distances, index = tree.query(points, k=neighbours + 1)
-    local = points[index[:, 1:]] - points[:, None, :]  # (n, k, 3)
-    centred = local - local.mean(axis=1, keepdims=True)
-    _, axes = np.linalg.eigh(np.einsum("nki,nkj->nij", centred, centred))
-    normal = axes[:, :, 0]  # smallest principal direction
-    offset = local.mean(axis=1)
+    distances, index = cKDTree(points).query(points, k=neighbours + 1)
+    normal = surface_normals(points, neighbours)
+    offset = (points[index[:, 1:]] - points[:, None, :]).mean(axis=1)
     tangential = offset - np.sum(offset * normal, axis=1, keepdims=True) * normal
     spacing = distances[:, 1:].mean(axis=1)
     on_rim = np.linalg.norm(tangential, axis=1) > threshold * spacing
