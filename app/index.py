@@ -20,8 +20,8 @@ the model's integer ``index_id``. A partition is
   4x smaller) in ``sqrt(n)`` inverted lists, ``nprobe`` of them searched per query. Its
   distances are approximate: callers fetch ``rerank_candidates(k)`` and re-rank them
   exactly against the full vectors in the database (``app.similarity``);
-* ``ivf-sq6``: the same with 6-bit codes (0.75 d bytes per vector: 1.2 GB at 10^6 models
-  instead of 1.6) for a partition built with more than ``compact_min`` vectors. Its scan
+* ``ivf-sq6``: the same with 6-bit codes (0.75 d bytes per vector: 1.3 GB at 10^6 models
+  instead of 1.7) for a partition built with more than ``compact_min`` vectors. Its scan
   has no SIMD kernel in FAISS and costs about 3x the 8-bit one per code, which the
   benchmark shows is affordable at that size (bench/search_scale.py, README).
 

@@ -297,8 +297,8 @@ class Settings(BaseSettings):
         default=500_000,
         ge=1,
         description="An index partition built (at start-up) with more models than this "
-        "stores 6-bit codes instead of 8-bit ones: 0.75 bytes per dimension, 1.2 GB at 10^6 "
-        "models instead of 1.6 GB, scanned about 3x slower per code (search p50 4.7 ms at 10^6).",
+        "stores 6-bit codes instead of 8-bit ones: 0.75 bytes per dimension, 1.3 GB at 10^6 "
+        "models instead of 1.7 GB, scanned about 3x slower per code (search p50 3.4 ms at 10^6).",
     )
     index_nprobe: int = Field(
         default=8, ge=1, description="Inverted lists searched per query in an IVF partition."

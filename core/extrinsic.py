@@ -28,6 +28,7 @@ __all__ = [
     "SIGN_FLIPS",
     "axis_offsets",
     "centroid_distance_ratios",
+    "neighbourhood_normals",
     "normal_axis_cosines",
     "pair_distance_ratios",
     "principal_frame",
@@ -133,7 +134,13 @@ def surface_normals(points: np.ndarray, neighbours: int) -> np.ndarray:
     """
     count = min(neighbours, len(points) - 1)
     _, index = cKDTree(points).query(points, k=count + 1)
-    local = points[index[:, 1:]]
+    return neighbourhood_normals(points, index[:, 1:])
+
+
+def neighbourhood_normals(points: np.ndarray, neighbourhoods: np.ndarray) -> np.ndarray:
+    """``surface_normals`` from neighbourhoods already found: ``neighbourhoods : (n, k) int``
+    rows of ``points`` around each point (for callers that need the neighbours too)."""
+    local = points[neighbourhoods]
     centred = local - local.mean(axis=1, keepdims=True)
     _, axes = np.linalg.eigh(np.einsum("nki,nkj->nij", centred, centred))
     return axes[:, :, 0]

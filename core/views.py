@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
-from core.extrinsic import surface_normals
+from core.extrinsic import neighbourhood_normals
 
 __all__ = ["boundary_weights", "hidden_point_removal", "view_directions", "virtual_views"]
 
@@ -122,7 +122,7 @@ def boundary_weights(
         All ones when no point is on a boundary (a closed surface).
     """
     distances, index = cKDTree(points).query(points, k=neighbours + 1)
-    normal = surface_normals(points, neighbours)
+    normal = neighbourhood_normals(points, index[:, 1:])
     offset = (points[index[:, 1:]] - points[:, None, :]).mean(axis=1)
     tangential = offset - np.sum(offset * normal, axis=1, keepdims=True) * normal
     spacing = distances[:, 1:].mean(axis=1)

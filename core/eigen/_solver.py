@@ -109,9 +109,7 @@ def _m_normalised(vectors: np.ndarray, mass: sp.spmatrix) -> np.ndarray:
     return vectors / norms
 
 
-def _orthogonal_to(
-    vectors: np.ndarray, known: np.ndarray, mass: sp.spmatrix
-) -> np.ndarray:
+def _orthogonal_to(vectors: np.ndarray, known: np.ndarray, mass: sp.spmatrix) -> np.ndarray:
     """``vectors`` with their M-components along the ``known`` (M-orthonormal) columns
     removed, M-normalised again.
 
