@@ -19,14 +19,16 @@ the model's integer ``index_id``. A partition is
 * ``ivf-sq8``: above that, ``IndexIVFScalarQuantizer`` with 8-bit codes (d bytes per vector,
   4x smaller) in ``sqrt(n)`` inverted lists, ``nprobe`` of them searched per query. Its
   distances are approximate: callers fetch ``rerank_candidates(k)`` and re-rank them
-  exactly against the full vectors in the database (``app.similarity``);
+  exactly (``app.similarity``) against the full vectors, which the partition keeps in a
+  memory-mapped file (``app.full_vectors``: page cache, not the process's own memory);
 * ``ivf-sq6``: the same with 6-bit codes (0.75 d bytes per vector: 1.3 GB at 10^6 models
   instead of 1.7) for a partition built with more than ``compact_min`` vectors. Its scan
   has no SIMD kernel in FAISS and costs about 3x the 8-bit one per code, which the
   benchmark shows is affordable at that size (bench/search_scale.py, README).
 
-The index also knows each model's public id (``locate``) and gives back the vector it holds
-(``vector``), so a similar query by model id needs no read of the query's row first.
+The index also knows each model's public id (``locate``) and gives back the vectors it
+holds, exactly as added (``vector``, ``exact_vectors``), so a similar query by model id reads
+no descriptor from the database.
 
 Searches hold a partition's read lock and run side by side (FAISS releases the GIL);
 writes (batched per sync) take the write lock briefly. A rebuild builds new partitions
@@ -48,6 +50,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import FeedState, IndexEvent, Model
+from app.full_vectors import FullVectors
 from core.settings import MAX_VIEWS
 
 __all__ = ["VIEW_ID_BASE", "PartitionKey", "ShapeIndex", "view_id", "view_of", "views_key"]
@@ -165,6 +168,7 @@ class _Partition:
         self.nprobe = nprobe
         self.index: faiss.Index = faiss.IndexIDMap2(faiss.IndexFlatL2(self.padded))
         self.bits = 32  # float32 while flat
+        self.full: FullVectors | None = None  # the full vectors, once compressed
         self.lock = _ReadWriteLock()
 
     @property
@@ -190,10 +194,13 @@ class _Partition:
         ivf.set_direct_map_type(faiss.DirectMap.Hashtable)  # remove_ids without a scan
         ivf.nprobe = self.nprobe
         held = self.index
+        full = FullVectors(self.dim)
         if held.ntotal:
             ids = faiss.vector_to_array(held.id_map).astype(np.int64)
-            ivf.add_with_ids(held.index.reconstruct_n(0, held.ntotal), ids)  # padded already
-        self.index, self.bits = ivf, bits
+            vectors = held.index.reconstruct_n(0, held.ntotal)  # padded already
+            ivf.add_with_ids(vectors, ids)
+            full.put(ids.tolist(), vectors)
+        self.index, self.bits, self.full = ivf, bits, full
 
     def nbytes(self) -> int:
         n = int(self.index.ntotal)
@@ -210,10 +217,29 @@ class _Partition:
 
     def add(self, ids: np.ndarray, vectors: np.ndarray) -> None:
         self.index.add_with_ids(self.pad(vectors), ids)
+        if self.full is not None:
+            self.full.put(ids.tolist(), vectors)
 
     def remove(self, ids: np.ndarray) -> None:
         # An array selector: the IVF direct map (a hashtable) then removes without a scan.
         self.index.remove_ids(faiss.IDSelectorArray(len(ids), faiss.swig_ptr(ids)))
+        if self.full is not None:
+            self.full.drop(ids.tolist())
+
+    def exact_vectors(self, ids: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """``(m, dim) float32`` vectors of ``ids`` as added, and a ``(m,) bool`` mask of
+        the ids held."""
+        if self.full is not None:
+            return self.full.get(ids)
+        vectors = np.zeros((len(ids), self.dim), dtype=np.float32)
+        held = np.zeros(len(ids), dtype=bool)
+        for row, vector_id in enumerate(ids):
+            try:
+                vectors[row] = self.index.reconstruct(int(vector_id))[: self.dim]
+                held[row] = True
+            except RuntimeError:  # not held
+                pass
+        return vectors, held
 
     def search(
         self, query: np.ndarray, k: int, allowed: np.ndarray | None
@@ -302,16 +328,22 @@ class ShapeIndex:
         return index_id, key
 
     def vector(self, key: PartitionKey, index_id: int) -> np.ndarray | None:
-        """The ``(d,) float32`` vector of ``index_id`` as partition ``key`` holds it: exact
-        in a flat partition, decoded from its codes (approximate) in an IVF one."""
+        """The ``(d,) float32`` vector of ``index_id`` as it was added to partition ``key``,
+        or None when the partition does not hold it."""
+        vectors = self.exact_vectors(key, [index_id])
+        return None if vectors is None or not vectors[1][0] else vectors[0][0]
+
+    def exact_vectors(
+        self, key: PartitionKey, ids: Sequence[int]
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(m, d) float32`` vectors of ``ids`` as added to partition ``key`` (for a
+        compressed partition, from its full vectors: ``app.full_vectors``) and a ``(m,)
+        bool`` mask of those it holds; None without such a partition."""
         partition = self._partitions.get(key)
         if partition is None:
             return None
         with partition.lock.reading():
-            try:
-                return partition.index.reconstruct(index_id)[: partition.dim]
-            except RuntimeError:  # not held (removed meanwhile)
-                return None
+            return partition.exact_vectors(ids)
 
     def partition_size(self, key: PartitionKey) -> int:
         partition = self._partitions.get(key)
@@ -320,6 +352,15 @@ class ShapeIndex:
     def nbytes(self) -> int:
         """Bytes of vectors, codes, ids and centroids held (allocator slack not counted)."""
         return sum(partition.nbytes() for partition in list(self._partitions.values()))
+
+    def file_bytes(self) -> int:
+        """Bytes of the compressed partitions' full-vector files (``app.full_vectors``:
+        local disk and the kernel's page cache, not this process's own memory)."""
+        return sum(
+            partition.full.file_bytes
+            for partition in list(self._partitions.values())
+            if partition.full is not None
+        )
 
     def describe(self, key: PartitionKey) -> str:
         """The kind of a partition: "flat", "ivf-sq8", "ivf-sq6" or "empty"."""

@@ -289,9 +289,11 @@ class Settings(BaseSettings):
         ge=1,
         description="Largest index partition (tenant, descriptor version) searched exactly; "
         "larger ones are IVF with 8-bit scalar-quantised vectors (4x smaller), re-ranked "
-        "exactly from the stored descriptors. An exact search scans every vector: a similar at "
-        "20,000 models took 6.2 ms exact and 1.5 ms in IVF (recall@10 0.9985-1 from 6,000 "
-        "models up; bench/search_scale.py).",
+        "exactly from their full vectors, kept in a memory-mapped temporary file (4 bytes "
+        "per dimension per model in TMPDIR: local disk, not tmpfs, and served from the page "
+        "cache). An exact search scans every vector: a similar at 20,000 models took 6.2 ms "
+        "exact and 1.5 ms in IVF (recall@10 0.9985-1 from 6,000 models up; "
+        "bench/search_scale.py).",
     )
     index_compact_min: int = Field(
         default=500_000,

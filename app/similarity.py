@@ -5,16 +5,18 @@ Score: descriptors are unit vectors, so the L2 distance ``d`` lies in [0, 2] and
 ``score = 1 - d**2 / 4`` (clipped to [0, 1]) equals ``(1 + cos) / 2``: 1 for identical
 descriptors, 0.5 for orthogonal ones, 0 for opposite ones.
 
-Every candidate is re-read from the database, the source of truth: a model deleted by
-another process a moment ago is never returned. When the partition is approximate
-(IVF-SQ8, see ``app.index``) the same query reads the candidates' full descriptors and the
-distances are recomputed exactly, so scores never carry quantisation error.
+Every candidate is confirmed by the database, the source of truth, in one statement of
+the few columns an answer shows: a model deleted by another process a moment ago is never
+returned. When the partition is approximate (IVF-SQ, see ``app.index``) the distances are
+recomputed exactly from the full vectors the index keeps (``app.full_vectors``), so scores
+never carry quantisation error.
 
 Metadata filters, two ways, and either way "k results whenever k matching models exist":
 
 * selective (at most ``pushdown_max`` models match): the matching ids are selected in SQL
-  (``jsonb @>`` on PostgreSQL, served by a GIN index; ``json_extract`` on SQLite) and only
-  those ids are searched (a FAISS ``IDSelectorBatch``);
+  (``jsonb @>`` on PostgreSQL, served by a GIN index; on SQLite from a table of metadata
+  entries indexed on (tenant, key, value), kept by triggers) and only those ids are
+  searched (a FAISS ``IDSelectorBatch``);
 * otherwise the index is searched for more and more candidates (x4 each round) until ``k``
   of them pass the filters or the partition is exhausted; matches are then common, so few
   rounds are needed.
@@ -31,6 +33,7 @@ certain: no model not yet seen can be nearer than the last hit of a partition no
 
 from __future__ import annotations
 
+import functools
 import json
 import uuid
 from dataclasses import dataclass
@@ -42,15 +45,17 @@ from sqlalchemy import (
     ColumnElement,
     Connection,
     Row,
+    Select,
     and_,
     any_,
     bindparam,
     cast,
+    column,
     false,
-    func,
     literal,
     or_,
     select,
+    table,
 )
 from sqlalchemy.dialects.postgresql import ARRAY, JSONB
 
@@ -69,6 +74,11 @@ __all__ = [
 ]
 
 PUSHDOWN_MAX = 10_000
+
+# SQLite's metadata entries, kept by triggers (migrations/versions/0007_metadata_values.py).
+_METADATA_VALUES = table(
+    "metadata_values", column("index_id"), column("tenant"), column("key"), column("value")
+)
 
 #: ``shape``: whole models only (the default); ``scan``: best of each model and its views.
 SearchMode = Literal["shape", "scan"]
@@ -125,26 +135,42 @@ def _values_written_as(wanted: str) -> list[Any]:
     return values
 
 
-def _sql_filter(connection: Connection, filters: dict[str, str]) -> ColumnElement[bool]:
-    """A SQL condition true for every model that ``metadata_matches`` (perhaps a few more)."""
+def _sql_filter(
+    connection: Connection, tenant: str, filters: dict[str, str]
+) -> ColumnElement[bool]:
+    """A SQL condition true for every model of ``tenant`` that ``metadata_matches`` (perhaps
+    a few more), served by an index on either backend."""
     conditions = []
     postgres = connection.dialect.name == "postgresql"
     for key, wanted in filters.items():
         values = _values_written_as(wanted)
-        if postgres:
+        if postgres:  # the GIN index of migration 0005
             document = cast(Model.meta, JSONB)
-            options = [
-                document.op("@>")(cast(literal(json.dumps({key: v})), JSONB)) for v in values
-            ]
-        else:
-            path = '$."' + key.replace("\\", "\\\\").replace('"', '\\"') + '"'
-            extracted = func.json_extract(Model.meta, path)
-            options = [
-                extracted == (json.dumps(v) if isinstance(v, list | dict) else v)
-                for v in values
-                if v is not None
-            ] or [false()]
-        conditions.append(or_(*options))
+            conditions.append(
+                or_(
+                    *(document.op("@>")(cast(literal(json.dumps({key: v})), JSONB)) for v in values)
+                )
+            )
+            continue
+        # SQLite: the (tenant, key, value) entries of migration 0007, whose values are
+        # json_each's: text, numbers (true and false as 1 and 0), compact JSON text.
+        entries = [
+            json.dumps(v, separators=(",", ":")) if isinstance(v, list | dict) else v
+            for v in values
+            if v is not None
+        ]
+        if not entries:
+            conditions.append(false())
+            continue
+        conditions.append(
+            Model.index_id.in_(
+                select(_METADATA_VALUES.c.index_id).where(
+                    _METADATA_VALUES.c.tenant == tenant,
+                    _METADATA_VALUES.c.key == key,
+                    _METADATA_VALUES.c.value.in_(entries),
+                )
+            )
+        )
     return and_(*conditions)
 
 
@@ -160,7 +186,7 @@ def matching_ids(
             Model.tenant == tenant,
             Model.descriptor_version == version,
             Model.status == "ready",
-            _sql_filter(connection, filters),
+            _sql_filter(connection, tenant, filters),
         )
         .limit(limit + 1)
     ).all()
@@ -185,10 +211,10 @@ def find_similar(
     ``scan`` mode each model's best entry counts (see the module's docstring).
 
     ``indexed_query`` (shape mode): ``vector`` is the index's copy of model ``exclude``
-    (``ShapeIndex.vector``), not read from the database. That model's row is then confirmed
-    in the statement that confirms the first candidates, one statement for the whole query,
-    and in an approximate partition its stored descriptor replaces the decoded copy for the
-    exact distances. Raises ``QueryChanged`` when the row is no longer ready under ``key``.
+    (``ShapeIndex.vector``: the vector as added, in a compressed partition too), not read
+    from the database. That model's row is then confirmed in the statement that confirms
+    the first candidates, one statement for the whole query. Raises ``QueryChanged`` when
+    the row is no longer ready under ``key``.
     """
     filters = filters or {}
     vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
@@ -211,25 +237,28 @@ def find_similar(
         hits = index.search(key, vector, fetch, allowed=allowed)
         fresh = [i for i, _ in hits if i not in seen and i != exclude]
         seen.update(i for i, _ in hits)
-        extra = [Model.descriptor] if approximate else []
         if query_id is None:
-            rows = _ready_candidates(connection, key[0], fresh, *extra)
+            rows = _ready_candidates(connection, key[0], fresh)
         else:  # the query model's own row rides along, once
-            rows = _ready_candidates(
-                connection, key[0], [*fresh, query_id], *extra, Model.descriptor_version
-            )
-            vector, rows = _stored_query(rows, query_id, key, vector, approximate)
+            rows = _ready_candidates(connection, key[0], [*fresh, query_id], "descriptor_version")
+            rows = _without_query(rows, query_id, key)
             query_id = None
-        for model, distance in _confirmed(rows, vector, dict(hits), approximate):
-            if metadata_matches(model.meta or {}, filters):
-                matches.append(Match(model, distance, score_of(distance)))
+        distances = dict(hits)
+        if approximate:  # estimates from the codes: exact ones from the full vectors
+            distances.update(_exact_distances(index, key, [row.index_id for row in rows], vector))
+        for row in rows:
+            if metadata_matches(row.meta or {}, filters):
+                distance = distances[row.index_id]
+                matches.append(Match(_candidate(row), distance, score_of(distance)))
         matches.sort(key=lambda match: (match.distance, match.model.index_id))
         if min_score is not None:
             matches = [m for m in matches if m.score >= min_score]
         exhausted = len(hits) < fetch or fetch >= index.partition_size(key)
         # Hits come nearest first: past min_score, nothing further can qualify.
         below_min = min_score is not None and bool(hits) and score_of(hits[-1][1]) < min_score
-        if len(matches) >= k or exhausted or below_min or (allowed is not None and not approximate):
+        # Not "allowed, so done": SQL may allow a few ids the filters then refuse (a SQLite
+        # entry 1 stands for both 1 and true), and the rule is k results whenever k match.
+        if len(matches) >= k or exhausted or below_min:
             # Equal distances (identical files) in upload order, whatever order the index
             # happened to insert them in: every process answers alike.
             return matches[:k]
@@ -241,68 +270,65 @@ class QueryChanged(LookupError):
     index holds it in (deleted, re-described or being described since the last sync)."""
 
 
-def _stored_query(
-    rows: list[Row[Any]], query_id: int, key: PartitionKey, vector: np.ndarray, exact: bool
-) -> tuple[np.ndarray, list[Row[Any]]]:
-    """The query vector to re-rank with (the stored descriptor when ``exact``) and the
-    candidate rows without the query model's own."""
+def _without_query(rows: list[Row[Any]], query_id: int, key: PartitionKey) -> list[Row[Any]]:
+    """The candidate rows without the query model's own, which must still be ready under
+    the partition ``key`` (else ``QueryChanged``)."""
     own = [row for row in rows if row.index_id == query_id]
     if not own or own[0].descriptor_version != key[1]:
         raise QueryChanged(query_id)
-    stored = own[0].descriptor if exact else None
-    if stored is not None and len(stored) == 4 * len(vector):
-        vector = np.frombuffer(stored, dtype=np.float32)
-    return vector, [row for row in rows if row.index_id != query_id]
+    return [row for row in rows if row.index_id != query_id]
 
 
-def _confirmed(
-    rows: list[Row[Any]], query: np.ndarray, distances: dict[int, float], exact: bool
-) -> list[tuple[Candidate, float]]:
-    """The candidates of ``rows`` (still ready in the database), with exact distances when
-    ``exact`` (from their stored descriptors) and the index's own otherwise."""
-    found = [distances[row.index_id] for row in rows]
-    if exact:
-        # One vectorised pass over the stored descriptors (a few dozen); a row whose
-        # descriptor is missing or of another length keeps the index's distance.
-        usable = [
-            i
-            for i, row in enumerate(rows)
-            if row.descriptor and len(row.descriptor) == 4 * len(query)
-        ]
-        if usable:
-            stored = np.frombuffer(b"".join(rows[i].descriptor for i in usable), dtype=np.float32)
-            exact_distances = np.linalg.norm(stored.reshape(len(usable), -1) - query, axis=1)
-            for i, distance in zip(usable, exact_distances.tolist(), strict=True):
-                found[i] = distance
-    return [(_candidate(row), distance) for row, distance in zip(rows, found, strict=True)]
+def _exact_distances(
+    index: ShapeIndex, key: PartitionKey, ids: list[int], query: np.ndarray
+) -> dict[int, float]:
+    """Exact L2 distances from ``query`` to the full vectors of ``ids`` that partition
+    ``key`` holds, in one vectorised pass."""
+    found = index.exact_vectors(key, ids) if ids else None
+    if found is None:
+        return {}
+    vectors, held = found
+    distances = np.linalg.norm(vectors - query, axis=1).tolist()
+    return {i: d for i, d, h in zip(ids, distances, held.tolist(), strict=True) if h}
 
 
 def _ready_candidates(
-    connection: Connection, tenant: str, ids: list[int], *extra: ColumnElement[Any]
+    connection: Connection, tenant: str, ids: list[int], *extra: str
 ) -> list[Row[Any]]:
-    """The tenant's ready models among ``ids``: the columns of a ``Candidate`` and ``extra``.
+    """The tenant's ready models among ``ids``: the columns of a ``Candidate`` and the
+    ``extra`` columns named.
 
     Plain rows of the columns an answer needs, not ORM objects: building and tracking a
-    few dozen ``Model`` instances per query cost more than the query itself."""
+    few dozen ``Model`` instances per query cost more than the query itself; the statement
+    is built once per dialect and columns (building it per query cost a third of its time)."""
     if not ids:
         return []
-    statement = select(
-        Model.index_id, Model.id, Model.external_id, Model.name, Model.meta.label("meta"), *extra
-    ).where(_id_in(connection, ids), Model.tenant == tenant, Model.status == "ready")
-    return list(connection.execute(statement, {"ids": ids}))
+    statement = _candidates_statement(connection.dialect.name == "postgresql", extra)
+    return list(connection.execute(statement, {"ids": ids, "tenant": tenant}))
+
+
+@functools.lru_cache(maxsize=16)
+def _candidates_statement(postgres: bool, extra: tuple[str, ...]) -> Select[Any]:
+    # ``index_id`` among the bound parameter ``ids``: one array parameter on PostgreSQL,
+    # so the statement text is the same for any number of ids and is prepared once per
+    # connection; an expanded ``IN`` elsewhere.
+    among = (
+        Model.index_id == any_(bindparam("ids", type_=ARRAY(BigInteger)))
+        if postgres
+        else Model.index_id.in_(bindparam("ids", expanding=True))
+    )
+    return select(
+        Model.index_id,
+        Model.id,
+        Model.external_id,
+        Model.name,
+        Model.meta.label("meta"),
+        *(getattr(Model, name) for name in extra),
+    ).where(among, Model.tenant == bindparam("tenant"), Model.status == "ready")
 
 
 def _candidate(row: Row[Any]) -> Candidate:
     return Candidate(row.index_id, row.id, row.external_id, row.name, row.meta)
-
-
-def _id_in(connection: Connection, ids: list[int]) -> ColumnElement[bool]:
-    """``index_id`` among the bound parameter ``ids``: one array parameter on PostgreSQL,
-    so the statement text is the same for any number of ids and is prepared once per
-    connection; an expanded ``IN`` elsewhere."""
-    if connection.dialect.name == "postgresql":
-        return Model.index_id == any_(bindparam("ids", type_=ARRAY(BigInteger)))
-    return Model.index_id.in_(bindparam("ids", expanding=True))
 
 
 def _best_entries(
@@ -358,7 +384,7 @@ def _confirmed_best(
     """The candidates still ready in the database, each with the exact distance of its
     best entry (read from the stored descriptors) and which one it is (None: the model)."""
     confirmed = []
-    for row in _ready_candidates(connection, tenant, ids, Model.descriptor, Model.view_descriptors):
+    for row in _ready_candidates(connection, tenant, ids, "descriptor", "view_descriptors"):
         if row.descriptor is None:
             continue
         entries = [np.frombuffer(row.descriptor, dtype=np.float32)]

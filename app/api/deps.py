@@ -31,7 +31,9 @@ class Services:
     index: ShapeIndex
 
 
-def get_services(request: Request) -> Services:
+async def get_services(request: Request) -> Services:
+    # async: FastAPI runs a plain ``def`` dependency in its thread pool, a thread hop per
+    # request for a dictionary lookup.
     return request.app.state.services
 
 

@@ -290,8 +290,8 @@ def delete_model(
     return Response(status_code=204)
 
 
-def metadata_filters(request: Request) -> dict[str, str]:
-    """``metadata.KEY=VALUE`` query parameters as {KEY: VALUE}."""
+async def metadata_filters(request: Request) -> dict[str, str]:
+    """``metadata.KEY=VALUE`` query parameters as {KEY: VALUE} (async: no thread hop)."""
     return {
         key.removeprefix("metadata."): value
         for key, value in request.query_params.items()

@@ -28,8 +28,8 @@ def alembic_config() -> Config:
     return config
 
 
-def upgrade(engine: Engine) -> None:
-    """Bring the database schema to the latest revision."""
+def upgrade(engine: Engine, revision: str = "head") -> None:
+    """Bring the database schema to ``revision``, by default the latest."""
     config = alembic_config()
     with engine.connect() as connection:
         postgres = connection.dialect.name == "postgresql"
@@ -38,7 +38,7 @@ def upgrade(engine: Engine) -> None:
             connection.commit()
         try:
             config.attributes["connection"] = connection
-            command.upgrade(config, "head")
+            command.upgrade(config, revision)
             connection.commit()
         finally:
             if postgres:

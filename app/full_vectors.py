@@ -1,0 +1,115 @@
+"""The full float32 vectors of a compressed index partition, for exact re-ranking.
+
+A compressed (IVF-SQ) partition ranks by approximate distances; the few dozen candidates of
+a query are then re-ranked exactly against their full vectors. Those live here, as rows of a
+memory-mapped temporary file rather than in the process's own memory: 4 d bytes per model
+(674 MB at 10^5 models of 1686 floats) would be four times the codes, while a query reads
+only a few dozen rows. The kernel keeps the rows in its page cache while memory allows
+and can always drop them, so the process's anonymous memory stays the codes' size. (The
+layout vector databases use for "quantised vectors in memory, originals on disk".)
+
+Before, the rows were read back from the database on every query: about 160 KB per query
+over the wire for 23 candidates, the larger part of a similar request's cost.
+
+The file is anonymous (unlinked at once, gone with the process) in the system's temporary
+directory (``TMPDIR``). Rows freed by removals are reused, so the file never holds more
+rows than the partition's largest size. Not thread-safe: the partition's lock guards it.
+"""
+
+from __future__ import annotations
+
+import mmap
+import os
+import tempfile
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = ["FullVectors"]
+
+_MIN_ROWS = 1024  # first size of the file, in rows; it doubles as it fills
+
+
+class FullVectors:
+    """Rows of ``dim`` float32 by integer id.
+
+    Parameters
+    ----------
+    dim : int
+        Floats per vector.
+    """
+
+    def __init__(self, dim: int) -> None:
+        self.dim = dim
+        # Lives as long as this object (closed when it is collected): no context manager.
+        self._file = tempfile.TemporaryFile(prefix="shapesearch-vectors-")  # noqa: SIM115
+        self._rows: np.memmap | None = None
+        self._row_of: dict[int, int] = {}
+        self._free: list[int] = []
+        self._high = 0  # rows handed out so far, freed ones included
+
+    def __len__(self) -> int:
+        return len(self._row_of)
+
+    def __contains__(self, vector_id: int) -> bool:
+        return vector_id in self._row_of
+
+    @property
+    def file_bytes(self) -> int:
+        """Bytes of the file (page cache and disk, not the process's own memory)."""
+        return 0 if self._rows is None else int(self._rows.nbytes)
+
+    def put(self, ids: Sequence[int], vectors: np.ndarray) -> None:
+        """Store ``vectors : (m, dim) float`` under ``ids`` (an id held is overwritten)."""
+        rows = [self._row_for(int(i)) for i in ids]
+        self._ensure(self._high)
+        assert self._rows is not None
+        self._rows[rows] = np.asarray(vectors, dtype=np.float32)[:, : self.dim]
+
+    def drop(self, ids: Sequence[int]) -> None:
+        """Forget ``ids`` (unknown ones are ignored); their rows are reused."""
+        for vector_id in ids:
+            row = self._row_of.pop(int(vector_id), None)
+            if row is not None:
+                self._free.append(row)
+
+    def get(self, ids: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """``(m, dim) float32`` copies of the rows of ``ids`` and a ``(m,) bool`` mask of
+        the ids held (the rows of the others are zeros)."""
+        held = np.array([int(i) in self._row_of for i in ids], dtype=bool)
+        vectors = np.zeros((len(ids), self.dim), dtype=np.float32)
+        if held.any() and self._rows is not None:
+            rows = [self._row_of[int(i)] for i, h in zip(ids, held, strict=True) if h]
+            vectors[held] = self._rows[rows]
+        return vectors, held
+
+    def evict(self) -> None:
+        """Write the rows to disk and let the kernel drop them from memory, as it would
+        under memory pressure: the next reads come from disk (benchmarks of a cold cache)."""
+        if self._rows is None:
+            return
+        self._rows.flush()
+        os.fsync(self._file.fileno())
+        self._rows._mmap.madvise(mmap.MADV_DONTNEED)  # unmap this process's pages
+        os.posix_fadvise(self._file.fileno(), 0, 0, os.POSIX_FADV_DONTNEED)
+
+    def _row_for(self, vector_id: int) -> int:
+        row = self._row_of.get(vector_id)
+        if row is None:
+            if self._free:
+                row = self._free.pop()
+            else:
+                row, self._high = self._high, self._high + 1
+            self._row_of[vector_id] = row
+        return row
+
+    def _ensure(self, rows: int) -> None:
+        """Grow the file (doubling) to hold at least ``rows`` rows."""
+        capacity = 0 if self._rows is None else len(self._rows)
+        if rows <= capacity:
+            return
+        capacity = max(rows, 2 * capacity, _MIN_ROWS)
+        if self._rows is not None:
+            self._rows.flush()
+        self._file.truncate(capacity * self.dim * 4)  # a sparse file: no bytes written yet
+        self._rows = np.memmap(self._file, dtype=np.float32, mode="r+", shape=(capacity, self.dim))

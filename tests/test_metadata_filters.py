@@ -1,0 +1,116 @@
+"""Metadata filters in SQL (``app.similarity.matching_ids``) select exactly the models that
+``metadata_matches`` accepts, on both backends, and stay right as metadata changes: on
+SQLite through the triggers of migration 0007, also for rows that existed before it."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from sqlalchemy import create_engine, text, update
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.db.migrate import upgrade
+from app.db.models import Model
+from app.index import ShapeIndex
+from app.similarity import find_similar, matching_ids, metadata_matches
+from tests.test_index import add_ready, delete_model, unit
+
+KEY = ("t", "v1")
+METADATA: list[dict[str, Any]] = [
+    {"material": "steel", "qty": 3},
+    {"material": "steel", "qty": 4, "coated": True},
+    {"material": "aluminium", "qty": 3.5, "coated": False},
+    {"material": "3", "sizes": [1, 2]},
+    {"material": "steel", "note": None, "spec": {"iso": "2768"}},
+    {},
+]
+FILTERS: list[dict[str, str]] = [
+    {"material": "steel"},
+    {"material": "steel", "qty": "3"},
+    {"material": "3"},
+    {"qty": "3.5"},
+    {"coated": "true"},
+    {"coated": "false"},
+    {"sizes": "[1, 2]"},
+    {"spec": '{"iso": "2768"}'},
+    {"material": "brass"},
+    {"qty": "three"},
+]
+
+
+def expected(ids: dict[int, dict[str, Any]], filters: dict[str, str]) -> list[int]:
+    return sorted(i for i, meta in ids.items() if metadata_matches(meta, filters))
+
+
+def selected(sessions: sessionmaker[Session], filters: dict[str, str]) -> list[int]:
+    with sessions() as session:
+        found = matching_ids(session.connection(), KEY, filters, limit=100)
+    assert found is not None
+    return sorted(found)
+
+
+def test_sql_selects_exactly_what_metadata_matches_accepts(
+    sessions: sessionmaker[Session],
+) -> None:
+    ids = {add_ready(sessions, unit(i, 8), meta=meta): meta for i, meta in enumerate(METADATA)}
+    add_ready(sessions, unit(9, 8), tenant="other", meta={"material": "steel"})
+    assert expected(ids, {"material": "steel"})  # the cases are not vacuous
+    for filters in FILTERS:
+        assert selected(sessions, filters) == expected(ids, filters), filters
+
+
+def test_changed_and_deleted_metadata_is_followed(sessions: sessionmaker[Session]) -> None:
+    first = add_ready(sessions, unit(0, 8), meta={"material": "steel"})
+    second = add_ready(sessions, unit(1, 8), meta={"material": "brass"})
+    with sessions.begin() as session:
+        session.execute(
+            update(Model).where(Model.index_id == first).values(meta={"material": "brass"})
+        )
+    assert selected(sessions, {"material": "steel"}) == []
+    assert selected(sessions, {"material": "brass"}) == sorted([first, second])
+    delete_model(sessions, second)
+    assert selected(sessions, {"material": "brass"}) == [first]
+    with sessions.begin() as session:  # moved to another tenant: gone from this one
+        session.execute(update(Model).where(Model.index_id == first).values(tenant="other"))
+    assert selected(sessions, {"material": "brass"}) == []
+
+
+def test_k_results_when_sql_allows_models_the_filter_refuses(
+    sessions: sessionmaker[Session],
+) -> None:
+    """SQLite stores true as 1, so ``qty=1`` allows a model whose qty is true; it is the
+    nearest here, and refused, and the search still returns both models whose qty is 1."""
+    nearest = add_ready(sessions, unit(0, 8), meta={"qty": True})
+    ones = [add_ready(sessions, unit(0, 8) + 0.1 * unit(i, 8), meta={"qty": 1}) for i in (1, 2)]
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    with sessions() as session:
+        matches = find_similar(
+            index, session.connection(), KEY, unit(0, 8), k=2, filters={"qty": "1"}
+        )
+    assert sorted(m.model.index_id for m in matches) == sorted(ones)
+    assert nearest not in {m.model.index_id for m in matches}
+
+
+def test_sqlite_rows_from_before_the_migration_are_filled_in(
+    tmp_path: pytest.TempPathFactory,
+) -> None:
+    url = f"sqlite:///{tmp_path}/old.db"
+    engine = create_engine(url)
+    upgrade(engine, "0006")
+    with engine.begin() as connection:
+        for index_id, meta in ((1, '{"material": "steel"}'), (2, '{"material": "brass"}')):
+            connection.execute(
+                text(
+                    "INSERT INTO models (index_id, id, tenant, metadata, status, file_name, "
+                    "file_size, file_sha256, file_format, descriptor_version, created_at, "
+                    "updated_at) VALUES (:i, :id, 't', :meta, 'ready', 'x.stl', 1, :sha, "
+                    "'stl', 'v1', '2026-11-23 00:00:00', '2026-11-23 00:00:00')"
+                ),
+                {"i": index_id, "id": f"{index_id:032x}", "meta": meta, "sha": "0" * 64},
+            )
+    upgrade(engine)
+    with engine.connect() as connection:
+        assert matching_ids(connection, KEY, {"material": "steel"}, limit=10) == [1]
+    engine.dispose()
