@@ -39,7 +39,6 @@ import argparse
 import asyncio
 import json
 import os
-import resource
 import secrets
 import socket
 import subprocess
@@ -152,23 +151,28 @@ def exact_top_k(
 # --- measuring ----------------------------------------------------------------------------
 
 
-def rss_mb() -> float:
-    with open("/proc/self/status") as status:
-        for line in status:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 1024
-    return float("nan")
+def status_mb(pid: int | str = "self") -> dict[str, float]:
+    """The memory lines of ``/proc/PID/status`` in MB: ``VmHWM`` (peak RSS), ``RssAnon``
+    (the process's own memory), ``RssFile`` (mapped file pages: for the index, its
+    full-vector files in the page cache, which the kernel can always reclaim)."""
+    with open(f"/proc/{pid}/status") as status:
+        return {
+            name: int(value.split()[0]) / 1024
+            for name, _, value in (line.partition(":") for line in status)
+            if name in ("VmHWM", "VmRSS", "RssAnon", "RssFile")
+        }
 
 
-def peak_rss_mb(pid: int) -> float:
-    """Peak RSS of process ``pid`` or, when it is ``serve`` supervising several API
-    processes, of the largest of them (each holds its own index)."""
+def api_memory(pid: int) -> str:
+    """Memory of the largest API process under ``serve`` process ``pid`` (each API process
+    holds its own index): peak RSS, and what it holds now, its own and file-backed."""
     children = Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
-    peaks = []
-    for process in [pid, *map(int, children)]:
-        with open(f"/proc/{process}/status") as status:
-            peaks += [int(line.split()[1]) / 1024 for line in status if line.startswith("VmHWM:")]
-    return max(peaks, default=float("nan"))
+    sizes = [status_mb(process) for process in [pid, *map(int, children)]]
+    largest = max(sizes, key=lambda size: size["VmHWM"])
+    return (
+        f"peak RSS {largest['VmHWM']:.0f} MB; now RSS {largest['VmRSS']:.0f} MB = "
+        f"anonymous {largest['RssAnon']:.0f} + file-backed {largest['RssFile']:.0f}"
+    )
 
 
 def percentiles(seconds: list[float]) -> str:
@@ -191,28 +195,40 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
     faiss.omp_set_num_threads(1)  # as in the API process (pin_blas_threads)
     index = ShapeIndexFromArgs(None, args)
     key = ("bench", "v")
-    before = rss_mb()
+    before = status_mb()
     start = time.perf_counter()
     index.build_partition(key, chunks(real, total, args.noise), expected=total)
     build = time.perf_counter() - start
-    print(f"build {build:.1f} s; RSS +{rss_mb() - before:.0f} MB; kind {index.describe(key)}")
-    print(f"index payload (codes, ids, centroids) {index.nbytes() / 1e6:.0f} MB")
+    grown = {name: mb - before[name] for name, mb in status_mb().items()}
+    print(
+        f"build {build:.1f} s; kind {index.describe(key)}; RSS +{grown['VmRSS']:.0f} MB = "
+        f"anonymous +{grown['RssAnon']:.0f} + file-backed +{grown['RssFile']:.0f}"
+    )
+    print(
+        f"index payload (codes, ids, centroids) {index.nbytes() / 1e6:.0f} MB; "
+        f"full-vector file {index.file_bytes() / 1e6:.0f} MB"
+    )
 
     q = queries(real, args.queries, args.noise)
     rerank = index.rerank_candidates(K) if index.is_approximate(key) else K
-    times, found = [], []
+    times, found, reranked = [], [], []
     for vector in q:
+        # As the service does (app.similarity, without the database): candidates from the
+        # codes, re-ranked exactly against the index's full vectors.
         t0 = time.perf_counter()
-        hits = index.search(key, vector, rerank)
+        hits = [i for i, _ in index.search(key, vector, rerank)]
+        vectors, _ = index.exact_vectors(key, hits)
+        order = np.argsort(np.linalg.norm(vectors - vector, axis=1), kind="stable")[:K]
         times.append(time.perf_counter() - t0)
-        found.append([i for i, _ in hits])
-    print(f"search k={K} ({rerank} candidates): {percentiles(times)}")
-    # Ground truth and the candidates' full vectors in one streamed pass; the service
-    # re-ranks the candidates exactly against the stored full vectors, as done here.
+        found.append(hits)
+        reranked.append([hits[i] for i in order])
+    print(f"search k={K} ({rerank} candidates re-ranked exactly): {percentiles(times)}")
+    # Ground truth and the candidates' generated vectors in one streamed pass: the index's
+    # full vectors must be those, bit for bit.
     exact, rows = exact_top_k(real, total, args.noise, q, {i for f in found for i in f})
-    reranked = [
-        sorted(f, key=lambda i, v=v: -float(rows[i] @ v))[:K] for v, f in zip(q, found, strict=True)
-    ]
+    for hits in found:
+        held, _ = index.exact_vectors(key, hits)
+        assert np.array_equal(held, np.stack([rows[i] for i in hits])), "full vectors differ"
     recall = np.mean([len(set(f) & set(e)) / K for f, e in zip(reranked, exact, strict=True)])
     print(f"recall@{K} vs exact, after exact re-ranking: {recall:.4f}")
 
@@ -220,8 +236,11 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
     t0 = time.perf_counter()
     index.remove_many(doomed.tolist())
     print(f"remove 1000 ids (one batch): {(time.perf_counter() - t0) * 1000:.0f} ms")
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"peak RSS of this process {peak:.0f} MB")
+    now = status_mb()
+    print(
+        f"peak RSS of this process {now['VmHWM']:.0f} MB; now anonymous "
+        f"{now['RssAnon']:.0f} MB + file-backed {now['RssFile']:.0f} MB"
+    )
 
 
 # --- phase: a database and an API process ---------------------------------------------------
@@ -348,7 +367,7 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         statement = select(Model.index_id).where(
             Model.tenant == "default",
             Model.status == "ready",
-            _sql_filter(session.connection(), {"family": "f7"}),
+            _sql_filter(session.connection(), "default", {"family": "f7"}),
         )
         explain = "EXPLAIN QUERY PLAN " if engine.dialect.name == "sqlite" else "EXPLAIN "
         compiled = statement.compile(engine, compile_kwargs={"literal_binds": True})
@@ -463,10 +482,7 @@ def phase_db(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
         print(f"filled in {time.perf_counter() - t0:.0f} s")
         in_process(url, args, model_ids)
         process, base, startup = start_api(url, args)
-        print(
-            f"API start-up (to /readyz 200) {startup:.1f} s; "
-            f"peak RSS {peak_rss_mb(process.pid):.0f} MB"
-        )
+        print(f"API start-up (to /readyz 200) {startup:.1f} s; {api_memory(process.pid)}")
         rng = np.random.default_rng(9)
         similar = [f"/v1/models/{m}/similar?k={K}" for m in rng.choice(model_ids, 5000)]
         for concurrency in args.concurrency:
@@ -493,7 +509,7 @@ def phase_db(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
             f"DELETE 1000 models, c=16: {r['seconds']:.1f} s ({r['rps']:.0f} req/s, "
             f"p50 {r['p50']:.1f} ms), errors {r['errors']}"
         )
-        print(f"API peak RSS {peak_rss_mb(process.pid):.0f} MB")
+        print(f"API memory after the load: {api_memory(process.pid)}")
     finally:
         if process is not None:
             process.terminate()
