@@ -56,8 +56,10 @@ class FullVectors:
 
     @property
     def file_bytes(self) -> int:
-        """Bytes of the file (page cache and disk, not the process's own memory)."""
-        return 0 if self._rows is None else int(self._rows.nbytes)
+        """Bytes of the rows written so far, freed ones included: the file's data on disk
+        and, while memory allows, in the page cache (not the process's own memory). The
+        file is longer, and sparse past them, to grow by doubling."""
+        return self._high * self.dim * 4
 
     def put(self, ids: Sequence[int], vectors: np.ndarray) -> None:
         """Store ``vectors : (m, dim) float`` under ``ids`` (an id held is overwritten)."""
