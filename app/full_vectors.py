@@ -12,8 +12,11 @@ Before, the rows were read back from the database on every query: about 160 KB p
 over the wire for 23 candidates, the larger part of a similar request's cost.
 
 The file is anonymous (unlinked at once, gone with the process) in the system's temporary
-directory (``TMPDIR``). Rows freed by removals are reused, so the file never holds more
-rows than the partition's largest size. Not thread-safe: the partition's lock guards it.
+directory (``TMPDIR``). Its disk space is allocated before a row is written to it: a full
+disk is an ``OSError`` at that point, not a SIGBUS in the middle of a write through the
+mapping. It is sized for the rows expected and grows by half when they are exceeded; rows
+freed by removals are reused, so churn does not grow it. Not thread-safe: the partition's
+lock guards it.
 """
 
 from __future__ import annotations
@@ -27,7 +30,8 @@ import numpy as np
 
 __all__ = ["FullVectors"]
 
-_MIN_ROWS = 1024  # first size of the file, in rows; it doubles as it fills
+_MIN_ROWS = 1024  # smallest size of the file, in rows
+_GROWTH = 1.5  # a full file grows to this many times its rows
 
 
 class FullVectors:
@@ -37,10 +41,13 @@ class FullVectors:
     ----------
     dim : int
         Floats per vector.
+    expected : int
+        Rows to make room for at once (more are allowed).
     """
 
-    def __init__(self, dim: int) -> None:
+    def __init__(self, dim: int, expected: int = 0) -> None:
         self.dim = dim
+        self.expected = expected
         # Lives as long as this object (closed when it is collected): no context manager.
         self._file = tempfile.TemporaryFile(prefix="shapesearch-vectors-")  # noqa: SIM115
         self._rows: np.memmap | None = None
@@ -56,15 +63,16 @@ class FullVectors:
 
     @property
     def file_bytes(self) -> int:
-        """Bytes of the rows written so far, freed ones included: the file's data on disk
-        and, while memory allows, in the page cache (not the process's own memory). The
-        file is longer, and sparse past them, to grow by doubling."""
-        return self._high * self.dim * 4
+        """Bytes of the file, allocated on disk and, while memory allows, held in the page
+        cache (not the process's own memory)."""
+        return 0 if self._rows is None else int(self._rows.nbytes)
 
     def put(self, ids: Sequence[int], vectors: np.ndarray) -> None:
         """Store ``vectors : (m, dim) float`` under ``ids`` (an id held is overwritten)."""
+        # Room first: a failure to grow the file leaves nothing half done.
+        new = len({int(i) for i in ids} - self._row_of.keys())
+        self._ensure(self._high + max(0, new - len(self._free)))
         rows = [self._row_for(int(i)) for i in ids]
-        self._ensure(self._high)
         assert self._rows is not None
         self._rows[rows] = np.asarray(vectors, dtype=np.float32)[:, : self.dim]
 
@@ -93,7 +101,8 @@ class FullVectors:
         self._rows.flush()
         os.fsync(self._file.fileno())
         self._rows._mmap.madvise(mmap.MADV_DONTNEED)  # unmap this process's pages
-        os.posix_fadvise(self._file.fileno(), 0, 0, os.POSIX_FADV_DONTNEED)
+        if hasattr(os, "posix_fadvise"):  # Linux: out of the page cache too
+            os.posix_fadvise(self._file.fileno(), 0, 0, os.POSIX_FADV_DONTNEED)
 
     def _row_for(self, vector_id: int) -> int:
         row = self._row_of.get(vector_id)
@@ -106,12 +115,16 @@ class FullVectors:
         return row
 
     def _ensure(self, rows: int) -> None:
-        """Grow the file (doubling) to hold at least ``rows`` rows."""
+        """Grow the file to hold at least ``rows`` rows, its disk space allocated."""
         capacity = 0 if self._rows is None else len(self._rows)
         if rows <= capacity:
             return
-        capacity = max(rows, 2 * capacity, _MIN_ROWS)
-        if self._rows is not None:
-            self._rows.flush()
-        self._file.truncate(capacity * self.dim * 4)  # a sparse file: no bytes written yet
+        capacity = max(rows, int(_GROWTH * capacity), self.expected, _MIN_ROWS)
+        size = capacity * self.dim * 4
+        if hasattr(os, "posix_fallocate"):
+            # Allocated, not just a longer sparse file: a page written through the mapping
+            # with no disk block to go to would kill the process with SIGBUS.
+            os.posix_fallocate(self._file.fileno(), 0, size)
+        else:  # macOS: a sparse file
+            self._file.truncate(size)
         self._rows = np.memmap(self._file, dtype=np.float32, mode="r+", shape=(capacity, self.dim))

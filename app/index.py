@@ -194,12 +194,12 @@ class _Partition:
         ivf.set_direct_map_type(faiss.DirectMap.Hashtable)  # remove_ids without a scan
         ivf.nprobe = self.nprobe
         held = self.index
-        full = FullVectors(self.dim)
+        full = FullVectors(self.dim, expected)
         if held.ntotal:
             ids = faiss.vector_to_array(held.id_map).astype(np.int64)
             vectors = held.index.reconstruct_n(0, held.ntotal)  # padded already
-            ivf.add_with_ids(vectors, ids)
             full.put(ids.tolist(), vectors)
+            ivf.add_with_ids(vectors, ids)
         self.index, self.bits, self.full = ivf, bits, full
 
     def nbytes(self) -> int:
@@ -216,9 +216,9 @@ class _Partition:
         return padded
 
     def add(self, ids: np.ndarray, vectors: np.ndarray) -> None:
-        self.index.add_with_ids(self.pad(vectors), ids)
-        if self.full is not None:
+        if self.full is not None:  # first: when its disk is full, nothing is added
             self.full.put(ids.tolist(), vectors)
+        self.index.add_with_ids(self.pad(vectors), ids)
 
     def remove(self, ids: np.ndarray) -> None:
         # An array selector: the IVF direct map (a hashtable) then removes without a scan.

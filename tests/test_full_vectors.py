@@ -3,10 +3,15 @@ memory-mapped file whose freed rows are reused, and the index re-ranking from th
 
 from __future__ import annotations
 
+import errno
+import os
+
 import numpy as np
+import pytest
 from sqlalchemy import update
 from sqlalchemy.orm import Session, sessionmaker
 
+from app import full_vectors
 from app.db.models import Model
 from app.full_vectors import FullVectors
 from app.index import ShapeIndex
@@ -77,3 +82,39 @@ def test_a_compressed_partition_re_ranks_from_its_full_vectors_not_the_database(
     assert [m.model.index_id for m in matches] == expected
     for m in matches:  # exact, not the codes' estimates (errors of ~1e-3 here)
         assert abs(m.distance - float(np.linalg.norm(held[m.model.index_id] - query))) < 1e-6
+
+
+def _no_space(*_args: object) -> None:
+    raise OSError(errno.ENOSPC, "No space left on device")
+
+
+def test_a_full_disk_is_an_error_that_changes_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    store = FullVectors(4)
+    store.put(list(range(1024)), np.ones((1024, 4)))  # the first size, full
+    monkeypatch.setattr(os, "posix_fallocate", _no_space)
+    with pytest.raises(OSError, match="No space"):
+        store.put([5000, 7], np.full((2, 4), 2.0))  # one new id: the file must grow
+    assert len(store) == 1024 and 5000 not in store
+    assert store.get([7])[0][0].tolist() == [1.0] * 4  # the held id not overwritten either
+    store.put([7], np.full((1, 4), 3.0))  # a held id needs no room
+    assert store.get([7])[0][0].tolist() == [3.0] * 4
+
+
+def test_a_sync_that_finds_the_disk_full_adds_nothing_and_a_later_one_catches_up(
+    sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(full_vectors, "_MIN_ROWS", 1)  # the file fits the build exactly
+    ids = [add_ready(sessions, unit(i % 4, D)) for i in range(60)]
+    index = ShapeIndex(sessions, exact_max=50, nprobe=64)
+    index.rebuild()
+    assert index.describe(KEY) == "ivf-sq8"
+    late = add_ready(sessions, unit(1, D))
+    with monkeypatch.context() as full_disk:
+        full_disk.setattr(os, "posix_fallocate", _no_space)
+        with pytest.raises(OSError, match="No space"):
+            index.sync()
+        assert late not in index
+        assert late not in [i for i, _ in index.search(KEY, unit(1, D), 100)]
+        assert np.array_equal(index.vector(KEY, ids[1]), unit(1, D))  # the rest still held
+    index.sync()  # room again: the event is applied now
+    assert late in index and np.array_equal(index.vector(KEY, late), unit(1, D))
