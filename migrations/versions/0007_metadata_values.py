@@ -27,12 +27,14 @@ down_revision: str | None = "0006"
 branch_labels: str | Sequence[str] | None = None
 depends_on: str | Sequence[str] | None = None
 
-# The entries of a models row's metadata: none unless it is a JSON object.
-_ENTRIES = (
-    "SELECT NEW.index_id, NEW.tenant, key, value FROM json_each("
-    "CASE WHEN json_valid(NEW.metadata) AND json_type(NEW.metadata) = 'object' "
-    "THEN NEW.metadata ELSE '{}' END)"
-)
+
+def _entries(metadata: str) -> str:
+    """``json_each`` over the column ``metadata``: its entries, none unless it holds a JSON
+    object."""
+    return (
+        f"json_each(CASE WHEN json_valid({metadata}) AND json_type({metadata}) = 'object' "
+        f"THEN {metadata} ELSE '{{}}' END)"
+    )
 
 
 def upgrade() -> None:
@@ -45,7 +47,10 @@ def upgrade() -> None:
     )
     op.execute("CREATE INDEX ix_metadata_values_lookup ON metadata_values (tenant, key, value)")
     op.execute("CREATE INDEX ix_metadata_values_model ON metadata_values (index_id)")
-    insert = f"INSERT INTO metadata_values (index_id, tenant, key, value) {_ENTRIES};"
+    insert = (
+        "INSERT INTO metadata_values (index_id, tenant, key, value) "
+        f"SELECT NEW.index_id, NEW.tenant, key, value FROM {_entries('NEW.metadata')};"
+    )
     forget = "DELETE FROM metadata_values WHERE index_id = OLD.index_id;"
     op.execute(f"CREATE TRIGGER metadata_values_insert AFTER INSERT ON models BEGIN {insert} END")
     op.execute(
@@ -55,9 +60,8 @@ def upgrade() -> None:
     op.execute(f"CREATE TRIGGER metadata_values_delete AFTER DELETE ON models BEGIN {forget} END")
     op.execute(
         "INSERT INTO metadata_values (index_id, tenant, key, value) "
-        "SELECT m.index_id, m.tenant, e.key, e.value FROM models AS m, json_each("
-        "CASE WHEN json_valid(m.metadata) AND json_type(m.metadata) = 'object' "
-        "THEN m.metadata ELSE '{}' END) AS e"
+        f"SELECT m.index_id, m.tenant, e.key, e.value FROM models AS m, {_entries('m.metadata')}"
+        " AS e"
     )
     op.drop_index("ix_models_partition_metadata", "models")
 
