@@ -21,8 +21,12 @@ translation and scale:
 - axes: per principal axis, an area-weighted histogram of the points' offsets from the
   centroid along it, over the RMS radius.
 
+The local block (``core.local_features``) pools every point's whole signature, and for the
+rigid family its surface variation, over a vocabulary shipped in ``core/data``: the detail
+(a screw's head, a flange's hub, a gear's teeth) that per-scale histograms drown.
+
 Layout: ``[HKS | WKS | WKS slope | eigenvalue channel | D2 | spread | D1 | normals |
-symmetry | axes]``, blocks of weight 0 left out.
+symmetry | axes | local]``, blocks of weight 0 left out.
 
 Everything that changes the vector is written into ``descriptor_version``: vectors with
 different versions must never be compared.
@@ -32,6 +36,8 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -44,6 +50,7 @@ from core.extrinsic import (
     spread_profile,
     surface_normals,
 )
+from core.local_features import Vocabulary, encode_bof, encode_vlad, local_descriptors
 from core.settings import DescriptorSettings, EngineSettings
 from core.signatures import heat_kernel_signature, wave_kernel_signature, zero_eigenvalue_count
 
@@ -56,18 +63,36 @@ __all__ = [
 ]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
-_LAYOUT = "ss4"
+_LAYOUT = "ss5"  # ss5: the local block (issue 24)
 
 #: Longest ``descriptor_version`` (the width of the database column).
-VERSION_LENGTH = 200
+VERSION_LENGTH = 255
 
 #: Every block's name (``DescriptorSpec.blocks``), in layout order, and the
 #: ``DescriptorSettings`` field that weighs it.
 BLOCK_WEIGHTS: dict[str, str] = {
     "hks": "hks_weight", "wks": "wks_weight", "slope": "wks_slope_weight", "dna": "dna_weight",
     "d2": "d2_weight", "spread": "spread_weight", "d1": "d1_weight", "normals": "normal_weight",
-    "symmetry": "symmetry_weight", "axes": "axis_weight",
+    "symmetry": "symmetry_weight", "axes": "axis_weight", "local": "local_weight",
 }
+
+#: Where the shipped vocabularies live (package data).
+VOCABULARY_DIR = Path(__file__).resolve().parent / "data"
+
+
+@lru_cache(maxsize=8)
+def load_vocabulary(name: str) -> Vocabulary:
+    """The shipped vocabulary ``core/data/<name>.npz``, loaded once per process.
+
+    Raises
+    ------
+    ValueError
+        No such vocabulary.
+    """
+    path = VOCABULARY_DIR / f"{name}.npz"
+    if not name or not path.is_file():
+        raise ValueError(f"unknown local vocabulary {name!r} (looked for {path})")
+    return Vocabulary.load(path)
 
 
 def area_histograms(
@@ -164,10 +189,37 @@ class DescriptorSpec:
     symmetry_weight: float
     axis_edges: tuple[float, ...]
     axis_weight: float
+    local_weight: float = 0.0
+    local_encoding: str = "vlad"
+    local_vocabulary: str = ""
+    local_columns: str = "hks"
+    local_neighbours: tuple[int, ...] = ()
+    family: str = "parts"
 
     @classmethod
     def from_settings(cls, settings: DescriptorSettings) -> DescriptorSpec:
+        """The spec of ``settings``, validated.
+
+        Raises
+        ------
+        ValueError
+            Invalid settings, or a local block whose vocabulary is missing or was fitted on
+            other columns than these settings give (another time grid needs its own
+            vocabulary, or ``local_weight=0``).
+        """
         settings.validate()
+        if settings.local_weight > 0:
+            columns = len(settings.hks_times) + (
+                settings.wks_energies if settings.local_columns == "hks+wks" else 0
+            ) + len(settings.local_neighbours)
+            width = load_vocabulary(settings.local_vocabulary).width
+            if width != columns:
+                raise ValueError(
+                    f"local vocabulary {settings.local_vocabulary!r} was fitted on {width} "
+                    f"columns, these settings give {columns} ({settings.local_columns}"
+                    f" with {len(settings.hks_times)} times): fit a vocabulary for them "
+                    "or set local_weight 0"
+                )
         energies = np.linspace(*settings.wks_range, settings.wks_energies)
         # Aubry et al. tie the filter width to the energy step; on a coarse 16-step grid
         # two steps keep neighbouring energies distinct (7 steps smeared the whole spectrum
@@ -199,6 +251,12 @@ class DescriptorSpec:
             symmetry_weight=settings.symmetry_weight,
             axis_edges=tuple(np.linspace(*settings.axis_range, settings.axis_bins + 1).tolist()),
             axis_weight=settings.axis_weight,
+            local_weight=settings.local_weight,
+            local_encoding=settings.local_encoding,
+            local_vocabulary=settings.local_vocabulary,
+            local_columns=settings.local_columns,
+            local_neighbours=tuple(settings.local_neighbours),
+            family=settings.family,
         )
 
     def signature(self, eigenvalues: np.ndarray, eigenvectors: np.ndarray) -> np.ndarray:
@@ -292,7 +350,30 @@ class DescriptorSpec:
             blocks["dna"] = self.dna_weight * _unit_block(self._eigenvalue_channel(eigenvalues))
         if self.extrinsic:
             blocks.update(self._extrinsic_blocks(points, areas, signature.shape[0]))
+        if self.local_weight > 0:
+            blocks["local"] = self.local_weight * self.local_block(signature, areas, points)
         return blocks
+
+    def local_block(
+        self, signature: np.ndarray, areas: np.ndarray, points: np.ndarray | None = None
+    ) -> np.ndarray:
+        """The unit local block: the points' local descriptors encoded on the vocabulary.
+
+        Raises
+        ------
+        ValueError
+            The vocabulary is unknown or its width does not match the local descriptors.
+        """
+        vocabulary = load_vocabulary(self.local_vocabulary)
+        columns = signature[:, : len(self.times)] if self.local_columns == "hks" else signature
+        features = local_descriptors(columns, points, self.local_neighbours)
+        if features.shape[1] != vocabulary.width:
+            raise ValueError(
+                f"vocabulary {self.local_vocabulary!r} has {vocabulary.width} columns, the "
+                f"local descriptors {features.shape[1]}"
+            )
+        encode = encode_vlad if self.local_encoding == "vlad" else encode_bof
+        return encode(features, areas, vocabulary)
 
     def _extrinsic_blocks(
         self, points: np.ndarray | None, areas: np.ndarray, count: int
@@ -350,7 +431,7 @@ class DescriptorSpec:
             else f"adaptive(xi={cutoff.xi:g},t={cutoff.t:g},{cutoff.n_min}-{cutoff.n_max})"
         )
         parts = [
-            _LAYOUT,
+            _LAYOUT if self.family == "parts" else f"{_LAYOUT}-{self.family}",
             f"lap={settings.laplacian}",
             f"norm={settings.normalisation}",
             f"pts={settings.max_points}"
@@ -371,6 +452,14 @@ class DescriptorSpec:
             "d2": self.d2_weight, "spr": self.spread_weight, "d1": self.d1_weight,
             "nrm": self.normal_weight, "sym": self.symmetry_weight, "ax": self.axis_weight,
         }
+        if self.local_weight > 0:
+            # The vocabulary's own digest: a refitted file is a new version.
+            vocabulary = load_vocabulary(self.local_vocabulary)
+            variation = "".join(f"+sv{k}" for k in self.local_neighbours)
+            parts.append(
+                f"loc={self.local_encoding}{vocabulary.size}{self.local_columns}{variation}"
+                f"@{vocabulary.digest()[:6]}w{self.local_weight:g}"
+            )
         if self.extrinsic:
             # Names, and weights other than 1; bins, pairs and neighbours are in the digest.
             parts.append("ext=" + ",".join(
@@ -378,9 +467,12 @@ class DescriptorSpec:
                 for name, weight in extrinsic.items() if weight > 0
             ))
         # The readable part rounds; the digest pins every exact value (a custom time grid).
+        vocabulary_digest = (
+            load_vocabulary(self.local_vocabulary).digest() if self.local_weight > 0 else ""
+        )
         exact = repr((self, settings.laplacian, settings.normalisation, settings.max_points,
                       settings.sample_seed, settings.outlier_filter, settings.outlier_ratio,
-                      cutoff))
+                      cutoff, vocabulary_digest))
         digest = hashlib.sha256(exact.encode()).hexdigest()[:10]
         # The database keeps VERSION_LENGTH characters: an unusual setting's long readable
         # part is cut, never the digest that tells versions apart.

@@ -14,6 +14,7 @@ import numpy as np
 from core.io._outliers import OUTLIER_RATIO
 
 __all__ = [
+    "DESCRIPTOR_FAMILIES",
     "MAX_VIEWS",
     "CutoffSettings",
     "DescriptorSettings",
@@ -128,6 +129,20 @@ class DescriptorSettings:
     axis_weight: float = 0.5
     axis_range: tuple[float, float] = (0.0, 2.5)
     axis_bins: int = 16
+    # Local signatures pooled over a shipped vocabulary (core.local_features): the file
+    # core/data/<local_vocabulary>.npz; each point's features are its log HKS at every time
+    # (``local_columns="hks"``; "hks+wks" adds its log WKS), then its surface variation at
+    # ``local_neighbours`` (none: intrinsic, unchanged by bending). Chosen by the rule of
+    # bench/local_features_select.py over six sources (docs/results.md, issue 24): VLAD on
+    # 64 words of HKS at weight 0.5 against the unit-norm rest.
+    local_weight: float = 0.5
+    local_encoding: str = "vlad"
+    local_vocabulary: str = "hks64"
+    local_columns: str = "hks"
+    local_neighbours: tuple[int, ...] = ()
+    #: The named preset these settings started from (``DESCRIPTOR_FAMILIES``); written into
+    #: ``descriptor_version`` so that a database says which family it holds.
+    family: str = "parts"
 
     #: The weights of the blocks computed from the points rather than the spectrum.
     EXTRINSIC_WEIGHTS: ClassVar[tuple[str, ...]] = (
@@ -136,8 +151,12 @@ class DescriptorSettings:
     )
 
     def intrinsic(self) -> DescriptorSettings:
-        """The same settings with every extrinsic block off: a purely spectral descriptor."""
-        return replace(self, **dict.fromkeys(self.EXTRINSIC_WEIGHTS, 0.0))
+        """The same settings with every extrinsic block off: a purely spectral descriptor.
+
+        A local block that measures surface variation is extrinsic too and goes off.
+        """
+        local = 0.0 if self.local_neighbours else self.local_weight
+        return replace(self, **dict.fromkeys(self.EXTRINSIC_WEIGHTS, 0.0), local_weight=local)
 
     def validate(self) -> None:
         if not self.hks_times or min(self.hks_times) <= 0:
@@ -163,14 +182,48 @@ class DescriptorSettings:
             raise ValueError("normal_bins and axis_bins must be >= 2, normal_neighbours >= 3")
         if self.d2_pairs < 100:
             raise ValueError("d2_pairs must be at least 100")
+        if self.local_weight < 0:
+            raise ValueError("local_weight must be >= 0")
+        if self.local_weight > 0:
+            if self.local_encoding not in ("vlad", "bof"):
+                raise ValueError("local_encoding must be 'vlad' or 'bof'")
+            if not self.local_vocabulary:
+                raise ValueError("a local block (local_weight > 0) needs a local_vocabulary")
+            if self.local_columns not in ("hks", "hks+wks"):
+                raise ValueError("local_columns must be 'hks' or 'hks+wks'")
+            if self.local_columns == "hks+wks" and self.wks_energies == 0:
+                raise ValueError("local_columns 'hks+wks' needs wks_energies > 0")
+            if any(count < 3 for count in self.local_neighbours):
+                raise ValueError("local_neighbours must each be at least 3")
         if not (
             self.hks_weight > 0
             or (self.wks_energies > 0 and self.wks_weight > 0)
             or (self.wks_energies > 1 and self.wks_slope_weight > 0)
             or (self.dna_count > 0 and self.dna_weight > 0)
             or max(extrinsic) > 0
+            or self.local_weight > 0
         ):
             raise ValueError("descriptor has no block with a positive weight")
+
+
+def _bendable() -> DescriptorSettings:
+    """Spectral blocks only (the previous intrinsic default's weights) and the local block as
+    idf-weighted word counts: every part of it unchanged when a shape bends."""
+    return replace(
+        DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0,
+        local_weight=1.0, local_encoding="bof", family="bendable",
+    )
+
+
+#: The descriptor families a database can hold (``SHAPESEARCH_DESCRIPTOR_FAMILY``):
+#: ``parts`` (the default) for rigid parts, where how the surface sits in space tells kinds
+#: apart; ``bendable`` for shapes that bend or articulate (hoses, cables, springs, hands,
+#: people), where only what bending keeps may count. Chosen by bench/local_features_select.py
+#: (docs/results.md, issue 24).
+DESCRIPTOR_FAMILIES: dict[str, DescriptorSettings] = {
+    "parts": DescriptorSettings(),
+    "bendable": _bendable(),
+}
 
 
 #: Most views per model: the index gives each model 16 view ids (``app.index``).

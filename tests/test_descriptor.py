@@ -13,6 +13,7 @@ from core.descriptor import (
     DescriptorSpec,
     area_histograms,
     distance_distribution,
+    load_vocabulary,
 )
 from core.evaluation.scans import random_rotation
 from core.extrinsic import spread_profile
@@ -46,6 +47,12 @@ def fake_points(n_points: int = 400, seed: int = 0) -> np.ndarray:
     return torus_points(n_points, seed=seed)
 
 
+def local_length(settings: DescriptorSettings) -> int:
+    """Words (bag of words), or words x feature columns (VLAD), of the shipped vocabulary."""
+    vocabulary = load_vocabulary(settings.local_vocabulary)
+    return vocabulary.size * (vocabulary.width if settings.local_encoding == "vlad" else 1)
+
+
 @pytest.mark.parametrize(
     "settings",
     [
@@ -53,7 +60,9 @@ def fake_points(n_points: int = 400, seed: int = 0) -> np.ndarray:
         DescriptorSettings(wks_energies=0, dna_count=0),
         DescriptorSettings(wks_energies=8),
         DescriptorSettings(wks_energies=8, dna_count=20, wks_slope_weight=0.0),
-        DescriptorSettings(bins=16, hks_times=(0.01, 0.1)),
+        DescriptorSettings(bins=16, hks_times=(0.01, 0.1), local_weight=0.0),
+        DescriptorSettings(local_encoding="bof"),
+        DescriptorSettings(local_weight=0.0),
         DescriptorSettings(hks_weight=0.0, wks_weight=0.0),
         DescriptorSettings(d2_weight=0.0),
         DescriptorSettings(spread_weight=0.0, bins=8),
@@ -72,7 +81,8 @@ def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> No
     descriptor = spec.histogram(signature, areas, eigenvalues, fake_points())
     # Blocks: HKS (times x bins), WKS (energies x bins), WKS slope ((energies - 1) x bins),
     # eigenvalue channel (dna_count), D2 (bins), spread (3), D1 (bins), normals (3 x
-    # normal_bins), symmetry (7), axes (3 x axis_bins); a block with weight 0 is left out.
+    # normal_bins), symmetry (7), axes (3 x axis_bins), local (words, x columns for VLAD);
+    # a block with weight 0 is left out.
     energies = settings.wks_energies
     length = (
         (len(settings.hks_times) * settings.bins if settings.hks_weight > 0 else 0)
@@ -85,6 +95,7 @@ def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> No
         + (3 * settings.normal_bins if settings.normal_weight > 0 else 0)
         + (7 if settings.symmetry_weight > 0 else 0)
         + (3 * settings.axis_bins if settings.axis_weight > 0 else 0)
+        + (local_length(settings) if settings.local_weight > 0 else 0)
     )
     assert descriptor.dtype == np.float32
     assert descriptor.shape == (length,)
@@ -117,6 +128,7 @@ def test_a_descriptor_without_blocks_is_refused() -> None:
         DescriptorSettings(
             hks_weight=0.0, wks_energies=0, dna_count=0, d2_weight=0.0, spread_weight=0.0,
             d1_weight=0.0, normal_weight=0.0, symmetry_weight=0.0, axis_weight=0.0,
+            local_weight=0.0,
         ).validate()
 
 
@@ -137,8 +149,11 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(bins=16),
         DescriptorSettings(hks_scaled=False),
         DescriptorSettings(wks_energies=8),
-        DescriptorSettings(hks_times=(1e-3, 1e-2, 0.05)),
-        DescriptorSettings(hks_times=(1e-3, 1e-2, 0.06)),
+        DescriptorSettings(hks_times=(1e-3, 1e-2, 0.05), local_weight=0.0),
+        DescriptorSettings(hks_times=(1e-3, 1e-2, 0.06), local_weight=0.0),
+        DescriptorSettings(local_weight=0.0),
+        DescriptorSettings(local_weight=1.0),
+        DescriptorSettings(local_encoding="bof"),
         DescriptorSettings(hks_weight=0.3),
         DescriptorSettings(wks_sigma=3.0),
         DescriptorSettings(wks_slope_weight=1.0),
@@ -160,7 +175,7 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(axis_bins=8),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 32
+    assert len(versions) == 35
     assert max(len(version) for version in versions) <= VERSION_LENGTH
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)
 
@@ -169,8 +184,11 @@ def test_a_long_version_keeps_its_digest_within_the_column() -> None:
     # Unusual settings make the readable part longer than the database column: it is cut,
     # the digest that tells the two apart is not.
     cutoff = CutoffSettings(xi=1.2345e-10, t=0.012345, n_min=1000, n_max=10000)
-    base = EngineSettings(max_points=100000, cutoff=cutoff)
-    other = replace(base, descriptor=DescriptorSettings(symmetry_weight=0.5))
+    times = tuple(np.geomspace(1.23456e-4, 0.123456, 16).tolist())
+    base = EngineSettings(max_points=100000, cutoff=cutoff,
+                          descriptor=DescriptorSettings(hks_times=times, d2_weight=0.75,
+                                                                d1_weight=0.25))
+    other = replace(base, descriptor=replace(base.descriptor, symmetry_weight=0.5))
     first, second = (DescriptorSpec.from_settings(s.descriptor).version(s) for s in (base, other))
     assert len(first) == len(second) == VERSION_LENGTH
     assert first[:150] == second[:150] and first != second
@@ -275,9 +293,13 @@ def test_extrinsic_blocks_need_the_points() -> None:
         spec.histogram(signature, areas, eigenvalues)
     with pytest.raises(ValueError, match="points"):
         spec.histogram(signature, areas, eigenvalues, fake_points(300))
-    spectral = DescriptorSpec.from_settings(DescriptorSettings().intrinsic())
+    intrinsic = DescriptorSettings().intrinsic()
+    spectral = DescriptorSpec.from_settings(intrinsic)
     assert not spectral.extrinsic
-    assert spectral.histogram(signature, areas, eigenvalues).shape == (1534,)
+    # The local block of HKS words is intrinsic too, and needs no points.
+    assert spectral.histogram(signature, areas, eigenvalues).shape == (
+        1534 + local_length(intrinsic),
+    )
 
 
 def test_unit_blocks_reweighted_give_the_descriptor_of_those_weights() -> None:
@@ -287,7 +309,7 @@ def test_unit_blocks_reweighted_give_the_descriptor_of_those_weights() -> None:
         DescriptorSettings(**dict.fromkeys(BLOCK_WEIGHTS.values(), 1.0))
     )
     weights = {"hks": 0.5, "wks": 1.0, "slope": 0.0, "dna": 0.2, "d2": 1.5, "spread": 1.0,
-               "d1": 0.0, "normals": 0.5, "symmetry": 2.0, "axes": 1.0}
+               "d1": 0.0, "normals": 0.5, "symmetry": 2.0, "axes": 1.0, "local": 0.7}
     chosen = DescriptorSpec.from_settings(
         DescriptorSettings(**{BLOCK_WEIGHTS[block]: weight for block, weight in weights.items()})
     )

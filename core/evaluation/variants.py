@@ -14,7 +14,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from core.settings import CutoffSettings, DescriptorSettings, EngineSettings
+from core.settings import (
+    DESCRIPTOR_FAMILIES,
+    CutoffSettings,
+    DescriptorSettings,
+    EngineSettings,
+)
 
 __all__ = [
     "BUDGET_POINTS",
@@ -23,6 +28,7 @@ __all__ = [
     "NAIVE_DESCRIPTOR",
     "SCAN_VARIANTS",
     "SPECTRAL_DESCRIPTOR",
+    "SS4_DESCRIPTOR",
     "VARIANTS",
     "resolve_variants",
 ]
@@ -44,6 +50,7 @@ NAIVE_DESCRIPTOR = DescriptorSettings(
     hks_weight=1.0,
     wks_energies=0,
     dna_count=0,
+    local_weight=0.0,
 ).intrinsic()
 
 
@@ -51,8 +58,11 @@ NAIVE_DESCRIPTOR = DescriptorSettings(
 #: 1.0), chosen on capod alone; kept to compare against and as the base of the signature
 #: variants below, so their figures stay those of docs/results.md.
 SPECTRAL_DESCRIPTOR = replace(
-    DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0
+    DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0, local_weight=0.0
 )
+
+#: The default of issue 12 (``ss4``): the present one without the local block of issue 24.
+SS4_DESCRIPTOR = replace(DescriptorSettings(), local_weight=0.0)
 
 
 def _engine(
@@ -107,7 +117,12 @@ def _variants() -> dict[str, EngineSettings]:
         # Issue 12: the spectral default before it, the first extrinsic default (ss3: D2 and
         # spread), and the present one without each extrinsic block or with nothing else.
         "spectral": _engine(descriptor=spectral),
-        "ss3": _engine(descriptor=replace(default.intrinsic(), d2_weight=1.0, spread_weight=1.0)),
+        "ss3": _engine(descriptor=replace(
+            default.intrinsic(), d2_weight=1.0, spread_weight=1.0, local_weight=0.0)),
+        # Issue 24: the default before it (ss4), and the descriptor family for bendable shapes.
+        "ss4": _engine(descriptor=SS4_DESCRIPTOR),
+        "bendable": _engine(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
+        "default-no-local": _engine(descriptor=SS4_DESCRIPTOR),
         **{
             f"default-no-{name.removesuffix('_weight')}": _engine(
                 descriptor=replace(default, **{name: 0.0})
@@ -117,7 +132,8 @@ def _variants() -> dict[str, EngineSettings]:
         "default-no-extrinsic": _engine(descriptor=default.intrinsic()),
         "extrinsic": _engine(
             descriptor=replace(
-                default, hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0
+                default, hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0,
+                local_weight=0.0,
             )
         ),
         # The other Laplacian at the chosen setting (slow: run on a subset).

@@ -1,0 +1,105 @@
+"""Stage 1 of the engineering-parts study (issue 24): per-point features of every model.
+
+For every model of every source (``SOURCES/<source>/<class>/<file>``) the service's own
+stages run once (``core.evaluation.runner``: seeded sample, seeded rotation, robust
+Laplacian, the default adaptive cutoff), and what every descriptor candidate needs is
+saved, so that stage 2 (``bench/local_features_select.py``) only recombines:
+
+- ``points``, ``areas``: the normalised sample and the area each point stands for;
+- ``signature``: log scaled HKS at the 16 default times and log WKS at the 16 energies;
+- ``blocks_*``: the unit blocks of the default descriptor (every weight 1).
+
+    .venv/bin/python bench/local_features_extract.py SOURCES OUT [--scan KIND]
+
+Eigenpairs are cached under ``OUT/cache`` (the evaluation's cache layout), features under
+``OUT/features/<kind>/<source>/``; a re-run resumes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+from core.descriptor import BLOCK_WEIGHTS, DescriptorSpec  # noqa: E402
+from core.eigen import SpectralSolver  # noqa: E402
+from core.errors import InvalidShapeError, SolverError  # noqa: E402
+from core.evaluation.dataset import load_dataset  # noqa: E402
+from core.evaluation.runner import describe_sampling, run_variants, sampling_of  # noqa: E402
+from core.evaluation.scan_retrieval import ROTATION_SEED  # noqa: E402
+from core.settings import EngineSettings  # noqa: E402
+
+
+def extract(sources: Path, out: Path, scan: str, only: list[str] | None) -> None:
+    settings = EngineSettings()
+    unit = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block != "local"}
+    ones = replace(settings.descriptor, **unit)
+    spec = DescriptorSpec.from_settings(ones)
+    cache = out / "cache"
+    sampling = sampling_of(settings, ROTATION_SEED, scan)
+    for source in sorted(p for p in sources.iterdir() if p.is_dir()):
+        if only and source.name not in only:
+            continue
+        models = load_dataset(source).models
+        target = out / "features" / scan / source.name
+        target.mkdir(parents=True, exist_ok=True)
+        # Features of files the source no longer holds (it was rebuilt) must not be scored.
+        current = {f"{model.sha256[:24]}.npz" for model in models}
+        for stale in target.glob("*.npz"):
+            if stale.name not in current:
+                stale.unlink()
+        started = time.perf_counter()
+        for index, model in enumerate(models, 1):
+            path = target / f"{model.sha256[:24]}.npz"
+            if path.exists():
+                continue
+            try:
+                store = describe_sampling(model, sampling, settings, cache, SpectralSolver)
+                result = run_variants(store, {"default": settings})["default"]
+                if store.changed:
+                    store.save(cache / sampling.cache_name(model.sha256))
+            except (InvalidShapeError, SolverError, ValueError, RuntimeError) as error:
+                print(f"  failed {source.name}/{model.name}: {error}", file=sys.stderr)
+                continue
+            values = store.eigenvalues[: result.n]
+            vectors = store.eigenvectors[:, : result.n]
+            signature = spec.signature(values, vectors)
+            blocks = spec.blocks(signature, store.areas, values, store.points)
+            np.savez(
+                path,
+                label=model.label,
+                name=model.name,
+                points=store.points.astype(np.float32),
+                areas=store.areas,
+                signature=signature.astype(np.float32),
+                eigenvalues=values,
+                n=result.n,
+                **{f"blocks_{key}": value for key, value in blocks.items()},
+            )
+            if index % 20 == 0 or index == len(models):
+                elapsed = time.perf_counter() - started
+                print(f"  {source.name} {scan} [{index}/{len(models)}] {elapsed:.0f}s",
+                      file=sys.stderr, flush=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("sources", type=Path)
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--scan", default="clean")
+    parser.add_argument("--only", nargs="*")
+    args = parser.parse_args(argv)
+    extract(args.sources, args.out, args.scan, args.only)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

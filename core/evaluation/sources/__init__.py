@@ -1,0 +1,103 @@
+"""Labelled tuning sources, one folder each: data made by others, and ours as one of them.
+
+``python -m core.evaluation.sources OUT [--sources NAME ...]`` writes
+``OUT/<source>/<class>/<model>.ply`` for the evaluation (``core.evaluation.dataset``), the
+same bytes for the same seed. Generated files are never committed: they are rebuilt from
+the libraries' own parametric models.
+
+| source | made by | licence | classes |
+|---|---|---|---|
+| ``madcad`` | pymadcad ``madcad.standard`` | LGPL-3.0 | 12: screws (4 heads), nuts, ... |
+| ``gearworks`` | py-gearworks on build123d | MIT / Apache-2.0 | 7 gear kinds |
+| ``parts`` | trimesh project's part meshes | MIT | one per part (instance level) |
+| ``capod`` | CAPOD (Papadakis 2014) | CC BY 3.0 | 15 object classes |
+| ``generated`` | ours (``core.evaluation.parts_generator``) | ours | 14 part families |
+| ``bendable`` | ours (``core.evaluation.sources.bendable``) | ours | 6 bendable kinds, 8 poses |
+
+``NON_RIGID`` names what bends: the whole ``bendable`` source and capod's articulated
+classes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import trimesh
+
+__all__ = ["NON_RIGID", "SHARED", "SOURCES", "write_sources"]
+
+#: The shared datasets folder (next to the repository), for ``parts`` and ``capod``.
+SHARED = Path(__file__).resolve().parents[3].parent / "shared" / "datasets"
+
+#: Source -> classes that bend or articulate (``None``: every class of the source).
+NON_RIGID: dict[str, tuple[str, ...] | None] = {
+    "bendable": None,
+    "capod": ("Dog", "Hand", "Horse", "Human", "Spider"),
+}
+
+Parts = Iterator[tuple[str, str, trimesh.Trimesh]]
+
+
+def _madcad(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.madcad_parts import parts
+
+    return parts()
+
+
+def _gearworks(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.gearworks_gears import parts
+
+    return parts()
+
+
+def _parts(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.real_parts import parts
+
+    return parts(shared / "parts", seed)
+
+
+def _generated(seed: int, shared: Path) -> Parts:
+    from core.evaluation.parts_generator import FAMILIES, generate_part
+
+    for family in FAMILIES:
+        for index in range(10):
+            yield family, f"{family}_{index:03d}", generate_part(family, index, seed).mesh
+
+
+def _bendable(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.bendable import parts
+
+    return parts(seed=seed)
+
+
+#: Every source that writes meshes (``capod`` is linked, not written).
+SOURCES: dict[str, Callable[[int, Path], Parts]] = {
+    "madcad": _madcad, "gearworks": _gearworks, "parts": _parts,
+    "generated": _generated, "bendable": _bendable,
+}
+
+
+def write_sources(out: Path, names: list[str], seed: int = 0,
+                  shared: Path = SHARED) -> dict[str, dict[str, int]]:
+    """Write every named source under ``out``; returns the model count per class.
+
+    ``capod`` is a symbolic link to the shared copy (it is labelled already).
+    """
+    counts: dict[str, dict[str, int]] = {}
+    for name in names:
+        target = out / name
+        if name == "capod":
+            out.mkdir(parents=True, exist_ok=True)
+            if not target.exists():
+                target.symlink_to(shared / "capod", target_is_directory=True)
+            classes = [p for p in target.iterdir() if p.is_dir()]
+            counts[name] = {p.name: len(list(p.glob("*.obj"))) for p in classes}
+            continue
+        counts[name] = {}
+        for label, model, mesh in SOURCES[name](seed, shared):
+            folder = target / label
+            folder.mkdir(parents=True, exist_ok=True)
+            mesh.export(folder / f"{model}.ply")
+            counts[name][label] = counts[name].get(label, 0) + 1
+    return counts

@@ -1,0 +1,74 @@
+"""The tuning sources (``core.evaluation.sources``): what they hold, and that bending keeps
+lengths (the bendable source must be near-isometric to test what it claims)."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from core.evaluation.dataset import load_dataset
+from core.evaluation.sources import write_sources
+from core.evaluation.sources.bendable import KINDS, bend_points, centre_line, parts
+
+
+def test_centre_line_keeps_its_length_however_it_is_bent() -> None:
+    for curvature in (lambda s: 0 * s, lambda s: 0.03 + 0 * s, lambda s: 0.05 * np.sin(s / 9)):
+        line = centre_line(100.0, curvature)
+        assert np.linalg.norm(np.diff(line, axis=0), axis=1).sum() == pytest.approx(100.0)
+
+
+def test_a_bend_moves_the_far_end_as_an_arc_does() -> None:
+    # A quarter circle of radius R: the end lies at (R, 0, R) from the start.
+    radius = 40.0
+    length = np.pi / 2 * radius
+    line = centre_line(length, lambda s: np.full_like(s, 1 / radius))
+    np.testing.assert_allclose(line[-1], [radius, 0.0, radius], atol=1e-3)
+
+
+def test_bending_keeps_distances_along_the_centre_line() -> None:
+    z = np.linspace(0.0, 50.0, 200)
+    straight = np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1)
+    bent = bend_points(straight, 50.0, lambda s: np.full_like(s, 0.04))
+    assert np.linalg.norm(np.diff(bent, axis=0), axis=1).sum() == pytest.approx(50.0, rel=1e-3)
+    assert np.linalg.norm(bent[-1] - bent[0]) < 45.0  # it did bend
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_every_bendable_pose_keeps_its_area(kind: str) -> None:
+    meshes = [mesh for _, _, mesh in parts((kind,))]
+    assert len(meshes) == 8
+    areas = np.array([mesh.area for mesh in meshes])
+    # Poses differ by a bend and a +-5 % size jitter (area +-10 %); a bend adds <= 5 %.
+    assert areas.max() / areas.min() < 1.2
+    assert all(mesh.is_watertight for mesh in meshes)
+    extents = np.array([sorted(mesh.extents) for mesh in meshes])
+    assert np.ptp(extents, axis=0).max() > 0.2 * extents[0].max()  # the poses really differ
+
+
+def test_sources_are_written_as_a_labelled_dataset_and_repeat(tmp_path: Path) -> None:
+    first = write_sources(tmp_path / "a", ["bendable"], seed=3)
+    write_sources(tmp_path / "b", ["bendable"], seed=3)
+    assert first == {"bendable": dict.fromkeys(KINDS, 8)}
+    dataset = load_dataset(tmp_path / "a" / "bendable")
+    assert sorted(set(dataset.labels)) == sorted(KINDS)
+
+    def digest(root: Path) -> str:
+        files = sorted(root.rglob("*.ply"))
+        return hashlib.sha256(b"".join(p.read_bytes() for p in files)).hexdigest()
+
+    assert digest(tmp_path / "a") == digest(tmp_path / "b")
+
+
+def test_madcad_source_makes_every_kind() -> None:
+    pytest.importorskip("madcad", reason="pymadcad (the tune extra) is not installed")
+    from core.evaluation.sources.madcad_parts import KINDS as MADCAD
+    from core.evaluation.sources.madcad_parts import parts as madcad_parts
+
+    seen: dict[str, int] = {}
+    for kind, _, mesh in madcad_parts(MADCAD):
+        seen[kind] = seen.get(kind, 0) + 1
+        assert len(mesh.faces) > 50 and mesh.area > 0
+    assert seen == dict.fromkeys(MADCAD, 10)
