@@ -16,7 +16,8 @@ import numpy as np
 from pydantic import Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-from core.settings import MAX_VIEWS, CutoffSettings, EngineSettings
+from core.descriptor import DescriptorSpec
+from core.settings import DESCRIPTOR_FAMILIES, MAX_VIEWS, CutoffSettings, EngineSettings
 
 __all__ = ["Settings", "engine_settings"]
 
@@ -162,6 +163,12 @@ class Settings(BaseSettings):
     cutoff_n: int = Field(
         default=_ENGINE.cutoff.n, ge=2, description="Fixed cutoff: eigenpairs per model."
     )
+    descriptor_family: Literal["parts", "bendable"] = Field(
+        default="parts",
+        description="Descriptor family of this database: parts (rigid parts; sees how the "
+        "surface sits in space) or bendable (hoses, cables, springs, hands, people: only what "
+        "bending keeps). Written into descriptor_version; a change needs a re-describe.",
+    )
     descriptor_t_min: float = Field(
         default=min(_ENGINE.descriptor.hks_times),
         gt=0,
@@ -189,15 +196,15 @@ class Settings(BaseSettings):
         ge=0,
         description="Descriptor: wave-kernel energies (0: no WKS block).",
     )
-    descriptor_hks_weight: float = Field(
-        default=_ENGINE.descriptor.hks_weight,
+    descriptor_hks_weight: float | None = Field(
+        default=None,
         ge=0,
-        description="Descriptor: weight of the heat-kernel block.",
+        description="Descriptor: weight of the heat-kernel block (unset: the family's).",
     )
-    descriptor_wks_slope_weight: float = Field(
-        default=_ENGINE.descriptor.wks_slope_weight,
+    descriptor_wks_slope_weight: float | None = Field(
+        default=None,
         ge=0,
-        description="Descriptor: weight of the WKS slope block.",
+        description="Descriptor: weight of the WKS slope block (unset: the family's).",
     )
     descriptor_wks_weight: float = Field(
         default=_ENGINE.descriptor.wks_weight,
@@ -393,8 +400,13 @@ class Settings(BaseSettings):
         return f"sqlite:///{(self.data_dir / 'shapesearch.db').as_posix()}"
 
 
+def _or(value: float | None, family_value: float) -> float:
+    return family_value if value is None else value
+
+
 def engine_settings(settings: Settings) -> EngineSettings:
     """Map the service settings onto the engine's (validated) settings."""
+    family = DESCRIPTOR_FAMILIES[settings.descriptor_family]
     engine = EngineSettings(
         max_points=settings.max_points,
         min_points=settings.min_points,
@@ -413,21 +425,21 @@ def engine_settings(settings: Settings) -> EngineSettings:
             margin=settings.cutoff_margin,
             n=settings.cutoff_n,
         ),
-        # Fields without a variable of their own (bin ranges, filter widths) keep core's
-        # measured defaults: start from them, never from a second copy of the numbers.
+        # Fields without a variable of their own (bin ranges, filter widths) keep the
+        # family's measured defaults: start from them, never from a second copy of the numbers.
         descriptor=replace(
-            _ENGINE.descriptor,
+            family,
             hks_times=tuple(
                 np.geomspace(
                     settings.descriptor_t_min, settings.descriptor_t_max, settings.descriptor_times
                 ).tolist()
             ),
             hks_scaled=settings.descriptor_hks_scaled,
-            hks_weight=settings.descriptor_hks_weight,
+            hks_weight=_or(settings.descriptor_hks_weight, family.hks_weight),
             bins=settings.descriptor_bins,
             wks_energies=settings.descriptor_wks_energies,
             wks_weight=settings.descriptor_wks_weight,
-            wks_slope_weight=settings.descriptor_wks_slope_weight,
+            wks_slope_weight=_or(settings.descriptor_wks_slope_weight, family.wks_slope_weight),
             dna_count=settings.descriptor_dna_count,
             dna_weight=settings.descriptor_dna_weight,
         ),
@@ -441,4 +453,6 @@ def engine_settings(settings: Settings) -> EngineSettings:
         ),
     )
     engine.validate()
+    # The local block's vocabulary must fit the time grid: refused at start-up, not per job.
+    DescriptorSpec.from_settings(engine.descriptor)
     return engine

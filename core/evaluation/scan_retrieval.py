@@ -42,9 +42,9 @@ from core.evaluation.runner import (
     sampling_of,
 )
 from core.evaluation.scans import view_kind
-from core.evaluation.variants import EVAL_POINTS
+from core.evaluation.variants import EVAL_POINTS, SS4_DESCRIPTOR
 from core.pipeline import descriptor_from_eigenpairs
-from core.settings import DescriptorSettings, EngineSettings
+from core.settings import DESCRIPTOR_FAMILIES, DescriptorSettings, EngineSettings
 from core.views import boundary_weights
 
 __all__ = [
@@ -69,13 +69,16 @@ _DEFAULT = DescriptorSettings()
 #: Descriptor variant -> (descriptor settings, down-weight the boundary?).
 DESCRIPTORS: dict[str, tuple[DescriptorSettings, bool]] = {
     "default": (_DEFAULT, False),
+    # Issue 24: the default before it, and the family for bendable shapes.
+    "ss4": (SS4_DESCRIPTOR, False),
+    "bendable": (DESCRIPTOR_FAMILIES["bendable"], False),
     "boundary": (_DEFAULT, True),
     # ShapeDNA is a global spectrum: a partial surface's eigenvalues are not the whole's.
     "boundary-nodna": (replace(_DEFAULT, dna_count=0), True),
     # Short diffusion times only: local geometry, less reach to a missing side.
     "short-hks-boundary": (
         replace(_DEFAULT, hks_times=tuple(np.geomspace(1e-3, 1e-2, 16).tolist()),
-                hks_weight=1.0, wks_energies=0, dna_count=0),
+                hks_weight=1.0, wks_energies=0, dna_count=0, local_weight=0.0),
         True,
     ),
 }
