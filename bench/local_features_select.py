@@ -10,8 +10,10 @@ the intrinsic previous default) alone, or joined with a local block (``core.loca
 with surface variation at 10 and 30 neighbours, ``hks`` (the 16 HKS columns) or ``hks+sv``;
 vocabularies of 16, 32 or 64 words) at weight 0.25, 0.5, 1, 2 or 4 against the unit-norm
 base, or alone (base ``none``). ``ss4-half`` is ``ss4`` with its extrinsic blocks at half
-weight. Candidates with an extrinsic part (base ``ss4``/``ss4-half``, or surface variation)
-are for rigid parts only.
+weight; ``ss4-nospread``, ``ss4-noprop`` and ``spectral+nrm+sym`` were added in a second
+round, after the first round's per-class scores (see ``BASES``); the rule and its
+leave-one-source-out figures cover the whole grid. Candidates with an extrinsic part (any
+base but ``spectral`` and ``none``, or surface variation) are for rigid parts only.
 
 The rule, written down before any score was seen:
 
@@ -45,7 +47,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 from core.evaluation.metrics import pairwise_distances, ranked_relevance, score_rankings  # noqa: E402
-from core.evaluation.variants import SPECTRAL_DESCRIPTOR  # noqa: E402
+from core.evaluation.variants import SPECTRAL_DESCRIPTOR, SS4_DESCRIPTOR  # noqa: E402
 from core.local_features import Vocabulary, encode_bof, encode_vlad, local_descriptors  # noqa: E402
 from core.settings import DescriptorSettings  # noqa: E402
 
@@ -74,9 +76,16 @@ def _halved(weights: dict[str, float]) -> dict[str, float]:
     return {key: value / 2 if key in extrinsic else value for key, value in weights.items()}
 
 
+_SS4 = _weights(SS4_DESCRIPTOR)
 BASES = {
-    "ss4": _weights(DescriptorSettings()),
-    "ss4-half": _halved(_weights(DescriptorSettings())),
+    "ss4": _SS4,
+    "ss4-half": _halved(_SS4),
+    # Second round (after a first look at per-class scores: the proportion blocks split
+    # screws of one head type by length): ss4 without the proportion-sensitive blocks, and
+    # the spectral base with the two extrinsic blocks that do not grow with proportions.
+    "ss4-nospread": {**_SS4, "spread": 0.0},
+    "ss4-noprop": {**_SS4, "spread": 0.0, "axes": 0.0},
+    "spectral+nrm+sym": {**_weights(SPECTRAL_DESCRIPTOR), "normals": 0.5, "symmetry": 1.0},
     "spectral": _weights(SPECTRAL_DESCRIPTOR),
     "none": {},
 }

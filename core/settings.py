@@ -115,7 +115,10 @@ class DescriptorSettings:
     # parts by ~0.2 (docs/results.md).
     d2_pairs: int = 20000
     d2_seed: int = 0
-    spread_weight: float = 1.0
+    # Off since issue 24: the principal extents' spread split one kind of part by its
+    # proportions (a screw of one head type by its length); the rule of
+    # bench/local_features_select.py chose the default without it.
+    spread_weight: float = 0.0
     # D1: distances from the centroid over their mean; 3 is far beyond any part's tail.
     d1_weight: float = 1.0
     d1_range: tuple[float, float] = (0.0, 3.0)
@@ -134,7 +137,7 @@ class DescriptorSettings:
     # (``local_columns="hks"``; "hks+wks" adds its log WKS), then its surface variation at
     # ``local_neighbours`` (none: intrinsic, unchanged by bending). Chosen by the rule of
     # bench/local_features_select.py over six sources (docs/results.md, issue 24): VLAD on
-    # 64 words of HKS at weight 0.5 against the unit-norm rest.
+    # 64 words of the 16 log HKS values at weight 0.5 against the unit-norm rest.
     local_weight: float = 0.5
     local_encoding: str = "vlad"
     local_vocabulary: str = "hks64"

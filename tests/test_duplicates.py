@@ -86,7 +86,7 @@ def test_a_rotated_rescaled_and_a_mirrored_copy_group_with_their_part(
 
     monkeypatch.setenv("SHAPESEARCH_DATABASE_URL", database_url)
     for name, value in make_settings(database_url).model_dump().items():
-        if name.startswith(("cutoff_", "max_points", "descriptor_")):
+        if name.startswith(("cutoff_", "max_points", "descriptor_")) and value is not None:
             monkeypatch.setenv(f"SHAPESEARCH_{name.upper()}", str(value))
     assert main(["duplicates", "--min-score", "0.98", "--format", "csv"]) == 0
     rows = list(csv.DictReader(io.StringIO(capsys.readouterr().out)))

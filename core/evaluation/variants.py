@@ -61,8 +61,9 @@ SPECTRAL_DESCRIPTOR = replace(
     DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0, local_weight=0.0
 )
 
-#: The default of issue 12 (``ss4``): the present one without the local block of issue 24.
-SS4_DESCRIPTOR = replace(DescriptorSettings(), local_weight=0.0)
+#: The default of issue 12 (``ss4``): the present one without the local block of issue 24,
+#: with the spread block it then had.
+SS4_DESCRIPTOR = replace(DescriptorSettings(), local_weight=0.0, spread_weight=1.0)
 
 
 def _engine(
@@ -122,7 +123,7 @@ def _variants() -> dict[str, EngineSettings]:
         # Issue 24: the default before it (ss4), and the descriptor family for bendable shapes.
         "ss4": _engine(descriptor=SS4_DESCRIPTOR),
         "bendable": _engine(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
-        "default-no-local": _engine(descriptor=SS4_DESCRIPTOR),
+        "default-no-local": _engine(descriptor=replace(default, local_weight=0.0)),
         **{
             f"default-no-{name.removesuffix('_weight')}": _engine(
                 descriptor=replace(default, **{name: 0.0})
