@@ -8,8 +8,8 @@ Candidates: a base (``ss4``, the present default with its extrinsic blocks, or `
 the intrinsic previous default) alone, or joined with a local block (``core.local_features``:
 ``bof`` or ``vlad`` encoding; local features ``sig`` = the 32-column signature, ``sig+sv``
 with surface variation at 10 and 30 neighbours, ``hks`` (the 16 HKS columns) or ``hks+sv``;
-vocabularies of 16, 32 or 64 words) at weight 0.25, 0.5, 1, 2 or 4 against the unit-norm
-base, or alone (base ``none``). ``ss4-half`` is ``ss4`` with its extrinsic blocks at half
+vocabularies of 16, 32 or 64 words) at weight 0.25, 0.5, 1, 2 or 4 next to the base's weighted
+blocks (as ``DescriptorSpec`` joins them: the whole is scaled to unit norm once), or alone (base ``none``). ``ss4-half`` is ``ss4`` with its extrinsic blocks at half
 weight; ``ss4-nospread``, ``ss4-noprop`` and ``spectral+nrm+sym`` were added in a second
 round, after the first round's per-class scores (see ``BASES``); the rule and its
 leave-one-source-out figures cover the whole grid. Candidates with an extrinsic part (any
@@ -131,7 +131,9 @@ def load_source(folder: Path) -> Source:
             local["hks+sv"].append(np.hstack(
                 [with_variation[:, :hks_columns], with_variation[:, signature.shape[1]:]]
             ))
-    bases = {name: _unit_rows(np.array(rows)) for name, rows in base_rows.items()}
+    # Raw weighted blocks, as ``DescriptorSpec.histogram`` joins them: a local block's weight
+    # is relative to these, and the whole is scaled to unit norm once.
+    bases = {name: np.array(rows) for name, rows in base_rows.items()}
     return Source(folder.name, labels, names, bases, local, areas)
 
 
@@ -226,7 +228,8 @@ def main(argv: list[str] | None = None) -> int:
             vectors = source.bases[str(spec["base"])]
             if spec["local"] is not None:
                 block = local_blocks[spec["local"]][source.name]  # type: ignore[index]
-                vectors = _unit_rows(np.hstack([vectors, float(spec["weight"]) * block]))
+                vectors = np.hstack([vectors, float(spec["weight"]) * block])
+            vectors = _unit_rows(vectors)
             widths[name] = vectors.shape[1]
             table[name][source.name] = score(vectors, source.labels)
 

@@ -137,8 +137,8 @@ class DescriptorSettings:
     # (``local_columns="hks"``; "hks+wks" adds its log WKS), then its surface variation at
     # ``local_neighbours`` (none: intrinsic, unchanged by bending). Chosen by the rule of
     # bench/local_features_select.py over six sources (docs/results.md, issue 24): VLAD on
-    # 64 words of the 16 log HKS values at weight 0.5 against the unit-norm rest.
-    local_weight: float = 0.5
+    # 64 words of the 16 log HKS values at weight 1 next to the other weighted blocks.
+    local_weight: float = 1.0
     local_encoding: str = "vlad"
     local_vocabulary: str = "hks64"
     local_columns: str = "hks"
@@ -214,7 +214,7 @@ def _bendable() -> DescriptorSettings:
     idf-weighted word counts: every part of it unchanged when a shape bends."""
     return replace(
         DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0,
-        local_weight=1.0, local_encoding="bof", family="bendable",
+        local_weight=2.0, local_encoding="bof", family="bendable",
     )
 
 

@@ -152,7 +152,7 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(hks_times=(1e-3, 1e-2, 0.05), local_weight=0.0),
         DescriptorSettings(hks_times=(1e-3, 1e-2, 0.06), local_weight=0.0),
         DescriptorSettings(local_weight=0.0),
-        DescriptorSettings(local_weight=1.0),
+        DescriptorSettings(local_weight=2.0),
         DescriptorSettings(local_encoding="bof"),
         DescriptorSettings(hks_weight=0.3),
         DescriptorSettings(wks_sigma=3.0),
@@ -187,7 +187,7 @@ def test_a_long_version_keeps_its_digest_within_the_column() -> None:
     times = tuple(np.geomspace(1.23456e-4, 0.123456, 16).tolist())
     base = EngineSettings(max_points=100000, cutoff=cutoff,
                           descriptor=DescriptorSettings(hks_times=times, d2_weight=0.75,
-                                                                d1_weight=0.25))
+                                                                d1_weight=0.25, spread_weight=0.5))
     other = replace(base, descriptor=replace(base.descriptor, symmetry_weight=0.5))
     first, second = (DescriptorSpec.from_settings(s.descriptor).version(s) for s in (base, other))
     assert len(first) == len(second) == VERSION_LENGTH
