@@ -9,7 +9,8 @@ the intrinsic previous default) alone, or joined with a local block (``core.loca
 ``bof`` or ``vlad`` encoding; local features ``sig`` = the 32-column signature, ``sig+sv``
 with surface variation at 10 and 30 neighbours, ``hks`` (the 16 HKS columns) or ``hks+sv``;
 vocabularies of 16, 32 or 64 words) at weight 0.25, 0.5, 1, 2 or 4 next to the base's weighted
-blocks (as ``DescriptorSpec`` joins them: the whole is scaled to unit norm once), or alone (base ``none``). ``ss4-half`` is ``ss4`` with its extrinsic blocks at half
+blocks (as ``DescriptorSpec`` joins them: the whole is scaled to unit norm once), or alone
+(base ``none``). ``ss4-half`` is ``ss4`` with its extrinsic blocks at half
 weight; ``ss4-nospread``, ``ss4-noprop`` and ``spectral+nrm+sym`` were added in a second
 round, after the first round's per-class scores (see ``BASES``); the rule and its
 leave-one-source-out figures cover the whole grid. Candidates with an extrinsic part (any

@@ -115,9 +115,9 @@ class DescriptorSettings:
     # parts by ~0.2 (docs/results.md).
     d2_pairs: int = 20000
     d2_seed: int = 0
-    # Off since issue 24: the principal extents' spread split one kind of part by its
-    # proportions (a screw of one head type by its length); the rule of
-    # bench/local_features_select.py chose the default without it.
+    # Off since issue 24, like ``axis_weight``: the principal extents' spread split one kind
+    # of part by its proportions (a screw of one head type by its length); the rule of
+    # bench/local_features_select.py chose the default without both (``ss4-noprop``).
     spread_weight: float = 0.0
     # D1: distances from the centroid over their mean; 3 is far beyond any part's tail.
     d1_weight: float = 1.0
@@ -128,8 +128,9 @@ class DescriptorSettings:
     normal_neighbours: int = 12
     symmetry_weight: float = 1.0
     # Offsets along the principal axes over the RMS radius: the ends of a thin rod lie at
-    # sqrt(3) ~ 1.73, so 2.5 holds every point of most parts; beyond it the end bin.
-    axis_weight: float = 0.5
+    # sqrt(3) ~ 1.73, so 2.5 holds every point of most parts; beyond it the end bin. Off
+    # since issue 24 (see ``spread_weight``).
+    axis_weight: float = 0.0
     axis_range: tuple[float, float] = (0.0, 2.5)
     axis_bins: int = 16
     # Local signatures pooled over a shipped vocabulary (core.local_features): the file
@@ -137,12 +138,13 @@ class DescriptorSettings:
     # (``local_columns="hks"``; "hks+wks" adds its log WKS), then its surface variation at
     # ``local_neighbours`` (none: intrinsic, unchanged by bending). Chosen by the rule of
     # bench/local_features_select.py over six sources (docs/results.md, issue 24): VLAD on
-    # 64 words of the 16 log HKS values at weight 1 next to the other weighted blocks.
+    # 64 words of the 16 log HKS values and the surface variation at 10 and 30 neighbours,
+    # at weight 1 next to the other weighted blocks.
     local_weight: float = 1.0
     local_encoding: str = "vlad"
-    local_vocabulary: str = "hks64"
+    local_vocabulary: str = "hks-sv64"
     local_columns: str = "hks"
-    local_neighbours: tuple[int, ...] = ()
+    local_neighbours: tuple[int, ...] = (10, 30)
     #: The named preset these settings started from (``DESCRIPTOR_FAMILIES``); written into
     #: ``descriptor_version`` so that a database says which family it holds.
     family: str = "parts"
@@ -214,7 +216,8 @@ def _bendable() -> DescriptorSettings:
     idf-weighted word counts: every part of it unchanged when a shape bends."""
     return replace(
         DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0,
-        local_weight=2.0, local_encoding="bof", family="bendable",
+        local_weight=2.0, local_encoding="bof", local_vocabulary="hks64", local_neighbours=(),
+        family="bendable",
     )
 
 

@@ -17,7 +17,7 @@ from core.descriptor import (
 )
 from core.evaluation.scans import random_rotation
 from core.extrinsic import spread_profile
-from core.settings import CutoffSettings, DescriptorSettings, EngineSettings
+from core.settings import DESCRIPTOR_FAMILIES, CutoffSettings, DescriptorSettings, EngineSettings
 from tests.shapes import plate_points, sphere_points, torus_points
 
 
@@ -68,7 +68,7 @@ def local_length(settings: DescriptorSettings) -> int:
         DescriptorSettings(spread_weight=0.0, bins=8),
         DescriptorSettings(d1_weight=0.0, normal_bins=4),
         DescriptorSettings(normal_weight=0.0, symmetry_weight=0.0, axis_bins=5),
-        DescriptorSettings(axis_weight=0.0),
+        DescriptorSettings(axis_weight=0.5),
         DescriptorSettings(
             hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0
         ),
@@ -293,12 +293,18 @@ def test_extrinsic_blocks_need_the_points() -> None:
         spec.histogram(signature, areas, eigenvalues)
     with pytest.raises(ValueError, match="points"):
         spec.histogram(signature, areas, eigenvalues, fake_points(300))
+    # The default's local words hold surface variation (extrinsic): intrinsic() drops them.
     intrinsic = DescriptorSettings().intrinsic()
+    assert intrinsic.local_weight == 0
     spectral = DescriptorSpec.from_settings(intrinsic)
     assert not spectral.extrinsic
-    # The local block of HKS words is intrinsic too, and needs no points.
-    assert spectral.histogram(signature, areas, eigenvalues).shape == (
-        1534 + local_length(intrinsic),
+    assert spectral.histogram(signature, areas, eigenvalues).shape == (1534,)
+    # The bendable family's local block of HKS words is intrinsic, and needs no points.
+    bendable = DESCRIPTOR_FAMILIES["bendable"]
+    words = DescriptorSpec.from_settings(bendable)
+    assert not words.extrinsic and bendable.local_weight > 0
+    assert words.histogram(signature, areas, eigenvalues).shape == (
+        1534 + local_length(bendable),
     )
 
 

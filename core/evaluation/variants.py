@@ -62,8 +62,10 @@ SPECTRAL_DESCRIPTOR = replace(
 )
 
 #: The default of issue 12 (``ss4``): the present one without the local block of issue 24,
-#: with the spread block it then had.
-SS4_DESCRIPTOR = replace(DescriptorSettings(), local_weight=0.0, spread_weight=1.0)
+#: with the spread and axis-offset blocks it then had.
+SS4_DESCRIPTOR = replace(
+    DescriptorSettings(), local_weight=0.0, spread_weight=1.0, axis_weight=0.5
+)
 
 
 def _engine(
