@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import ipaddress
 import logging
 import multiprocessing
 import multiprocessing.connection
@@ -16,24 +15,15 @@ from typing import Any
 import uvicorn
 
 from app.api.main import create_app
-from app.db.migrate import upgrade
-from app.db.session import make_engine, make_session_factory
-from app.keys import keys_exist
-from app.logs import configure_logging
+from app.auth.keys import keys_exist
+from app.db.session import make_session_factory, migrated_engine
+from app.net import is_loopback
+from app.observability.logs import configure_logging
 from app.settings import Settings
 
 __all__ = ["is_loopback", "serve"]
 
 log = logging.getLogger(__name__)
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def serve(host: str | None = None, port: int | None = None, embedded_worker: bool = True) -> int:
@@ -42,8 +32,7 @@ def serve(host: str | None = None, port: int | None = None, embedded_worker: boo
     port = port or settings.port
     configure_logging()
 
-    engine = make_engine(settings.resolved_database_url)
-    upgrade(engine)
+    engine = migrated_engine(settings.resolved_database_url)
     with make_session_factory(engine)() as session:
         open_service = not settings.require_api_keys and not keys_exist(session)
     engine.dispose()

@@ -70,7 +70,7 @@ K = 10
 def real_descriptors(count: int, points: int) -> np.ndarray:
     """``(count, d) float32`` unit descriptors of real models, described once and cached
     (per descriptor version: a new default layout is described afresh)."""
-    from app.describing import pin_blas_threads
+    from app.ingest.describing import pin_blas_threads
     from core.descriptor import DescriptorSpec
     from core.pipeline import describe
     from core.settings import EngineSettings
@@ -226,7 +226,7 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
         q = queries(real, count, args.noise, batch)
         times, ranking = [], []
         for vector in q:
-            # As the service does (app.similarity, without the database): candidates from
+            # As the service does (app.search.similarity, without the database): candidates from
             # the codes, re-ranked exactly against the index's full vectors.
             t0 = time.perf_counter()
             hits = [i for i, _ in index.search(key, vector, rerank)]
@@ -302,10 +302,10 @@ def fill(url: str, real: np.ndarray, total: int, noise: float) -> tuple[list[str
     """``total`` ready models (family f0..f999, each 0.1%); their public ids, an API key."""
     from sqlalchemy import insert
 
+    from app.auth.keys import create_key
     from app.db.migrate import upgrade
     from app.db.models import Model, utcnow
     from app.db.session import make_engine, make_session_factory
-    from app.keys import create_key
 
     engine = make_engine(url)
     upgrade(engine)
@@ -346,7 +346,7 @@ def fill(url: str, real: np.ndarray, total: int, noise: float) -> tuple[list[str
 
 def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None:
     from app.db.session import make_engine, make_session_factory, read_only
-    from app.similarity import find_similar
+    from app.search.similarity import find_similar
 
     engine = make_engine(url)
     sessions = make_session_factory(engine)
@@ -382,7 +382,7 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         from sqlalchemy import select
 
         from app.db.models import Model
-        from app.similarity import _sql_filter
+        from app.search.similarity import _sql_filter
 
         statement = select(Model.index_id).where(
             Model.tenant == "default",
@@ -403,7 +403,7 @@ KEY = ("default", "bench")
 
 
 def ShapeIndexFromArgs(sessions: object, args: argparse.Namespace) -> object:  # noqa: N802
-    from app.index import ShapeIndex
+    from app.search.index import ShapeIndex
 
     return ShapeIndex(
         sessions, exact_max=args.exact_max, compact_min=args.compact_min, nprobe=args.nprobe

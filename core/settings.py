@@ -232,7 +232,7 @@ DESCRIPTOR_FAMILIES: dict[str, DescriptorSettings] = {
 }
 
 
-#: Most views per model: the index gives each model 16 view ids (``app.index``).
+#: Most views per model: the index gives each model 16 view ids (``app.search.index``).
 MAX_VIEWS = 16
 
 

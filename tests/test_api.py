@@ -20,8 +20,8 @@ from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, text
 
 from app.api.main import create_app
+from app.auth.keys import create_key
 from app.db.session import make_session_factory
-from app.keys import create_key
 
 SNAPSHOT = Path(__file__).parent / "snapshots" / "openapi.json"
 CUBE = PARTS / "20mm-xyz-cube.stl"

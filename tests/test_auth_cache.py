@@ -9,9 +9,9 @@ from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, delete
 
 from app.api.main import create_app
+from app.auth.keys import create_key
 from app.db.models import ApiKey
 from app.db.session import make_session_factory
-from app.keys import create_key
 from tests.conftest import make_settings
 
 CACHE_SECONDS = 2.0

@@ -217,7 +217,7 @@ def test_with_api_keys_the_viewer_asks_for_a_key_and_sends_it_as_a_header(
     from sqlalchemy import create_engine
     from sqlalchemy.orm import sessionmaker
 
-    from app.keys import create_key
+    from app.auth.keys import create_key
 
     with live_server(tmp_path) as url:
         engine = create_engine(f"sqlite:///{tmp_path / 'shapesearch.db'}")

@@ -1,4 +1,4 @@
-"""The service feeds the cutoff predictor from its stored models (app/describing.py)."""
+"""The service feeds the cutoff predictor from its stored models (app/ingest/describing.py)."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db.migrate import upgrade
 from app.db.models import Model
 from app.db.session import make_engine, make_session_factory
-from app.describing import CutoffPredictorCache, descriptor_version
+from app.ingest.describing import CutoffPredictorCache, descriptor_version
+from app.jobs.worker import describe_handler
 from app.settings import engine_settings
-from app.worker import describe_handler
 from tests.conftest import make_settings
 
 PART = Path(__file__).parent / "fixtures" / "parts" / "teapot.stl"

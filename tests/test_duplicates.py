@@ -15,7 +15,7 @@ from fastapi.testclient import TestClient
 
 from app.api.main import create_app
 from app.cli import main
-from app.duplicates import group_vectors
+from app.search.duplicates import group_vectors
 
 UNRELATED = ["cylinder.stl", "20mm-xyz-cube.stl", "round.stl", "teapot.stl"]
 

@@ -1,4 +1,4 @@
-"""The full vectors of a compressed partition (app.full_vectors): exact rows by id in a
+"""The full vectors of a compressed partition (app.search.full_vectors): exact rows by id in a
 memory-mapped file whose freed rows are reused, and the index re-ranking from them."""
 
 from __future__ import annotations
@@ -11,11 +11,11 @@ import pytest
 from sqlalchemy import update
 from sqlalchemy.orm import Session, sessionmaker
 
-from app import full_vectors
 from app.db.models import Model
-from app.full_vectors import FullVectors
-from app.index import ShapeIndex
-from app.similarity import find_similar
+from app.search import full_vectors
+from app.search.full_vectors import FullVectors
+from app.search.index import ShapeIndex
+from app.search.similarity import find_similar
 from tests.test_index import add_ready, unit
 
 D = 40

@@ -138,7 +138,7 @@ def test_an_unreachable_service_fails_with_a_clear_error(
 def test_the_client_retries_429_and_503_then_succeeds() -> None:
     from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
-    from app.importer import ImportOptions, _Client
+    from app.cli.importer import ImportOptions, _Client
 
     answers = [(429, {"Retry-After": "0"}), (503, {}), (200, {})]
     seen: list[str] = []

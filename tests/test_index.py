@@ -12,8 +12,8 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.feed import record_event
 from app.db.models import Model
-from app.index import ShapeIndex
-from app.similarity import find_similar, metadata_matches, score_of
+from app.search.index import ShapeIndex
+from app.search.similarity import find_similar, metadata_matches, score_of
 
 
 def unit(seed: int, d: int = 8) -> np.ndarray:

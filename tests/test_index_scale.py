@@ -11,8 +11,8 @@ from sqlalchemy import select, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import Model
-from app.index import ShapeIndex
-from app.similarity import QueryChanged, find_similar, matching_ids
+from app.search.index import ShapeIndex
+from app.search.similarity import QueryChanged, find_similar, matching_ids
 from tests.test_index import add_ready, delete_model, unit
 
 D = 40

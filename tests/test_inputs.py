@@ -43,7 +43,7 @@ def assert_invalid(response: Any, pointer: str) -> dict[str, Any]:
     assert response.headers["content-type"].startswith("application/problem+json")
     body = response.json()
     assert body["type"] == VALIDATION
-    assert body["title"] == "Unprocessable Entity"
+    assert body["title"] == "Invalid request"
     assert body["pointer"] == pointer, body
     return body
 
@@ -145,7 +145,7 @@ def test_an_empty_cursor_is_the_first_page(client: TestClient) -> None:
     assert len(response.json()["items"]) == 1
 
 
-def test_one_title_per_status_and_413_names_the_setting(database_url: str) -> None:
+def test_the_title_describes_the_type_and_413_names_the_setting(database_url: str) -> None:
     settings = make_settings(database_url, max_upload_bytes=1000)
     with TestClient(create_app(settings), raise_server_exceptions=False) as client:
         big = client.post(
@@ -155,11 +155,13 @@ def test_one_title_per_status_and_413_names_the_setting(database_url: str) -> No
         body = big.json()
         assert body["type"] == "urn:shapesearch:problem:too-large"
         assert "1000 bytes" in body["detail"] and "SHAPESEARCH_MAX_UPLOAD_BYTES" in body["detail"]
-        assert body["title"] == "Request Entity Too Large"
+        assert body["title"] == "Too large"
         invalid = client.get("/v1/models", params={"limit": 0}).json()
         shape = client.post(
             "/v1/models", files={"file": ("x.stl", b"solid x\nendsolid", "text/plain")}
         ).json()
         assert invalid["status"] == shape["status"] == 422
-        assert invalid["title"] == shape["title"] == "Unprocessable Entity"
+        # RFC 9457: one title per type (the catalogue's), not per status.
+        assert invalid["type"] != shape["type"]
+        assert (invalid["title"], shape["title"]) == ("Invalid request", "Empty file")
         assert invalid["pointer"] == "/query/limit"

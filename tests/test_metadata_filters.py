@@ -1,4 +1,4 @@
-"""Metadata filters in SQL (``app.similarity.matching_ids``) select exactly the models that
+"""Metadata filters in SQL (``app.search.similarity.matching_ids``) select exactly the models that
 ``metadata_matches`` accepts, on both backends, and stay right as metadata changes: on
 SQLite through the triggers of migration 0007, also for rows that existed before it."""
 
@@ -12,8 +12,8 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.migrate import upgrade
 from app.db.models import Model
-from app.index import ShapeIndex
-from app.similarity import find_similar, matching_ids, metadata_matches
+from app.search.index import ShapeIndex
+from app.search.similarity import find_similar, matching_ids, metadata_matches
 from tests.test_index import add_ready, delete_model, unit
 
 KEY = ("t", "v1")

@@ -14,9 +14,9 @@ from fastapi.testclient import TestClient
 from prometheus_client.parser import text_string_to_metric_families
 
 from app.api.main import create_app
+from app.auth.keys import create_key
 from app.db.session import make_session_factory
-from app.keys import create_key
-from app.logs import configure_logging
+from app.observability.logs import configure_logging
 
 CUBE = (PARTS / "20mm-xyz-cube.stl").read_bytes()
 LOOPBACK = ("127.0.0.1", 50000)

@@ -203,8 +203,8 @@ def test_redescribe_makes_a_new_job_and_stats_count_versions(client: TestClient)
 def test_jobs_webhooks_and_stats_are_per_tenant(
     make_client: ClientFactory, database_url: str
 ) -> None:
+    from app.auth.keys import create_key
     from app.db.session import make_engine, make_session_factory
-    from app.keys import create_key
 
     client = make_client()  # applies the migrations
     sessions = make_session_factory(make_engine(database_url))

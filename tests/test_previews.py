@@ -1,4 +1,4 @@
-"""Model previews (app/previews.py, GET /v1/models/{id}/preview) and GET /v1/stats/cutoff."""
+"""Model previews (app/ingest/previews.py, GET /v1/models/{id}/preview) and GET /v1/stats/cutoff."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from fastapi.testclient import TestClient
 from shapes import sphere_points, torus_points
 
 from app.api.main import create_app
-from app.describing import model_columns
-from app.previews import PREVIEW_POINTS, decode_preview, encode_preview, subsample
+from app.ingest.describing import model_columns
+from app.ingest.previews import PREVIEW_POINTS, decode_preview, encode_preview, subsample
 from app.settings import Settings, engine_settings
 from core.pipeline import describe_points
 

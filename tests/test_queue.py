@@ -15,7 +15,8 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db.migrate import upgrade
 from app.db.models import Job, Model, Upload, utcnow
 from app.db.session import make_engine, make_session_factory
-from app.queue import Claim, JobQueue, backoff_seconds
+from app.jobs.lease import backoff_seconds
+from app.jobs.queue import Claim, JobQueue
 
 RESULT = {
     "n_points": 10,

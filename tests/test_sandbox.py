@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from conftest import PARTS, make_settings
 
-from app.sandbox import Sandbox, SandboxCrash
-from app.worker import describe_handler
+from app.ingest.sandbox import Sandbox, SandboxCrash
+from app.jobs.worker import describe_handler
 from core.errors import InvalidShapeError, SolverError
 
 GIB = 1024**3

@@ -143,7 +143,8 @@ def test_two_apis_and_two_workers_share_one_postgresql(cluster: Cluster) -> None
 def answering_processes(base_url: str, path: str, tries: int = 200) -> dict[str, dict]:
     """The JSON answers of ``path`` by the API process that served them, each request on a
     fresh connection (the kernel hands connections to the processes sharing the port). A
-    process is known by its made-up request ids' first 16 hex digits (``app.logs``)."""
+    process is known by its made-up request ids' first 16 hex digits
+    (``app.observability.logs``)."""
     answers: dict[str, dict] = {}
     for _ in range(tries):
         response = httpx.get(base_url + path, timeout=30)

@@ -28,10 +28,10 @@ from app.db.feed import record_event
 from app.db.migrate import alembic_config, upgrade
 from app.db.models import Model
 from app.db.session import make_engine
-from app.describing import ingest_columns
-from app.index import VIEW_ID_BASE, ShapeIndex, view_id, view_of, views_key
+from app.ingest.describing import ingest_columns
+from app.search.index import VIEW_ID_BASE, ShapeIndex, view_id, view_of, views_key
+from app.search.similarity import find_similar, score_of
 from app.settings import engine_settings
-from app.similarity import find_similar, score_of
 from core.pipeline import describe_points, scan_weights
 from core.settings import EngineSettings, ViewSettings
 from core.views import hidden_point_removal, view_directions, virtual_views

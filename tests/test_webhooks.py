@@ -18,7 +18,7 @@ from standardwebhooks.webhooks import Webhook as Verifier
 
 from app.api.main import create_app
 from app.db.session import make_engine, make_session_factory
-from app.queue import JobQueue
+from app.jobs.queue import JobQueue
 from app.webhooks import Deliverer, TargetRefused, check_target, pinned
 from core.errors import InvalidShapeError
 

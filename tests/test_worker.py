@@ -14,7 +14,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from test_queue import RESULT, add_jobs, make_queue
 
 from app.db.models import Job, Model
-from app.worker import Worker, WorkerPool
+from app.jobs.worker import Worker, WorkerPool
 from core.errors import InvalidShapeError, SolverError
 
 

@@ -37,5 +37,5 @@ def decode_cursor(cursor: str) -> tuple[datetime, uuid.UUID]:
         return datetime.fromisoformat(created_at), uuid.UUID(row_id)
     except (ValueError, TypeError, binascii.Error) as error:
         raise Problem(
-            422, "cursor is not valid; pass next_cursor unchanged.", slug="invalid-cursor"
+            "invalid-cursor", "cursor is not valid; pass next_cursor unchanged."
         ) from error

@@ -11,7 +11,7 @@ from fastapi import Depends, Request
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session, sessionmaker
 
-from app.index import ShapeIndex
+from app.search.index import ShapeIndex
 from app.settings import Settings
 from core.settings import EngineSettings
 
@@ -27,7 +27,7 @@ class Services:
     engine: Engine
     sessions: sessionmaker[Session]
     reader: Engine  # hot read-only paths (app.db.session.read_only)
-    queries: ThreadPoolExecutor  # similarity queries (routes_models.similar_models)
+    queries: ThreadPoolExecutor  # similarity queries (app.api.routes.models.similar_models)
     index: ShapeIndex
 
 

@@ -17,7 +17,7 @@ from fastapi import FastAPI
 from app.api.inputs import invalid_input
 from app.api.limits import too_large_problem
 from app.api.problems import PROBLEM_JSON, Problem, problem_response
-from app.describing import problem_of_reason
+from app.problems import blank_problem, problem
 
 __all__ = ["EXAMPLES", "install_examples"]
 
@@ -72,7 +72,7 @@ MODEL_FAILED: dict[str, Any] = {
     "id": _ID2,
     "external_id": "PN-1003",
     "status": "failed",
-    "error": problem_of_reason(
+    "error": problem(
         "degenerate",
         "all points lie on a single line (or at one point), so the shape has no surface to "
         "describe: upload a part with extent in at least two directions",
@@ -86,46 +86,43 @@ _SIMILAR_RESULTS = [{"model": _SUMMARY2, "distance": 0.4176, "score": 0.9564}]
 def _raised(problem: Problem) -> dict[str, Any]:
     """The problem+json body the service answers for ``problem`` (built by
     app/api/problems.py, so the type and the title are the service's own)."""
-    response = problem_response(
-        problem.status_code, str(problem.detail), type=problem.type, **problem.extensions
-    )
-    body: dict[str, Any] = json.loads(response.body)
+    body: dict[str, Any] = json.loads(problem_response(problem.record).body)
     return body
 
 
-def _problem(status: int, slug: str, detail: str, **extra: Any) -> dict[str, Any]:
-    return _raised(Problem(status, detail, slug=slug, **extra))
+def _problem(kind: str, detail: str, **extra: Any) -> dict[str, Any]:
+    return _raised(Problem(kind, detail, **extra))
 
 
 def _validation(where: str, field: str, message: str, kind: str) -> dict[str, Any]:
     """FastAPI's refusal of one field (app/api/problems.py's validation handler)."""
     pointer = f"/{where}/{field}" if where != "body" else f"/{field}"
-    return _problem(422, "validation-error", f"{where}.{field}: {message}", pointer=pointer,
+    return _problem("validation-error", f"{where}.{field}: {message}", pointer=pointer,
                     errors=[{"loc": [where, field], "msg": message, "type": kind,
                              "pointer": pointer}])
 
 
-_UNAUTHORIZED = _problem(401, "unauthorized",
+_UNAUTHORIZED = _problem("unauthorized",
                          "This service needs an API key: Authorization: Bearer KEY.")
-_NOT_FOUND = _problem(404, "model-not-found", f"There is no model {_ID}.")
-_NOT_READY = _problem(409, "model-not-ready",
+_NOT_FOUND = _problem("model-not-found", f"There is no model {_ID}.")
+_NOT_READY = _problem("model-not-ready",
                       f"Model {_ID} is processing; similarity needs a ready model.",
                       model_status="processing")
 _TOO_LARGE = _raised(too_large_problem(67108864))
 # FastAPI's refusal of a body it cannot parse (app/api/problems.py turns it into problem+json).
-_MALFORMED = json.loads(problem_response(400, "There was an error parsing the body").body)
-_UNKNOWN_FORMAT = _problem(415, "unknown-format",
+_MALFORMED = blank_problem(400, "There was an error parsing the body")
+_UNKNOWN_FORMAT = _problem("unknown-format",
                            "could not tell the format of 'drawing.docx': upload one of .stl, "
                            ".obj, .off, .ply, .glb, .xyz, .txt, .csv, .pts, .pcd, .npy, .step, "
                            ".iges (the file name's extension tells the format)",
                            reason="unknown_format")
-_TOO_FEW_POINTS = _problem(422, "too-few-points",
+_TOO_FEW_POINTS = _problem("too-few-points",
                            "the shape has only 5 distinct points: upload a point cloud or mesh "
                            "with at least 100 distinct points", reason="too_few_points")
-_INVALID_CURSOR = _problem(422, "invalid-cursor",
+_INVALID_CURSOR = _problem("invalid-cursor",
                            "cursor is not valid; pass next_cursor unchanged.")
-_WEBHOOK_NOT_FOUND = _problem(404, "webhook-not-found", f"There is no webhook {_HOOK}.")
-_JOB_NOT_FOUND = _problem(404, "job-not-found", f"There is no job {_JOB}.")
+_WEBHOOK_NOT_FOUND = _problem("webhook-not-found", f"There is no webhook {_HOOK}.")
+_JOB_NOT_FOUND = _problem("job-not-found", f"There is no job {_JOB}.")
 _NEW_FILE = {
     "filename": "angle_block_rev_b.STL",
     "size": 36112,
@@ -169,7 +166,7 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
         "responses": {
             202: MODEL_QUEUED,
             401: _UNAUTHORIZED,
-            409: _problem(409, "duplicate-external-id",
+            409: _problem("duplicate-external-id",
                           f"external_id 'PN-1001' is already used by model {_ID}.",
                           existing_id=_ID),
             413: _TOO_LARGE,
@@ -238,7 +235,7 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
             413: _TOO_LARGE,
             415: _UNKNOWN_FORMAT,
             422: _TOO_FEW_POINTS,
-            503: _problem(503, "solver-error",
+            503: _problem("solver-error",
                           "The shape could not be described this time: the eigensolver did "
                           "not converge."),
         },
@@ -345,7 +342,7 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
         "responses": {
             201: {**_WEBHOOK, "secret": "whsec_MfKQ9r8GKYqXnDsRmu1Z3aYq7vPXGx4f"},
             401: _UNAUTHORIZED,
-            422: _problem(422, "webhook-url-refused",
+            422: _problem("webhook-url-refused",
                           "Webhook URL refused: the host '10.0.0.12' resolves to the non-public "
                           "address 10.0.0.12; set SHAPESEARCH_WEBHOOK_ALLOW_PRIVATE=true to "
                           "allow private targets."),

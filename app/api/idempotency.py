@@ -46,10 +46,9 @@ def replay_or_refuse(
         return None
     if stored.request_sha256 != digest:
         raise Problem(
-            422,
+            "idempotency-key-reused",
             "This Idempotency-Key was already used with a different request; "
             "use a new key for a new request.",
-            slug="idempotency-key-reused",
         )
     headers = {"Idempotent-Replayed": "true"}
     model_id = stored.response.get("id")

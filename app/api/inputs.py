@@ -24,7 +24,7 @@ from urllib.parse import parse_qsl
 
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from app.api.problems import Problem, problem_response, problem_type
+from app.api.problems import Problem, problem_response
 from app.settings import Settings
 
 __all__ = ["InputLimits", "QueryGuard", "invalid_input"]
@@ -37,9 +37,8 @@ _WHITESPACE_ALLOWANCE = 4
 def invalid_input(pointer: str, detail: str) -> Problem:
     """The 422 for one invalid field; ``pointer`` is a JSON pointer such as ``/metadata/a``."""
     return Problem(
-        422,
+        "validation-error",
         f"{pointer or 'the request'}: {detail}",
-        slug="validation-error",
         pointer=pointer,
         errors=[{"pointer": pointer, "detail": detail}],
     )
@@ -158,12 +157,7 @@ class QueryGuard:
                     self.limits.text(name, f"/query/{_escape(name)}")
                     self.limits.text(value, f"/query/{_escape(name)}")
                 except Problem as problem:
-                    response = problem_response(
-                        422,
-                        str(problem.detail),
-                        type=problem_type("validation-error"),
-                        **problem.extensions,
-                    )
+                    response = problem_response(problem.record)
                     await response(scope, receive, send)
                     return
         await self.app(scope, receive, send)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from app.api.problems import Problem, problem_response, problem_type
+from app.api.problems import Problem, problem_response
 
 __all__ = ["BodySizeLimit", "too_large_problem"]
 
@@ -19,10 +19,9 @@ __all__ = ["BodySizeLimit", "too_large_problem"]
 def too_large_problem(max_upload_bytes: int) -> Problem:
     """The 413 of an upload above ``SHAPESEARCH_MAX_UPLOAD_BYTES``, naming that limit."""
     return Problem(
-        413,
+        "too-large",
         f"The upload is larger than the limit of {max_upload_bytes} bytes "
         "(SHAPESEARCH_MAX_UPLOAD_BYTES).",
-        slug="too-large",
         limit=max_upload_bytes,
     )
 
@@ -43,13 +42,7 @@ class BodySizeLimit:
         for name, value in scope["headers"]:
             if name == b"content-length" and value.isdigit() and int(value) > limit:
                 problem = too_large_problem(self.max_upload_bytes)
-                response = problem_response(
-                    413,
-                    str(problem.detail),
-                    type=problem_type("too-large"),
-                    headers={"Connection": "close"},
-                    **problem.extensions,
-                )
+                response = problem_response(problem.record, headers={"Connection": "close"})
                 await response(scope, receive, send)
                 return
 

@@ -17,35 +17,23 @@ from fastapi import FastAPI
 from fastapi_offline import FastAPIOffline
 from prometheus_client import CollectorRegistry
 
-from app.api import (
-    routes_duplicates,
-    routes_health,
-    routes_jobs,
-    routes_metrics,
-    routes_models,
-    routes_previews,
-    routes_revisions,
-    routes_search,
-    routes_stats,
-    routes_webhooks,
-)
 from app.api.deps import Services
 from app.api.examples import install_examples
 from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
 from app.api.openapi import install_openapi
 from app.api.problems import install_problem_handlers
+from app.api.routes import ROUTERS
 from app.api.search_describer import SearchAdmission, SearchDescriber
-from app.db.migrate import upgrade
-from app.db.session import make_engine, make_session_factory, read_only
-from app.describing import pin_blas_threads
-from app.index import ShapeIndex
-from app.logs import RequestId
-from app.metrics import HttpMetrics, StateCollector
+from app.db.session import make_session_factory, migrated_engine, read_only
+from app.ingest.describing import pin_blas_threads
+from app.jobs.worker import JobHandler, WorkerPool, describe_handler, make_queue
+from app.observability.logs import RequestId
+from app.observability.metrics import HttpMetrics, StateCollector
+from app.search.index import ShapeIndex
 from app.settings import Settings, engine_settings
 from app.viewer import install_viewer
 from app.webhooks import start_delivery_thread
-from app.worker import JobHandler, WorkerPool, describe_handler, make_queue
 
 __all__ = ["create_app"]
 
@@ -76,8 +64,7 @@ def create_app(
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         pin_blas_threads()
-        engine = make_engine(settings.resolved_database_url)
-        upgrade(engine)
+        engine = migrated_engine(settings.resolved_database_url)
         sessions = make_session_factory(engine)
         index = ShapeIndex(
             sessions,
@@ -151,19 +138,8 @@ def create_app(
     app.add_middleware(QueryGuard, limits=InputLimits.from_settings(settings))
     app.add_middleware(HttpMetrics)
     app.add_middleware(RequestId)  # outermost: every line of the request carries its id
-    for module in (
-        routes_revisions,  # before routes_models: /models/by-external-id/... is not an id
-        routes_models,
-        routes_search,
-        routes_jobs,
-        routes_webhooks,
-        routes_duplicates,
-        routes_health,
-        routes_previews,
-        routes_stats,
-        routes_metrics,
-    ):
-        app.include_router(module.router)
+    for router in ROUTERS:
+        app.include_router(router)
     install_viewer(app)
     install_openapi(app)
     install_examples(app)

@@ -1,15 +1,12 @@
 """RFC 9457 problem details for every error the API returns.
 
-``Problem`` is raised by the routes; the handlers installed by ``install_problem_handlers``
-also turn Starlette's HTTP errors (404 of unknown routes, 405, ...), FastAPI's validation
-errors (422) and unexpected exceptions (500) into ``application/problem+json`` with
-``type``, ``title``, ``status`` and ``detail``.
-
-Types: ``about:blank`` when the status code says it all, otherwise
-``urn:shapesearch:problem:<slug>`` (e.g. ``too-few-points``, ``duplicate-external-id``), one
-slug per kind of error: every refused field is ``validation-error`` (with a JSON
-``pointer``), every size limit ``too-large`` (naming the limit's setting). The title is the
-status's phrase, one per status, whatever raised the error.
+``Problem(kind, detail)`` is raised by the routes, with its status, type and title from the
+error catalogue (``app.problems``); the handlers installed by ``install_problem_handlers``
+also turn the engine's errors (``core.errors``: an ``InvalidShapeError`` by its reason, a
+``SolverError`` as ``solver-error``), Starlette's HTTP errors (404 of unknown routes, 405,
+...), FastAPI's validation errors (422) and unexpected exceptions (500) into
+``application/problem+json``. Every refused field is ``validation-error`` (with a JSON
+``pointer``), every size limit ``too-large`` (naming the limit's setting).
 """
 
 from __future__ import annotations
@@ -25,13 +22,15 @@ from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import compile_path
 
+from app.problems import CATALOGUE, blank_problem, problem, reason_kind
+from core.errors import InvalidShapeError, SolverError
+
 __all__ = [
     "PROBLEM_JSON",
     "Problem",
     "install_problem_handlers",
     "problem_response",
     "problem_responses",
-    "problem_type",
 ]
 
 PROBLEM_JSON = "application/problem+json"
@@ -70,50 +69,30 @@ def problem_responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     }
 
 
-def problem_type(slug: str) -> str:
-    return f"urn:shapesearch:problem:{slug}"
-
-
 class Problem(StarletteHTTPException):
-    """An error response. A Starlette ``HTTPException`` so that it passes unchanged through
-    FastAPI's request-body parsing (the upload size limit is raised from there)."""
+    """An error response of a catalogued ``kind`` (``app.problems.CATALOGUE``). A Starlette
+    ``HTTPException`` so that it passes unchanged through FastAPI's request-body parsing
+    (the upload size limit is raised from there)."""
 
     def __init__(
         self,
-        status: int,
+        kind: str,
         detail: str,
         *,
-        slug: str | None = None,
-        title: str | None = None,
         headers: dict[str, str] | None = None,
         **extensions: Any,
     ) -> None:
-        super().__init__(status_code=status, detail=detail, headers=headers)
-        self.type = problem_type(slug) if slug else "about:blank"
-        self.title = title or HTTPStatus(status).phrase
-        self.extensions = extensions
+        super().__init__(status_code=CATALOGUE[kind].status, detail=detail, headers=headers)
+        self.record = problem(kind, detail, **extensions)
 
 
 def problem_response(
-    status: int,
-    detail: str,
-    *,
-    type: str = "about:blank",
-    title: str | None = None,
-    headers: dict[str, str] | None = None,
-    **extensions: Any,
+    record: dict[str, Any], headers: dict[str, str] | None = None
 ) -> JSONResponse:
-    """The problem+json response. ``title`` is ignored: the title is the status's phrase, so
-    that one status has one title (the ``type`` and ``detail`` say what happened)."""
-    body = {
-        "type": type,
-        "title": HTTPStatus(status).phrase,
-        "status": status,
-        "detail": detail,
-        **extensions,
-    }
+    """The problem+json response of a problem ``record`` (``app.problems.problem``)."""
     return JSONResponse(
-        jsonable_encoder(body), status_code=status, media_type=PROBLEM_JSON, headers=headers
+        jsonable_encoder(record), status_code=record["status"], media_type=PROBLEM_JSON,
+        headers=headers,
     )
 
 
@@ -134,25 +113,26 @@ async def _on_problem(request: Request, exc: Exception) -> JSONResponse:
     if exc.status_code == 405 and not isinstance(exc, Problem):
         exc.headers = {**(exc.headers or {}), "Allow": _allowed_methods(request)}
     if isinstance(exc, Problem):
-        return problem_response(
-            exc.status_code,
-            str(exc.detail),
-            type=exc.type,
-            title=exc.title,
-            headers=exc.headers,
-            **exc.extensions,
-        )
+        return problem_response(exc.record, headers=exc.headers)
     if exc.status_code == 400 and isinstance(exc.__cause__, RecursionError):
         # FastAPI could not parse a JSON body because it is nested too deeply.
-        return problem_response(
-            422,
-            "the JSON body is nested too deeply to be read",
-            type=problem_type("validation-error"),
-            pointer="",
+        return problem_response(problem(
+            "validation-error", "the JSON body is nested too deeply to be read", pointer="",
             errors=[{"pointer": "", "detail": "nested too deeply"}],
-        )
+        ))
     detail = exc.detail if isinstance(exc.detail, str) else HTTPStatus(exc.status_code).phrase
-    return problem_response(exc.status_code, detail, headers=exc.headers)
+    return problem_response(blank_problem(exc.status_code, detail), headers=exc.headers)
+
+
+async def _on_invalid_shape(_request: Request, exc: Exception) -> JSONResponse:
+    assert isinstance(exc, InvalidShapeError)
+    return problem_response(problem(reason_kind(exc.reason), exc.message, reason=exc.reason))
+
+
+async def _on_solver_error(_request: Request, exc: Exception) -> JSONResponse:
+    return problem_response(
+        problem("solver-error", f"The shape could not be described this time: {exc}")
+    )
 
 
 async def _on_validation(_request: Request, exc: Exception) -> JSONResponse:
@@ -169,13 +149,12 @@ async def _on_validation(_request: Request, exc: Exception) -> JSONResponse:
     detail = "; ".join(
         f"{'.'.join(str(part) for part in error['loc'])}: {error['msg']}" for error in errors
     )
-    return problem_response(
-        422,
+    return problem_response(problem(
+        "validation-error",
         detail or "The request is not valid.",
-        type=problem_type("validation-error"),
         pointer=errors[0]["pointer"] if errors else "",
         errors=errors,
-    )
+    ))
 
 
 def _pointer(loc: Any) -> str:
@@ -189,10 +168,14 @@ def _pointer(loc: Any) -> str:
 
 async def _on_unexpected(_request: Request, exc: Exception) -> JSONResponse:
     log.exception("unhandled error", exc_info=exc)
-    return problem_response(500, "An unexpected error occurred; it has been logged.")
+    return problem_response(
+        problem("internal-error", "An unexpected error occurred; it has been logged.")
+    )
 
 
 def install_problem_handlers(app: FastAPI) -> None:
     app.add_exception_handler(StarletteHTTPException, _on_problem)
     app.add_exception_handler(RequestValidationError, _on_validation)
+    app.add_exception_handler(InvalidShapeError, _on_invalid_shape)
+    app.add_exception_handler(SolverError, _on_solver_error)
     app.add_exception_handler(Exception, _on_unexpected)

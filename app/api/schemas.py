@@ -9,7 +9,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.db.models import Job, Model
-from app.similarity import Candidate
+from app.search.similarity import Candidate
 
 __all__ = [
     "CutoffInfo",

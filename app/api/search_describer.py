@@ -12,7 +12,7 @@ MB in a sandboxed child process. ``SearchDescriber``
   describing it: from a small LRU cache of recent results, or from a ready model of the
   same tenant uploaded with the same bytes (in scan mode, one that has a scan descriptor).
 
-In scan mode the upload is described as a scan (``scan_descriptor``, ``app.similarity``).
+In scan mode the upload is described as a scan (``scan_descriptor``, ``app.search.similarity``).
 """
 
 from __future__ import annotations
@@ -27,13 +27,13 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session, undefer
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from app.api.problems import Problem, problem_response, problem_type
+from app.api.problems import Problem, problem_response
 from app.db.models import Model
-from app.describing import described_columns
-from app.metrics import observe_description
-from app.sandbox import sandbox_of
+from app.ingest.describing import described_columns
+from app.ingest.sandbox import sandbox_of
+from app.observability.metrics import observe_description
+from app.search.similarity import SearchMode
 from app.settings import Settings
-from app.similarity import SearchMode
 from core.descriptor import DescriptorSpec
 from core.settings import EngineSettings
 
@@ -67,7 +67,7 @@ class SearchDescriber:
         tenant: str,
         mode: SearchMode = "shape",
     ) -> dict[str, Any]:
-        """The description columns of an upload (see ``app.describing.model_columns``) that
+        """The description columns of an upload (see ``app.ingest.describing.model_columns``) that
         a search in ``mode`` needs."""
         key = f"{mode}:{sha256}"
         known = self._cached(key) or self._stored(session, tenant, sha256, mode)
@@ -86,10 +86,9 @@ class SearchDescriber:
         if not self._slots.acquire(blocking=False):
             seconds = self.settings.search_retry_after_seconds
             raise Problem(
-                503,
+                "busy",
                 f"{self.settings.search_max_concurrent} searches are being described already "
                 f"(SHAPESEARCH_SEARCH_MAX_CONCURRENT); retry in {seconds} s.",
-                slug="busy",
                 headers={"Retry-After": str(seconds)},
             )
         try:
@@ -156,9 +155,7 @@ class SearchAdmission:
             slot = self.describer.admitted()
             slot.__enter__()
         except Problem as busy:
-            response = problem_response(
-                503, str(busy.detail), type=problem_type("busy"), headers=busy.headers
-            )
+            response = problem_response(busy.record, headers=busy.headers)
             await response(scope, receive, send)
             return
         try:

@@ -18,8 +18,9 @@ from typing import BinaryIO
 
 from app.api.limits import too_large_problem
 from app.api.problems import Problem
-from app.describing import problem_of_reason, quick_check
-from app.sandbox import sandbox_of
+from app.ingest.describing import quick_check
+from app.ingest.sandbox import sandbox_of
+from app.problems import reason_kind
 from app.settings import Settings
 from core.errors import InvalidShapeError
 from core.io import check_header, detect_format
@@ -46,18 +47,8 @@ class CheckedUpload:
 
 
 def invalid_shape_problem(error: InvalidShapeError) -> Problem:
-    """The HTTP refusal of an ``InvalidShapeError``: 415, 413 or 422 by its reason."""
-    status = {"unknown_format": 415, "cad_unavailable": 415, "too_large": 413}.get(
-        error.reason, 422
-    )
-    record = problem_of_reason(error.reason, error.message)
-    return Problem(
-        status,
-        record["detail"],
-        slug=error.reason.replace("_", "-"),
-        title=record["title"],
-        reason=error.reason,
-    )
+    """The HTTP refusal of an ``InvalidShapeError``, by its reason (``app.problems``)."""
+    return Problem(reason_kind(error.reason), error.message, reason=error.reason)
 
 
 def _hash_limited(stream: BinaryIO, max_bytes: int) -> str:

@@ -122,13 +122,13 @@ class Model(Base):
     # float32 bytes of a unit vector; deferred so that lists do not carry vectors.
     descriptor: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
     descriptor_version: Mapped[str | None] = mapped_column(String(VERSION_LENGTH))
-    # Scan mode (app.index, app.similarity): the descriptors of the model's virtual partial
-    # views, (v, d) float32 bytes with v <= 16 (empty: none), and the model described as a
-    # scan, d float32 bytes; deferred like descriptor.
+    # Scan mode (app.search.index, app.search.similarity): the descriptors of the model's
+    # virtual partial views, (v, d) float32 bytes with v <= 16 (empty: none), and the model
+    # described as a scan, d float32 bytes; deferred like descriptor.
     view_descriptors: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
     scan_descriptor: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
     timings: Mapped[dict[str, Any] | None] = mapped_column(JSON)
-    # app.previews blob for the viewer (points, HKS, eigenvalues); deferred like descriptor.
+    # app.ingest.previews blob for the viewer (points, HKS, eigenvalues); deferred like descriptor.
     preview: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
 
     created_at: Mapped[datetime] = mapped_column(default=utcnow)

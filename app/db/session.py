@@ -10,7 +10,9 @@ from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.orm import Session, sessionmaker
 
-__all__ = ["make_engine", "make_session_factory", "read_only"]
+from app.db.migrate import upgrade
+
+__all__ = ["make_engine", "make_session_factory", "migrated_engine", "open_sessions", "read_only"]
 
 
 def make_engine(url: str) -> Engine:
@@ -48,6 +50,19 @@ def make_engine(url: str) -> Engine:
 
 def make_session_factory(engine: Engine) -> sessionmaker[Session]:
     return sessionmaker(engine, expire_on_commit=False)
+
+
+def migrated_engine(url: str) -> Engine:
+    """The engine of the database at ``url``, its schema first migrated to the latest
+    revision (every process that opens the database does this: it is idempotent)."""
+    engine = make_engine(url)
+    upgrade(engine)
+    return engine
+
+
+def open_sessions(url: str) -> sessionmaker[Session]:
+    """Sessions on the migrated database at ``url``: what a command or a worker needs."""
+    return make_session_factory(migrated_engine(url))
 
 
 def read_only(engine: Engine) -> Engine:

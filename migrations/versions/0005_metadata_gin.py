@@ -1,6 +1,6 @@
 """Metadata filters pushed down to SQL: an index that serves them on each backend.
 
-``app.similarity`` selects the models matching a selective filter with
+``app.search.similarity`` selects the models matching a selective filter with
 
 * PostgreSQL: ``CAST(metadata AS jsonb) @> '{"key": value}'``, served by a GIN expression
   index (``jsonb_path_ops``: smaller and faster for ``@>``);

@@ -1,7 +1,7 @@
 """models.view_descriptors and models.scan_descriptor: scan mode's extra entries.
 
 ``view_descriptors`` holds the descriptors of a model's virtual partial views (``v * d``
-float32, v <= 16; indexed as extra entries of the model, ``app.index``) and
+float32, v <= 16; indexed as extra entries of the model, ``app.search.index``) and
 ``scan_descriptor`` the model described as a scan (``d`` float32, the query of
 ``/similar?mode=scan``). Both are filled by the worker with the model's descriptor; models
 described before this migration have neither until they are described again

@@ -1,0 +1,433 @@
+"""/v1/models: upload, read, list, change and delete models; /v1/models/{id}/similar."""
+
+from __future__ import annotations
+
+import asyncio
+import uuid
+from typing import Annotated, Any
+
+import numpy as np
+from fastapi import APIRouter, Depends, File, Form, Header, Query, Request, Response, UploadFile
+from fastapi.responses import JSONResponse
+from sqlalchemy import Connection, Row, and_, delete, or_, select, update
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session, undefer
+
+from app.api.cursors import decode_cursor, encode_cursor
+from app.api.deps import Services, ServicesDep, SessionDep
+from app.api.idempotency import remember, replay_or_refuse, request_sha256
+from app.api.inputs import InputLimits
+from app.api.problems import Problem, problem_responses
+from app.api.schemas import (
+    ModelList,
+    ModelPatch,
+    ModelResource,
+    ModelStatus,
+    SimilarQuery,
+    SimilarResponse,
+    SimilarResult,
+    model_resource,
+    model_summary,
+)
+from app.api.uploads import read_checked_upload
+from app.auth.dependency import TenantDep
+from app.db.feed import record_event
+from app.db.models import Model, utcnow
+from app.ingest.revisions import create_model_rows, latest_jobs, lock_models
+from app.search.similarity import Match, QueryChanged, SearchMode, find_similar
+from app.webhooks import record_model_event
+
+__all__ = [
+    "SCAN_MODE_HELP",
+    "ModeQuery",
+    "load_model",
+    "metadata_filters",
+    "query_column",
+    "ready_query",
+    "router",
+]
+
+router = APIRouter(prefix="/v1", tags=["models"])
+
+SCAN_MODE_HELP = (
+    "mode=scan is for partial scans (one side of a part): the query is described with the "
+    "points near its open rim faded out, and every model is compared both whole and as "
+    "each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's "
+    "distance is that of its best view, one result per model. mode=shape (the default) "
+    "compares whole models only, which suits complete meshes and merged scans better."
+)
+ModeQuery = Annotated[
+    SearchMode,
+    Query(description="shape (default): whole models; scan: for partial scans, best view "
+          "of each model."),
+]
+
+
+def query_column(mode: SearchMode) -> str:
+    """The descriptor column a query uses in ``mode``: the scan descriptor in scan mode."""
+    return "scan_descriptor" if mode == "scan" else "descriptor"
+
+
+def _uuid_or_none(text: str) -> uuid.UUID | None:
+    try:
+        return uuid.UUID(text)
+    except ValueError:
+        return None
+
+
+def _not_found(model_id: str) -> Problem:
+    return Problem("model-not-found", f"There is no model {model_id}.")
+
+
+def load_model(session: Session, tenant: str, model_id: str, *, descriptor: bool = False) -> Model:
+    """The tenant's model ``model_id``, or 404 (also for ids that are not UUIDs)."""
+    parsed = _uuid_or_none(model_id)
+    query = select(Model).where(Model.id == parsed, Model.tenant == tenant)
+    if descriptor:
+        query = query.options(undefer(Model.descriptor), undefer(Model.scan_descriptor))
+    model = session.scalar(query) if parsed is not None else None
+    if model is None:
+        raise _not_found(model_id)
+    return model
+
+
+def _duplicate(session: Session, tenant: str, external_id: str) -> Problem | None:
+    existing = session.scalar(
+        select(Model.id).where(Model.tenant == tenant, Model.external_id == external_id)
+    )
+    if existing is None:
+        return None
+    return Problem(
+        "duplicate-external-id",
+        f"external_id {external_id!r} is already used by model {existing}.",
+        existing_id=str(existing),
+    )
+
+
+@router.post(
+    "/models",
+    status_code=202,
+    response_model=ModelResource,
+    responses=problem_responses(401, 409, 413, 415, 422),
+    summary="Upload a part; it is described in the background",
+)
+def create_model(
+    request: Request,
+    response: Response,
+    file: Annotated[
+        UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
+    ],
+    tenant: TenantDep,
+    services: ServicesDep,
+    external_id: Annotated[str | None, Form(description="Your id; unique per tenant.")] = None,
+    name: Annotated[str | None, Form()] = None,
+    metadata: Annotated[str | None, Form(description="A JSON object, as a string.")] = None,
+    idempotency_key: Annotated[
+        str | None,
+        Header(
+            max_length=300,
+            description="Retries with the same key and body get the "
+            "first answer back; another body with the same key gets 422.",
+        ),
+    ] = None,
+) -> ModelResource | JSONResponse:
+    limits = InputLimits.from_settings(services.settings)
+    limits.text(external_id, "/external_id")
+    limits.text(name, "/name")
+    limits.text(file.filename, "/file/filename")
+    meta = limits.metadata_text(metadata)
+    upload = read_checked_upload(file.file, file.filename, services.settings)
+    request_digest = request_sha256(upload.sha256, external_id, name, meta)
+    if idempotency_key is not None:
+        replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest)
+        if replay is not None:
+            return replay
+    model = Model(
+        id=uuid.uuid4(),
+        tenant=tenant,
+        external_id=external_id,
+        name=name,
+        meta=meta,
+        status="queued",
+        file_name=upload.filename,
+        file_size=len(upload.content),
+        file_sha256=upload.sha256,
+        file_format=upload.format,
+    )
+    try:
+        # The model, its bytes and its job commit together: no accepted upload without a job.
+        with services.sessions.begin() as session:
+            job = create_model_rows(session, model, upload.content)
+            resource = model_resource(model, job)
+            if idempotency_key is not None:
+                remember(session, tenant, idempotency_key, request_digest, 202, resource)
+    except IntegrityError as error:  # unique (tenant, external_id) or the idempotency key
+        if idempotency_key is not None:
+            replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest)
+            if replay is not None:
+                return replay
+        with services.sessions() as session:
+            problem = _duplicate(session, tenant, external_id) if external_id else None
+        if problem is None:
+            raise
+        raise problem from error
+    response.headers["Location"] = f"/v1/models/{model.id}"
+    return resource
+
+
+@router.get(
+    "/models",
+    response_model=ModelList,
+    responses=problem_responses(401, 422),
+    summary="List models, newest first",
+)
+def list_models(
+    tenant: TenantDep,
+    session: SessionDep,
+    status: ModelStatus | None = None,
+    external_id: str | None = None,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    cursor: Annotated[str | None, Query(description="next_cursor of the previous page")] = None,
+) -> ModelList:
+    query = select(Model).where(Model.tenant == tenant)
+    if status is not None:
+        query = query.where(Model.status == status)
+    if external_id is not None:
+        query = query.where(Model.external_id == external_id)
+    if cursor:  # an empty cursor is the first page
+        created_at, model_id = decode_cursor(cursor)
+        # Keyset pagination on (created_at, id): stable while models come and go.
+        query = query.where(
+            or_(
+                Model.created_at < created_at,
+                and_(Model.created_at == created_at, Model.id < model_id),
+            )
+        )
+    rows = session.scalars(
+        query.order_by(Model.created_at.desc(), Model.id.desc()).limit(limit + 1)
+    ).all()
+    page = rows[:limit]
+    next_cursor = encode_cursor(page[-1]) if len(rows) > limit else None
+    jobs = latest_jobs(session, [m.id for m in page])
+    return ModelList(
+        items=[model_resource(m, jobs.get(m.id)) for m in page], next_cursor=next_cursor
+    )
+
+
+@router.get(
+    "/models/{model_id}",
+    response_model=ModelResource,
+    responses=problem_responses(401, 404),
+    summary="One model",
+)
+def get_model(
+    model_id: str,
+    tenant: TenantDep,
+    session: SessionDep,
+) -> ModelResource:
+    model = load_model(session, tenant, model_id)
+    return model_resource(model, latest_jobs(session, [model.id]).get(model.id))
+
+
+@router.patch(
+    "/models/{model_id}",
+    response_model=ModelResource,
+    responses=problem_responses(401, 404, 422),
+    summary="Change the name or the metadata",
+)
+def patch_model(
+    model_id: str,
+    patch: ModelPatch,
+    tenant: TenantDep,
+    services: ServicesDep,
+) -> ModelResource:
+    limits = InputLimits.from_settings(services.settings)
+    changes: dict[str, Any] = {"updated_at": utcnow()}
+    if "name" in patch.model_fields_set:
+        changes["name"] = limits.text(patch.name, "/name")
+    if "metadata" in patch.model_fields_set:
+        changes["meta"] = limits.metadata(patch.metadata)
+    model_uuid = _uuid_or_none(model_id)
+    with services.sessions.begin() as session:
+        model = session.scalar(
+            update(Model)
+            .where(Model.id == model_uuid, Model.tenant == tenant)
+            .values(**changes)
+            .returning(Model)
+        )
+        if model is None:
+            raise _not_found(model_id)
+        return model_resource(model, latest_jobs(session, [model.id]).get(model.id))
+
+
+@router.delete(
+    "/models/{model_id}",
+    status_code=204,
+    response_class=Response,
+    responses=problem_responses(401, 404),
+    summary="Delete a model; it leaves search results at once",
+)
+def delete_model(
+    model_id: str,
+    tenant: TenantDep,
+    services: ServicesDep,
+) -> Response:
+    model_uuid = _uuid_or_none(model_id)
+    with services.sessions.begin() as session:
+        if lock_models(session, Model.id == model_uuid, Model.tenant == tenant):
+            record_model_event(session, model_uuid, "model.deleted")  # commits with the delete
+        # The upload and the job go with it (ON DELETE CASCADE).
+        index_id = session.scalar(
+            delete(Model)
+            .where(Model.id == model_uuid, Model.tenant == tenant)
+            .returning(Model.index_id)
+        )
+        if index_id is None:
+            raise _not_found(model_id)
+        record_event(session, index_id, "deleted")  # other processes follow the feed
+    services.index.remove(index_id)  # this process: at once
+    return Response(status_code=204)
+
+
+async def metadata_filters(request: Request) -> dict[str, str]:
+    """``metadata.KEY=VALUE`` query parameters as {KEY: VALUE} (async: no thread hop)."""
+    return {
+        key.removeprefix("metadata."): value
+        for key, value in request.query_params.items()
+        if key.startswith("metadata.") and len(key) > len("metadata.")
+    }
+
+
+@router.get(
+    "/models/{model_id}/similar",
+    response_model=SimilarResponse,
+    responses=problem_responses(401, 404, 409, 422),
+    summary="The models most similar to a ready model",
+    description="Best first, the model itself left out. Filter on metadata with query "
+    "parameters `metadata.KEY=VALUE` (string values compare as text, others by their JSON "
+    "form, e.g. `metadata.qty=3`); filters apply before the top-k cut. "
+    "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite. "
+    + SCAN_MODE_HELP + " Use mode=scan for a model that was uploaded as a partial scan (a "
+    "model described before scan mode existed is then queried with its plain descriptor).",
+)
+async def similar_models(
+    model_id: str,
+    filters: Annotated[dict[str, str], Depends(metadata_filters)],
+    tenant: TenantDep,
+    services: ServicesDep,
+    k: Annotated[int, Query(ge=1, le=100)] = 10,
+    min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
+    mode: ModeQuery = "shape",
+) -> SimilarResponse:
+    # One hop for the whole query (database and FAISS) to a small pool of its own: the
+    # event loop is never blocked, and a few threads per core contend less for the GIL
+    # than one per concurrent request would. The index is kept in step by the
+    # background sync, not polled per request.
+    return await asyncio.get_running_loop().run_in_executor(
+        services.queries, _similar_models, services, tenant, model_id, k, min_score, filters, mode
+    )
+
+
+def ready_query(
+    connection: Connection, tenant: str, model_id: str, mode: SearchMode = "shape"
+) -> Row[Any]:
+    """The ``id, index_id, descriptor, descriptor_version`` (and in scan mode
+    ``scan_descriptor``) of the tenant's ready model ``model_id``: only what a similarity
+    query needs, not the whole row; 404 or 409."""
+    parsed = _uuid_or_none(model_id)
+    model = None
+    if parsed is not None:
+        model = connection.execute(
+            select(
+                Model.id,
+                Model.index_id,
+                Model.status,
+                Model.descriptor,
+                Model.descriptor_version,
+                *([Model.scan_descriptor] if mode == "scan" else []),
+            ).where(Model.id == parsed, Model.tenant == tenant)
+        ).one_or_none()
+    if model is None:
+        raise _not_found(model_id)
+    if model.status != "ready" or model.descriptor is None or model.descriptor_version is None:
+        raise Problem(
+            "model-not-ready",
+            f"Model {model.id} is {model.status}; similarity needs a ready model.",
+            model_status=model.status,
+        )
+    return model
+
+
+def _similar_models(
+    services: Services,
+    tenant: str,
+    model_id: str,
+    k: int,
+    min_score: float | None,
+    filters: dict[str, str],
+    mode: SearchMode,
+) -> SimilarResponse:
+    options: dict[str, Any] = {
+        "k": k,
+        "min_score": min_score,
+        "filters": filters,
+        "pushdown_max": services.settings.filter_pushdown_max,
+        "mode": mode,
+    }
+    with services.reader.connect() as connection:
+        found = _similar_by_index(services, connection, tenant, model_id, mode, options)
+        if found is not None:
+            return found
+        model = ready_query(connection, tenant, model_id, mode)
+        query = (model.scan_descriptor if mode == "scan" else None) or model.descriptor
+        vector = np.frombuffer(query, dtype=np.float32)
+        key = (tenant, model.descriptor_version)
+        matches = find_similar(
+            services.index, connection, key, vector, exclude=model.index_id, **options
+        )
+        return _similar_response(model.id, matches)
+
+
+def _similar_by_index(
+    services: Services,
+    connection: Connection,
+    tenant: str,
+    model_id: str,
+    mode: SearchMode,
+    options: dict[str, Any],
+) -> SimilarResponse | None:
+    """The answer with the query vector taken from the index and the query model's row
+    confirmed with the candidates': one statement instead of two. None when this path does
+    not apply (scan mode's own descriptor, a model the index does not hold) or the model
+    changed since the index saw it: then the database decides, with its 404 or 409."""
+    parsed = _uuid_or_none(model_id)
+    located = None if parsed is None or mode != "shape" else services.index.locate(tenant, parsed)
+    if located is None:
+        return None
+    index_id, key = located
+    vector = services.index.vector(key, index_id)
+    if vector is None:
+        return None
+    try:
+        matches = find_similar(
+            services.index,
+            connection,
+            key,
+            vector,
+            exclude=index_id,
+            indexed_query=True,
+            **options,
+        )
+    except QueryChanged:
+        return None
+    return _similar_response(parsed, matches)
+
+
+def _similar_response(model_id: uuid.UUID, matches: list[Match]) -> SimilarResponse:
+    return SimilarResponse(
+        query=SimilarQuery(model_id=model_id),
+        results=[
+            SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
+            for m in matches
+        ],
+    )

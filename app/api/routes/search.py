@@ -1,0 +1,88 @@
+"""POST /v1/search: describe an uploaded scan now and return the most similar models."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import numpy as np
+from fastapi import APIRouter, Depends, File, Query, Request, UploadFile
+
+from app.api.deps import ServicesDep, SessionDep
+from app.api.problems import problem_responses
+from app.api.routes.models import SCAN_MODE_HELP, ModeQuery, metadata_filters, query_column
+from app.api.schemas import (
+    SearchQuery,
+    SearchResponse,
+    SimilarResult,
+    cutoff_info,
+    model_summary,
+)
+from app.api.uploads import invalid_shape_problem, read_checked_upload
+from app.auth.dependency import TenantDep
+from app.ingest.sandbox import SandboxCrash
+from app.search.similarity import find_similar
+from core.errors import InvalidShapeError
+
+__all__ = ["router"]
+
+router = APIRouter(prefix="/v1", tags=["search"])
+
+
+@router.post(
+    "/search",
+    response_model=SearchResponse,
+    responses=problem_responses(401, 413, 415, 422, 503),
+    summary="Find the models most similar to an uploaded scan (nothing is stored)",
+    description="The scan is described synchronously, which takes seconds; at most "
+    "SHAPESEARCH_SEARCH_MAX_CONCURRENT at a time (beyond: 503 with Retry-After). A file "
+    "seen before (same bytes, same mode) is answered without describing it again. Same "
+    "filters and score as /v1/models/{id}/similar. " + SCAN_MODE_HELP,
+)
+def search(
+    request: Request,
+    file: Annotated[
+        UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
+    ],
+    filters: Annotated[dict[str, str], Depends(metadata_filters)],
+    tenant: TenantDep,
+    services: ServicesDep,
+    session: SessionDep,
+    k: Annotated[int, Query(ge=1, le=100)] = 10,
+    min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
+    mode: ModeQuery = "shape",
+) -> SearchResponse:
+    upload = read_checked_upload(file.file, file.filename, services.settings, parse=False)
+    try:
+        # A sync route runs in the threadpool, so describing does not block the event loop.
+        described = request.app.state.search_describer.describe(
+            upload.content, upload.filename, upload.sha256, session, tenant, mode
+        )
+    except SandboxCrash as error:
+        raise invalid_shape_problem(
+            InvalidShapeError("unparsable", f"the file could not be described: {error}")
+        ) from error
+    matches = find_similar(
+        services.index,
+        session.connection(),
+        (tenant, described["descriptor_version"]),
+        np.frombuffer(described[query_column(mode)], dtype=np.float32),
+        k=k,
+        min_score=min_score,
+        filters=filters,
+        pushdown_max=services.settings.filter_pushdown_max,
+        mode=mode,
+    )
+    cutoff = cutoff_info(described["cutoff"])
+    assert cutoff is not None
+    return SearchResponse(
+        query=SearchQuery(
+            n_points=described["n_points"],
+            cutoff=cutoff,
+            descriptor_version=described["descriptor_version"],
+            format=upload.format,
+        ),
+        results=[
+            SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
+            for m in matches
+        ],
+    )

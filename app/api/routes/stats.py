@@ -1,0 +1,134 @@
+"""Counts over a tenant's models: how far a re-describe has come, and the cutoff plot.
+
+    GET /v1/stats          models per status and per descriptor_version, jobs per status
+    GET /v1/stats/cutoff   cutoff n against point count for every ready model (Figure 7)
+"""
+
+from __future__ import annotations
+
+import uuid
+from collections import Counter
+
+from fastapi import APIRouter
+from pydantic import BaseModel, Field
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from app.api.deps import ServicesDep, SessionDep
+from app.api.problems import problem_responses
+from app.auth.dependency import TenantDep
+from app.db.models import Job, Model
+from app.ingest.describing import descriptor_version
+
+__all__ = [
+    "CutoffPoint",
+    "CutoffStats",
+    "SolverCallsBin",
+    "Stats",
+    "current_descriptor_version",
+    "router",
+]
+
+router = APIRouter(prefix="/v1")
+
+
+class Stats(BaseModel):
+    models: int
+    by_status: dict[str, int] = Field(description="Models per status.")
+    by_descriptor_version: dict[str, int] = Field(
+        description="Ready models per descriptor_version; only current_descriptor_version "
+        "is searched with POST /v1/search."
+    )
+    jobs_by_status: dict[str, int]
+    current_descriptor_version: str
+
+
+def current_descriptor_version(services: ServicesDep) -> str:
+    """The descriptor_version this service's engine settings produce."""
+    return descriptor_version(services.engine_settings)
+
+
+def _counts(session: Session, column: object, *where: object) -> dict[str, int]:
+    rows = session.execute(
+        select(column, func.count()).where(*where).group_by(column)  # type: ignore[call-overload]
+    ).all()
+    return {str(key): int(count) for key, count in rows if key is not None}
+
+
+@router.get(
+    "/stats",
+    tags=["models"],
+    response_model=Stats,
+    responses=problem_responses(401),
+    summary="Counts of models per status and per descriptor_version, and of jobs",
+)
+def stats(tenant: TenantDep, services: ServicesDep, session: SessionDep) -> Stats:
+    by_status = _counts(session, Model.status, Model.tenant == tenant)
+    return Stats(
+        models=sum(by_status.values()),
+        by_status=by_status,
+        by_descriptor_version=_counts(
+            session, Model.descriptor_version, Model.tenant == tenant, Model.status == "ready"
+        ),
+        jobs_by_status=_counts(session, Job.status, Job.tenant == tenant),
+        current_descriptor_version=current_descriptor_version(services),
+    )
+
+
+class CutoffPoint(BaseModel):
+    """One ready model on the plot."""
+
+    id: uuid.UUID
+    external_id: str | None
+    name: str | None
+    n_points: int = Field(description="Points the description used.")
+    n: int = Field(description="Eigenpairs the cutoff chose.")
+    solver_calls: int
+    mode: str = Field(description="adaptive or fixed")
+
+
+class SolverCallsBin(BaseModel):
+    solver_calls: int
+    models: int
+
+
+class CutoffStats(BaseModel):
+    """The paper's Figure 7 for this database, and the solver-calls histogram."""
+
+    fixed_n: int = Field(description="The fixed cutoff the adaptive one is compared with.")
+    models: list[CutoffPoint]
+    solver_calls: list[SolverCallsBin] = Field(description="Ready models per solver-call count.")
+
+
+@router.get(
+    "/stats/cutoff",
+    tags=["viewer"],
+    response_model=CutoffStats,
+    responses=problem_responses(401),
+    summary="Cutoff n against point count for every ready model (the paper's Figure 7)",
+)
+def cutoff_stats(tenant: TenantDep, session: SessionDep, services: ServicesDep) -> CutoffStats:
+    rows = session.execute(
+        select(Model.id, Model.external_id, Model.name, Model.n_points, Model.cutoff)
+        .where(Model.tenant == tenant, Model.status == "ready")
+        .order_by(Model.n_points)
+    ).all()
+    points = [
+        CutoffPoint(
+            id=row.id,
+            external_id=row.external_id,
+            name=row.name,
+            n_points=row.n_points,
+            n=row.cutoff["n"],
+            solver_calls=row.cutoff["solver_calls"],
+            mode=row.cutoff["mode"],
+        )
+        for row in rows
+        if row.cutoff is not None and row.n_points is not None
+    ]
+    calls = Counter(point.solver_calls for point in points)
+    return CutoffStats(
+        fixed_n=services.settings.cutoff_n,
+        models=points,
+        solver_calls=[SolverCallsBin(solver_calls=c, models=calls[c]) for c in sorted(calls)],
+    )

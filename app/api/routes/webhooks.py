@@ -1,0 +1,219 @@
+"""/v1/webhooks: a tenant's endpoints for model.ready, model.failed and model.deleted,
+and the delivery log of each (see app/webhooks/ for signing and delivery)."""
+
+from __future__ import annotations
+
+import uuid
+from datetime import datetime
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Query, Response
+from pydantic import BaseModel, Field
+from sqlalchemy import delete, select
+
+from app.api.deps import ServicesDep, SessionDep
+from app.api.problems import Problem, problem_responses
+from app.auth.dependency import TenantDep
+from app.db.models import Webhook, WebhookAttempt, WebhookDelivery
+from app.webhooks import TargetRefused, check_target, new_secret, valid_secret
+
+__all__ = ["router"]
+
+router = APIRouter(prefix="/v1", tags=["webhooks"])
+
+EventType = Literal["model.ready", "model.failed", "model.deleted"]
+
+
+class WebhookCreate(BaseModel):
+    url: str = Field(max_length=2000, description="http(s) URL that receives the POSTs.")
+    events: list[EventType] = Field(min_length=1)
+    secret: str | None = Field(
+        default=None,
+        max_length=200,
+        description="Standard Webhooks secret (whsec_ + base64, >= 16 bytes); generated "
+        "and shown once when absent.",
+    )
+
+
+class WebhookResource(BaseModel):
+    id: uuid.UUID
+    url: str
+    events: list[EventType]
+    created_at: datetime
+
+
+class WebhookCreated(WebhookResource):
+    secret: str = Field(description="Shown only in this answer: store it to verify signatures.")
+
+
+class WebhookList(BaseModel):
+    items: list[WebhookResource]
+
+
+class AttemptResource(BaseModel):
+    attempt: int
+    status_code: int | None = Field(description="The receiver's status; null: no answer.")
+    error: str | None
+    duration_ms: float
+    created_at: datetime
+
+
+class DeliveryResource(BaseModel):
+    id: uuid.UUID = Field(description="The webhook-id header, the same on every attempt.")
+    event_type: EventType
+    status: Literal["pending", "sending", "delivered", "failed"]
+    attempts: list[AttemptResource]
+    payload: dict[str, Any]
+    next_attempt_at: datetime | None
+    created_at: datetime
+
+
+class DeliveryList(BaseModel):
+    items: list[DeliveryResource] = Field(description="Newest first.")
+
+
+def _resource(hook: Webhook) -> WebhookResource:
+    return WebhookResource(
+        id=hook.id, url=hook.url, events=hook.events, created_at=hook.created_at  # type: ignore[arg-type]
+    )
+
+
+def _load(session: Any, tenant: str, webhook_id: str) -> Webhook:
+    try:
+        parsed = uuid.UUID(webhook_id)
+    except ValueError:
+        parsed = None
+    hook = (
+        session.scalar(select(Webhook).where(Webhook.id == parsed, Webhook.tenant == tenant))
+        if parsed is not None
+        else None
+    )
+    if hook is None:
+        raise Problem("webhook-not-found", f"There is no webhook {webhook_id}.")
+    return hook
+
+
+@router.post(
+    "/webhooks",
+    status_code=201,
+    response_model=WebhookCreated,
+    responses=problem_responses(401, 422),
+    summary="Register an endpoint for model events",
+)
+def create_webhook(
+    body: WebhookCreate, response: Response, tenant: TenantDep, services: ServicesDep
+) -> WebhookCreated:
+    try:
+        check_target(body.url, allow_private=services.settings.webhook_allow_private)
+    except TargetRefused as error:
+        raise Problem("webhook-url-refused", f"Webhook URL refused: {error}.") from None
+    if body.secret is not None and not valid_secret(body.secret):
+        raise Problem(
+            "invalid-webhook-secret",
+            "secret must be whsec_ followed by base64 of at least 16 random bytes.",
+        )
+    secret = body.secret or new_secret()
+    hook = Webhook(
+        id=uuid.uuid4(), tenant=tenant, url=body.url, events=sorted(set(body.events)),
+        secret=secret,
+    )
+    with services.sessions.begin() as session:
+        session.add(hook)
+        session.flush()
+        created = WebhookCreated(**_resource(hook).model_dump(), secret=secret)
+    response.headers["Location"] = f"/v1/webhooks/{hook.id}"
+    return created
+
+
+@router.get(
+    "/webhooks",
+    response_model=WebhookList,
+    responses=problem_responses(401),
+    summary="The tenant's endpoints",
+)
+def list_webhooks(tenant: TenantDep, session: SessionDep) -> WebhookList:
+    hooks = session.scalars(
+        select(Webhook).where(Webhook.tenant == tenant).order_by(Webhook.created_at)
+    ).all()
+    return WebhookList(items=[_resource(hook) for hook in hooks])
+
+
+@router.get(
+    "/webhooks/{webhook_id}",
+    response_model=WebhookResource,
+    responses=problem_responses(401, 404),
+    summary="One endpoint",
+)
+def get_webhook(webhook_id: str, tenant: TenantDep, session: SessionDep) -> WebhookResource:
+    return _resource(_load(session, tenant, webhook_id))
+
+
+@router.delete(
+    "/webhooks/{webhook_id}",
+    status_code=204,
+    response_class=Response,
+    responses=problem_responses(401, 404),
+    summary="Remove an endpoint; its pending deliveries are dropped",
+)
+def delete_webhook(webhook_id: str, tenant: TenantDep, services: ServicesDep) -> Response:
+    try:
+        parsed = uuid.UUID(webhook_id)
+    except ValueError:
+        parsed = None
+    with services.sessions.begin() as session:
+        deleted = session.scalar(
+            delete(Webhook)
+            .where(Webhook.id == parsed, Webhook.tenant == tenant)
+            .returning(Webhook.id)
+        )
+    if deleted is None:
+        raise Problem("webhook-not-found", f"There is no webhook {webhook_id}.")
+    return Response(status_code=204)
+
+
+@router.get(
+    "/webhooks/{webhook_id}/deliveries",
+    response_model=DeliveryList,
+    responses=problem_responses(401, 404),
+    summary="The endpoint's deliveries with every attempt, newest first",
+)
+def list_deliveries(
+    webhook_id: str,
+    tenant: TenantDep,
+    session: SessionDep,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+) -> DeliveryList:
+    hook = _load(session, tenant, webhook_id)
+    deliveries = session.scalars(
+        select(WebhookDelivery)
+        .where(WebhookDelivery.webhook_id == hook.id)
+        .order_by(WebhookDelivery.created_at.desc(), WebhookDelivery.id)
+        .limit(limit)
+    ).all()
+    attempts: dict[uuid.UUID, list[AttemptResource]] = {d.id: [] for d in deliveries}
+    if deliveries:
+        for row in session.scalars(
+            select(WebhookAttempt)
+            .where(WebhookAttempt.delivery_id.in_(list(attempts)))
+            .order_by(WebhookAttempt.attempt)
+        ):
+            attempts[row.delivery_id].append(
+                AttemptResource(
+                    attempt=row.attempt, status_code=row.status_code, error=row.error,
+                    duration_ms=row.duration_ms, created_at=row.created_at,
+                )
+            )
+    return DeliveryList(
+        items=[
+            DeliveryResource(
+                id=d.id,
+                event_type=d.event_type,  # type: ignore[arg-type]
+                status=d.status,  # type: ignore[arg-type]
+                attempts=attempts[d.id],
+                payload=d.payload,
+                next_attempt_at=d.run_after if d.status == "pending" else None,
+                created_at=d.created_at,
+            )
+            for d in deliveries
+        ]
+    )

@@ -1,0 +1,223 @@
+"""The ``shapesearch`` command line.
+
+Each sub-command imports its module lazily so that ``shapesearch describe`` does not pay
+for the web stack, and ``serve`` does not pay for plotting.
+
+    shapesearch describe FILE [--cutoff adaptive|fixed:N] [--json]
+    shapesearch serve   [--host H] [--port P] [--no-worker]
+    shapesearch worker  [--concurrency N]
+    shapesearch keys create --tenant NAME | list | revoke PREFIX
+    shapesearch redescribe [--from-version V | --all] [--wait]
+    shapesearch duplicates [--min-score 0.98] [--format csv|json] [--tenant T]
+    shapesearch import PATH --url URL [--key KEY] [--external-id path|stem] [--metadata F]
+                       [--concurrency N] [--wait] [--report CSV]
+    shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
+    shapesearch eval-parts OUT_DIR [--per-family N] [--seed S]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+def _describe(args: argparse.Namespace) -> int:
+    from core.describe_cli import run
+
+    return run(args)
+
+
+def _serve(args: argparse.Namespace) -> int:
+    from app.server import serve
+    from app.startup import startup_ok
+
+    if not startup_ok():
+        return 2
+    return serve(host=args.host, port=args.port, embedded_worker=not args.no_worker)
+
+
+def _worker(args: argparse.Namespace) -> int:
+    from app.jobs.worker import run_workers
+    from app.startup import startup_ok
+
+    if not startup_ok():
+        return 2
+    return run_workers(concurrency=args.concurrency)
+
+
+def _keys(args: argparse.Namespace) -> int:
+    from app.cli import keys
+
+    return keys.create(tenant=args.tenant)
+
+
+def _keys_list(args: argparse.Namespace) -> int:
+    from app.cli import keys
+
+    return keys.list_all()
+
+
+def _keys_revoke(args: argparse.Namespace) -> int:
+    from app.cli import keys
+
+    return keys.revoke(args.prefix)
+
+
+def _redescribe(args: argparse.Namespace) -> int:
+    from app.cli import redescribe
+
+    return redescribe.run(from_version=args.from_version, everything=args.all, wait=args.wait)
+
+
+def _duplicates(args: argparse.Namespace) -> int:
+    from app.cli import duplicates
+
+    return duplicates.run(min_score=args.min_score, output_format=args.format,
+                          tenant=args.tenant, descriptor_version=args.descriptor_version)
+
+
+def _import(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    import httpx
+
+    from app.cli.importer import ImportOptions, run_import
+
+    options = ImportOptions(
+        url=args.url, key=args.key, external_id=args.external_id,
+        metadata=Path(args.metadata) if args.metadata else None,
+        concurrency=args.concurrency, wait=args.wait, report=Path(args.report),
+        retries=args.retries,
+    )
+    try:
+        code, _counts = run_import(Path(args.path), options)
+    except (OSError, ValueError, httpx.HTTPError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    return code
+
+
+def _eval(args: argparse.Namespace) -> int:
+    from core.evaluation.cli import run
+
+    return run(args)
+
+
+def _eval_parts(args: argparse.Namespace) -> int:
+    from core.evaluation.parts_generator import main
+
+    return main([args.out, "--per-family", str(args.per_family), "--seed", str(args.seed)])
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="shapesearch", description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    describe = commands.add_parser("describe", help="describe one shape file and print the result")
+    describe.add_argument("file")
+    describe.add_argument("--cutoff", default="adaptive", help="adaptive or fixed:N")
+    describe.add_argument("--laplacian", choices=("robust", "spcl"), default=None)
+    describe.add_argument("--max-points", type=int, default=None)
+    describe.add_argument("--json", action="store_true", help="print JSON instead of text")
+    describe.set_defaults(handler=_describe)
+
+    serve = commands.add_parser("serve", help="run the HTTP API")
+    serve.add_argument("--host", default=None, help="default: SHAPESEARCH_HOST")
+    serve.add_argument("--port", type=int, default=None, help="default: SHAPESEARCH_PORT")
+    serve.add_argument("--no-worker", action="store_true", help="do not run a worker in-process")
+    serve.set_defaults(handler=_serve)
+
+    worker = commands.add_parser("worker", help="run worker processes that describe uploads")
+    worker.add_argument(
+        "--concurrency", type=int, default=None,
+        help="default: SHAPESEARCH_WORKERS, or one per core",
+    )
+    worker.set_defaults(handler=_worker)
+
+    keys = commands.add_parser("keys", help="manage API keys")
+    key_commands = keys.add_subparsers(dest="keys_command", required=True)
+    create = key_commands.add_parser("create", help="create an API key for a tenant")
+    create.add_argument("--tenant", required=True)
+    create.set_defaults(handler=_keys)
+    key_commands.add_parser("list", help="list keys: prefix, tenant, created").set_defaults(
+        handler=_keys_list
+    )
+    revoke = key_commands.add_parser("revoke", help="delete the key with this prefix")
+    revoke.add_argument("prefix", help="ss_ + 12 hex digits, as `keys list` shows")
+    revoke.set_defaults(handler=_keys_revoke)
+
+    redescribe = commands.add_parser(
+        "redescribe", help="queue re-describe jobs (default: models not at the current version)"
+    )
+    which = redescribe.add_mutually_exclusive_group()
+    which.add_argument("--from-version", default=None, help="models with this descriptor_version")
+    which.add_argument("--all", action="store_true", help="every model")
+    redescribe.add_argument("--wait", action="store_true", help="show progress until done")
+    redescribe.set_defaults(handler=_redescribe)
+
+    duplicates = commands.add_parser("duplicates", help="groups of near-identical parts")
+    duplicates.add_argument("--min-score", type=float, default=0.98)
+    duplicates.add_argument("--format", choices=("csv", "json"), default="csv")
+    duplicates.add_argument("--tenant", default="default")
+    duplicates.add_argument("--descriptor-version", default=None,
+                            help="default: the version of the current engine settings")
+    duplicates.set_defaults(handler=_duplicates)
+
+    importer = commands.add_parser("import", help="upload a folder, .zip or .tar of parts")
+    importer.add_argument("path")
+    importer.add_argument("--url", required=True, help="the service, e.g. http://127.0.0.1:8000")
+    importer.add_argument("--key", default=None, help="API key (Bearer)")
+    importer.add_argument("--external-id", choices=("path", "stem"), default="path",
+                          help="external id: the relative path (default) or the file stem")
+    importer.add_argument("--metadata", default=None, help="sidecar .csv or .json of metadata")
+    importer.add_argument("--concurrency", type=int, default=4)
+    importer.add_argument("--wait", action="store_true", help="wait until described")
+    importer.add_argument("--report", default="import-report.csv", help="CSV of every file")
+    importer.add_argument("--retries", type=int, default=5,
+                          help="retries of a request on 429/503 or a connection error")
+    importer.set_defaults(handler=_import)
+
+    evaluate = commands.add_parser("eval", help="score retrieval on a labelled CLASS/MODEL dataset")
+    evaluate.add_argument("dataset")
+    evaluate.add_argument("--variants", nargs="*", default=None)
+    evaluate.add_argument("--out", default="eval-out")
+    evaluate.add_argument("--limit-per-class", type=int, default=None)
+    evaluate.add_argument("--model-list", type=Path, default=None,
+                          help="file of CLASS/FILE names (one a line): score only these models")
+    evaluate.add_argument(
+        "--scans", nargs="*", default=(),
+        choices=("single", "multi", "single+sor", "multi+sor", "turntable", "kinect-view",
+                 "turntable+sor", "kinect-view+sor"),
+        help="also query simulated scans (single view, three views, 18-view depth-sensor "
+        "turntable, one sensor view; +sor: with an outlier filter before the engine) against "
+        "the clean models",
+    )
+    evaluate.add_argument("--scan-variants", nargs="*", default=None,
+                          help="variants scored on scans (default: baseline, default, fixed)")
+    evaluate.add_argument("--resampling", nargs="*", type=int, default=(),
+                          help="point counts of the resampling study, e.g. 5000 10000 20000")
+    evaluate.add_argument("--resampling-per-class", type=int, default=4,
+                          help="models per class in the resampling study (seeded subset)")
+    evaluate.add_argument("--timing-models", type=int, default=0,
+                          help="models on which each cutoff is also timed with its own solver")
+    evaluate.add_argument("--no-cache", action="store_true", help="do not read or write OUT/cache")
+    evaluate.set_defaults(handler=_eval)
+
+    parts = commands.add_parser(
+        "eval-parts", help="generate the labelled engineering-parts dev set (tune/ and test/)"
+    )
+    parts.add_argument("out")
+    parts.add_argument("--per-family", type=int, default=20)
+    parts.add_argument("--seed", type=int, default=0)
+    parts.set_defaults(handler=_eval_parts)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return int(args.handler(args) or 0)
+

@@ -1,0 +1,233 @@
+"""Running the engine for the service: ``core.pipeline.describe`` with BLAS pinned, and the
+translation of its ``Description`` into stored columns and API fields."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from app.ingest.previews import encode_preview
+from core.cutoff_predictor import CutoffPredictor
+from core.descriptor import DescriptorSpec
+from core.io import load_points
+from core.pipeline import Description, describe
+from core.settings import EngineSettings
+
+__all__ = [
+    "CutoffPredictorCache",
+    "cutoff_record",
+    "describe_upload",
+    "described_columns",
+    "descriptor_version",
+    "ingest_columns",
+    "model_columns",
+    "pin_blas_threads",
+    "quick_check",
+]
+
+log = logging.getLogger("shapesearch.describing")
+
+
+def pin_blas_threads() -> None:
+    """Give BLAS/OpenMP one thread for the rest of this process.
+
+    Workers and synchronous searches run side by side, one describe per thread; letting each
+    also fan out over every core would oversubscribe the machine and slow all of them down.
+    Done once per process because the limits are process-wide, not per thread.
+    """
+    import faiss
+
+    threadpool_limits(limits=1)
+    faiss.omp_set_num_threads(1)
+
+
+def describe_upload(
+    content: bytes,
+    filename: str,
+    settings: EngineSettings,
+    predictor: CutoffPredictor | None = None,
+    scan: bool = False,
+    views: int = 0,
+) -> Description:
+    """Describe an uploaded file (call ``pin_blas_threads`` once in the process first);
+    ``scan`` and ``views`` as in ``core.pipeline.describe``."""
+    return describe(
+        content, settings, filename=filename, predictor=predictor, scan=scan, views=views
+    )
+
+
+def descriptor_version(settings: EngineSettings) -> str:
+    """The ``descriptor_version`` that ``settings`` give every model (no describe needed)."""
+    return DescriptorSpec.from_settings(settings.descriptor).version(settings)
+
+
+def described_columns(
+    content: bytes,
+    filename: str,
+    settings: EngineSettings,
+    predictor: CutoffPredictor | None = None,
+    scan: bool = False,
+    views: int = 0,
+) -> dict[str, Any]:
+    """``model_columns`` of the file's description: small and picklable, for a sandbox.
+
+    A catalogue part is described with ``scan=True, views=settings.views.count`` (scan mode's
+    entries, ``ingest_columns``); a search query with ``scan`` in scan mode only.
+    """
+    description = describe_upload(content, filename, settings, predictor, scan, views)
+    return model_columns(description, settings.descriptor.hks_times)
+
+
+def ingest_columns(
+    content: bytes,
+    filename: str,
+    settings: EngineSettings,
+    predictor: CutoffPredictor | None = None,
+) -> dict[str, Any]:
+    """``described_columns`` of a catalogue part: with its scan descriptor and the
+    ``settings.views.count`` virtual views that scan mode searches (none when 0)."""
+    return described_columns(
+        content, filename, settings, predictor, True, settings.views.count
+    )
+
+
+def quick_check(content: bytes, name: str, points: int, min_points: int, seed: int) -> None:
+    """Parse the file and sample ``points`` points; raises ``InvalidShapeError``."""
+    load_points(content, filename=name, max_points=points, min_points=min_points, seed=seed)
+
+
+def cutoff_record(description: Description) -> dict[str, Any]:
+    """The cutoff as stored: mode, n, solver calls, parameters, the predicted n per round, and
+    the pre-solve features with the prediction made from them (``CutoffPredictorCache``)."""
+    cutoff = description.cutoff
+    return {
+        "mode": cutoff.mode,
+        "n": int(cutoff.n),
+        "solver_calls": int(cutoff.solver_calls),
+        "params": {key: _plain(value) for key, value in cutoff.params.items()},
+        "predicted": [int(n) for n in cutoff.predicted],
+        "features": [float(value) for value in np.asarray(description.features).ravel()],
+        "prediction": cutoff.prediction,
+        "prediction_held": cutoff.prediction_held,
+    }
+
+
+def model_columns(description: Description, hks_times: Sequence[float]) -> dict[str, Any]:
+    """The Model columns a finished description fills in; ``hks_times`` is the descriptor's
+    time grid, the first columns of ``description.signature`` (its log scaled HKS).
+    ``view_descriptors`` is None without views, ``scan_descriptor`` None unless asked for."""
+    descriptor = np.ascontiguousarray(description.descriptor, dtype=np.float32)
+    scan = description.scan_descriptor
+    views = np.ascontiguousarray(description.views, dtype=np.float32)
+    return {
+        "n_points": description.n_points,
+        "cutoff": cutoff_record(description),
+        "eigenvalues": [float(v) for v in np.asarray(description.eigenvalues).ravel()],
+        "descriptor": descriptor.tobytes(),
+        "descriptor_version": description.descriptor_version,
+        # Always written, so that a re-describe with fewer (or no) views leaves none stale.
+        "view_descriptors": views.tobytes() if len(views) else None,
+        "scan_descriptor": None if scan is None else np.asarray(scan, np.float32).tobytes(),
+        "timings": {stage: float(seconds) for stage, seconds in description.timings.items()},
+        "preview": encode_preview(
+            description.points,
+            description.signature[:, : len(hks_times)],
+            np.asarray(hks_times),
+            description.eigenvalues,
+        ),
+    }
+
+
+class CutoffPredictorCache:
+    """A ``CutoffPredictor`` fitted on the stored ready models of one descriptor version.
+
+    Refitted from the features and n each model's cutoff record holds: on every job while
+    fewer than ``eager_below`` models train it (a young catalogue learns at once, and the
+    query is small), then every ``refresh_seconds`` (models keep arriving). With no such
+    models ``predictor()`` gives None and the cutoff runs its seed round. Safe to share
+    between worker threads.
+
+    Parameters
+    ----------
+    sessions : sessionmaker
+        Database sessions.
+    descriptor_version : str
+        Only models described with this version (same cutoff rule and points) train it.
+    refresh_seconds : float
+        Age after which the next ``predictor()`` call refits.
+    limit : int
+        Most recent models used (bounds memory and fit time on a large catalogue).
+    eager_below : int
+        Below this many training models, refit on every call.
+    """
+
+    def __init__(
+        self,
+        sessions: Any,
+        descriptor_version: str,
+        *,
+        refresh_seconds: float = 300.0,
+        limit: int = 5000,
+        eager_below: int = 100,
+    ) -> None:
+        self.sessions = sessions
+        self.descriptor_version = descriptor_version
+        self.refresh_seconds = refresh_seconds
+        self.limit = limit
+        self.eager_below = eager_below
+        self._lock = threading.Lock()
+        self._fitted_at = -float("inf")
+        self._predictor: CutoffPredictor | None = None
+
+    def predictor(self) -> CutoffPredictor | None:
+        """The current predictor (refitted if stale), or None while there is no data."""
+        with self._lock:
+            known = 0 if self._predictor is None else self._predictor.n_samples_
+            stale = time.monotonic() - self._fitted_at >= self.refresh_seconds
+            if stale or known < self.eager_below:
+                self._fitted_at = time.monotonic()
+                try:
+                    self._predictor = self._fit()
+                except Exception:  # the database is away: keep the previous predictor
+                    log.exception("cutoff predictor refit failed")
+            return self._predictor
+
+    def _fit(self) -> CutoffPredictor | None:
+        from sqlalchemy import select
+
+        from app.db.models import Model
+
+        query = (
+            select(Model.cutoff)
+            .where(Model.status == "ready", Model.descriptor_version == self.descriptor_version)
+            .order_by(Model.index_id.desc())
+            .limit(self.limit)
+        )
+        with self.sessions() as session:
+            records = [record for record in session.scalars(query) if record]
+        rows = [
+            (record["features"], record["n"])
+            for record in records
+            if record.get("mode") == "adaptive" and record.get("features")
+        ]
+        if not rows:
+            return None
+        width = len(rows[0][0])
+        rows = [(features, n) for features, n in rows if len(features) == width]
+        features = np.array([features for features, _ in rows], dtype=np.float64)
+        return CutoffPredictor().fit(features, np.array([n for _, n in rows]))
+
+
+def _plain(value: Any) -> Any:
+    """JSON-safe copy of a numpy scalar or array."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value

@@ -1,0 +1,139 @@
+"""Parse and describe untrusted files in a child process with a memory and a time limit.
+
+A shape file can be a bomb that no cheap check foresees: a parser may expand it to
+gigabytes, or spin for minutes. Running that inside the API or worker process would grow it
+(Python rarely hands memory back) or kill it. ``Sandbox.run(function, *args)`` instead runs
+``function`` in a fresh child process with ``RLIMIT_AS`` set to ``memory_bytes`` and waits
+at most ``timeout_seconds`` for it; the parent's own memory never holds more than the input
+and the (small) result.
+
+Children come from a *forkserver* that has imported the engine once, so a child starts in
+milliseconds without re-importing numpy/scipy/trimesh, and without inheriting the threads
+and locks of the server (which a plain fork of a threaded process would).
+
+Outcomes, as the engine's own exceptions so that callers handle them as they always did:
+
+* ``InvalidShapeError`` raised by ``function`` passes through unchanged;
+* the memory limit (``MemoryError``, or a child killed by the kernel) -> ``too_large``;
+* the wall-clock limit -> ``too_large`` (the child is killed);
+* ``SolverError`` passes through (it may be transient); any other exception in the child
+  becomes ``SandboxCrash`` with the child's description of it.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import resource
+import signal
+from collections.abc import Callable
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from typing import Any, TypeVar
+
+from threadpoolctl import threadpool_limits
+
+from app.settings import Settings
+from core.errors import InvalidShapeError, SolverError
+
+__all__ = ["Sandbox", "SandboxCrash", "sandbox_of"]
+
+T = TypeVar("T")
+
+_PRELOAD = ["core.pipeline", "core.io", "app.ingest.describing"]
+_context = multiprocessing.get_context("forkserver")
+_context.set_forkserver_preload(_PRELOAD)
+
+
+class SandboxCrash(RuntimeError):
+    """The child raised an unexpected exception (a bug, or an input nobody foresaw)."""
+
+
+def _child(
+    connection: Connection, memory_bytes: int, function: Callable[..., Any], args: tuple
+) -> None:
+    resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
+    try:
+        threadpool_limits(limits=1)  # one describe per child; children run side by side
+        outcome: tuple[str, Any] = ("ok", function(*args))
+    except InvalidShapeError as error:
+        outcome = ("invalid", (error.reason, error.message))
+    except SolverError as error:
+        outcome = ("solver", str(error))
+    except MemoryError:
+        outcome = ("memory", None)
+    except BaseException as error:  # reported to the parent, which decides what it means
+        outcome = ("crash", f"{type(error).__name__}: {error}"[:2000])
+    try:
+        connection.send(outcome)
+    except MemoryError:  # the result itself does not fit: the input was too large
+        connection.send(("memory", None))
+    finally:
+        connection.close()
+
+
+@dataclass(frozen=True)
+class Sandbox:
+    """Runs functions in a child process limited to ``memory_bytes`` of address space and
+    ``timeout_seconds`` of wall-clock time."""
+
+    memory_bytes: int
+    timeout_seconds: float
+
+    def run(self, function: Callable[..., T], *args: Any) -> T:
+        """``function(*args)`` in a child; ``function`` and ``args`` must be picklable."""
+        receiver, sender = _context.Pipe(duplex=False)
+        child = _context.Process(
+            target=_child, args=(sender, self.memory_bytes, function, args), daemon=True
+        )
+        child.start()
+        sender.close()
+        try:
+            if not receiver.poll(self.timeout_seconds):
+                raise self._too_slow()
+            try:
+                kind, payload = receiver.recv()
+            except EOFError:  # the child died without a word: killed, or crashed hard
+                child.join(5)
+                raise self._died(child.exitcode) from None
+        finally:
+            receiver.close()
+            if child.is_alive():
+                child.kill()
+            child.join()
+        return self._result(kind, payload)
+
+    def _result(self, kind: str, payload: Any) -> Any:
+        if kind == "ok":
+            return payload
+        if kind == "invalid":
+            raise InvalidShapeError(*payload)
+        if kind == "solver":
+            raise SolverError(payload)
+        if kind == "memory":
+            raise self._too_big()
+        raise SandboxCrash(payload)
+
+    def _too_big(self) -> InvalidShapeError:
+        return InvalidShapeError(
+            "too_large",
+            f"describing this file needs more than the limit of {self.memory_bytes:,} bytes "
+            "of memory (SHAPESEARCH_DESCRIBE_MEMORY_BYTES): simplify the mesh or thin the "
+            "cloud first",
+        )
+
+    def _too_slow(self) -> InvalidShapeError:
+        return InvalidShapeError(
+            "too_large",
+            f"describing this file took longer than the limit of {self.timeout_seconds:g} s "
+            "(SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS): simplify the mesh or thin the cloud first",
+        )
+
+    def _died(self, exitcode: int | None) -> InvalidShapeError | SandboxCrash:
+        if exitcode is not None and exitcode == -signal.SIGKILL:  # the kernel's OOM killer
+            return self._too_big()
+        return SandboxCrash(f"the describing process ended with exit code {exitcode}")
+
+
+def sandbox_of(settings: Settings) -> Sandbox:
+    """The sandbox with the service's limits."""
+    return Sandbox(settings.describe_memory_bytes, settings.describe_timeout_seconds)

@@ -1,0 +1,314 @@
+"""Workers: claim a job, describe the upload under a renewed lease, store the result.
+
+    Worker       one thread's loop: claim -> heartbeat while handling -> complete/fail/retry
+    WorkerPool   N worker threads with a graceful stop (finish, or release after a grace time)
+    run_workers  ``shapesearch worker``: N processes sharing the database, signals handled
+
+A worker never dies on its input: every exception of a job ends that job (failed or
+retried) and is logged; a database outage is waited out.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+import secrets
+import signal
+import socket
+import threading
+import time
+from collections.abc import Callable
+from types import FrameType
+from typing import Any
+
+from sqlalchemy.exc import DBAPIError, OperationalError
+
+from app.db.session import migrated_engine, open_sessions
+from app.ingest.describing import (
+    CutoffPredictorCache,
+    descriptor_version,
+    ingest_columns,
+    pin_blas_threads,
+)
+from app.ingest.sandbox import sandbox_of
+from app.jobs.queue import Claim, JobQueue
+from app.observability.logs import configure_logging, job_context
+from app.observability.metrics import observe_description
+from app.problems import problem, reason_kind
+from app.settings import Settings, engine_settings
+from app.webhooks import start_delivery_thread
+from core.errors import InvalidShapeError, SolverError
+
+__all__ = ["JobHandler", "Worker", "WorkerPool", "describe_handler", "make_queue", "run_workers"]
+
+log = logging.getLogger("shapesearch.worker")
+
+# content, file name -> the Model columns to store
+JobHandler = Callable[[bytes, str], dict[str, Any]]
+
+# Worth another attempt later: the numerics, the database or the machine had a bad moment.
+TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
+    SolverError,
+    OperationalError,
+    DBAPIError,
+    MemoryError,
+    TimeoutError,
+    OSError,
+)
+
+
+def describe_handler(settings: Settings, sessions: Any = None) -> JobHandler:
+    """The production handler: run the engine with the service's settings, in a sandbox
+    (a child process with memory and time limits), so that a bomb fails its job instead of
+    growing or killing the worker. Each part is described with its scan-mode entries
+    (``ingest_columns``: the scan descriptor and ``SHAPESEARCH_SCAN_VIEWS`` virtual views).
+
+    With ``sessions`` the adaptive cutoff is predicted from the stored models of the same
+    descriptor version (refitted as they arrive); without, or with none stored, it seeds.
+    """
+    engine = engine_settings(settings)
+    sandbox = sandbox_of(settings)
+    cache = None if sessions is None else CutoffPredictorCache(sessions, descriptor_version(engine))
+
+    def handle(content: bytes, filename: str) -> dict[str, Any]:
+        predictor = None if cache is None else cache.predictor()
+        return sandbox.run(ingest_columns, content, filename, engine, predictor)
+
+    return handle
+
+
+def make_queue(settings: Settings, sessions: Any) -> JobQueue:
+    return JobQueue(
+        sessions,
+        lease_seconds=settings.lease_seconds,
+        max_attempts=settings.max_attempts,
+        backoff_base=settings.retry_backoff_seconds,
+        backoff_cap=settings.retry_backoff_max_seconds,
+    )
+
+
+def new_worker_id(index: int) -> str:
+    """Unique per worker thread and start, readable in the jobs table."""
+    return f"{socket.gethostname()}:{os.getpid()}:{index}:{secrets.token_hex(3)}"
+
+
+class Worker:
+    """One loop that handles jobs until ``stop`` is set."""
+
+    def __init__(
+        self,
+        queue: JobQueue,
+        handler: JobHandler,
+        *,
+        worker_id: str,
+        poll_interval: float,
+        stop: threading.Event,
+        on_done: Callable[[], None] | None = None,
+    ) -> None:
+        self.queue = queue
+        self.handler = handler
+        self.worker_id = worker_id
+        self.poll_interval = poll_interval
+        self.stop = stop
+        self.on_done = on_done
+        self.current: Claim | None = None
+
+    def run(self) -> None:
+        log.info("worker %s started", self.worker_id)
+        while not self.stop.is_set():
+            try:
+                found = self.run_once()
+            except Exception:  # the database is away: wait and try again
+                log.exception("worker %s: queue unavailable", self.worker_id)
+                found = False
+            if not found:
+                self.stop.wait(self.poll_interval)
+        log.info("worker %s stopped", self.worker_id)
+
+    def run_once(self) -> bool:
+        """Handle one due job; False if there was none."""
+        claim = self.queue.claim(self.worker_id)
+        if claim is None:
+            return False
+        self.current = claim
+        try:
+            with job_context(claim.job_id):  # the job id on every log line of the job
+                self._handle(claim)
+        finally:
+            self.current = None
+        return True
+
+    def _handle(self, claim: Claim) -> None:
+        upload = self.queue.upload_of(claim)
+        if upload is None:  # deleted since it was queued; its job went with it
+            return
+        content, filename = upload
+        started = time.perf_counter()
+        with _Heartbeat(self.queue, claim):
+            try:
+                columns = self.handler(content, filename)
+            except InvalidShapeError as error:
+                log.info("job %s: invalid shape (%s): %s", claim.job_id, error.reason, error)
+                self.queue.fail(
+                    claim, problem(reason_kind(error.reason), error.message, reason=error.reason)
+                )
+                return
+            except TRANSIENT_ERRORS as error:
+                log.warning("job %s attempt %d: %r", claim.job_id, claim.attempts, error)
+                self.queue.retry(claim, _error_record(error))
+                return
+            except Exception as error:  # a bug or an input we did not foresee: retry, capped
+                log.exception("job %s attempt %d failed", claim.job_id, claim.attempts)
+                self.queue.retry(claim, _error_record(error))
+                return
+        if self.queue.complete(claim, columns):
+            observe_description(columns)
+            log.info("job %s done in %.2fs", claim.job_id, time.perf_counter() - started)
+            if self.on_done is not None:
+                self.on_done()
+        else:
+            log.warning("job %s: lease lost, result discarded", claim.job_id)
+
+
+def _error_record(error: BaseException) -> dict[str, str]:
+    kind = "solver-error" if isinstance(error, SolverError) else "internal-error"
+    return problem(kind, f"{type(error).__name__}: {error}"[:2000])
+
+
+class _Heartbeat:
+    """Renews a claim's lease every third of the lease time while the job runs."""
+
+    def __init__(self, queue: JobQueue, claim: Claim) -> None:
+        self.queue = queue
+        self.claim = claim
+        self.done = threading.Event()
+        self.thread = threading.Thread(target=self._beat, name="heartbeat", daemon=True)
+
+    def __enter__(self) -> _Heartbeat:
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.done.set()
+        self.thread.join()
+
+    def _beat(self) -> None:
+        interval = self.queue.lease.total_seconds() / 3
+        while not self.done.wait(interval):
+            try:
+                if not self.queue.renew(self.claim):
+                    log.warning("job %s: lease lost", self.claim.job_id)
+                    return
+            except Exception:
+                log.exception("job %s: lease renewal failed", self.claim.job_id)
+
+
+class WorkerPool:
+    """``count`` worker threads over one queue."""
+
+    def __init__(
+        self,
+        queue: JobQueue,
+        handler: JobHandler,
+        *,
+        count: int,
+        poll_interval: float,
+        on_done: Callable[[], None] | None = None,
+    ) -> None:
+        self.queue = queue
+        self.stop_event = threading.Event()
+        self.workers = [
+            Worker(
+                queue,
+                handler,
+                worker_id=new_worker_id(index),
+                poll_interval=poll_interval,
+                stop=self.stop_event,
+                on_done=on_done,
+            )
+            for index in range(count)
+        ]
+        self.threads = [
+            threading.Thread(target=worker.run, name=f"worker-{index}", daemon=True)
+            for index, worker in enumerate(self.workers)
+        ]
+
+    def start(self) -> None:
+        for thread in self.threads:
+            thread.start()
+
+    def stop(self, grace: float, abort: threading.Event | None = None) -> None:
+        """Stop claiming; let running jobs finish within ``grace`` seconds (or until
+        ``abort``), then release whatever is still running to other workers."""
+        self.stop_event.set()
+        deadline = time.monotonic() + grace
+        for thread in self.threads:
+            while thread.is_alive() and time.monotonic() < deadline:
+                if abort is not None and abort.is_set():
+                    break
+                thread.join(0.1)
+        for worker in self.workers:
+            claim = worker.current
+            if claim is not None and self.queue.release(claim):
+                log.info("job %s released on shutdown", claim.job_id)
+
+
+def run_workers(concurrency: int | None = None) -> int:
+    """``shapesearch worker``: run ``concurrency`` worker processes until signalled."""
+    settings = Settings()
+    count = concurrency if concurrency is not None else max(1, settings.worker_count)
+    configure_logging()
+    migrated_engine(settings.resolved_database_url).dispose()
+    if count == 1:
+        return _worker_process(threads=1)
+
+    # Processes, not threads: describing is CPU-bound Python and numpy.
+    context = multiprocessing.get_context("spawn")
+    children = [context.Process(target=_worker_process, args=(1,)) for _ in range(count)]
+    for child in children:
+        child.start()
+
+    def forward(signum: int, _frame: FrameType | None) -> None:
+        for child in children:
+            if child.is_alive() and child.pid is not None:
+                os.kill(child.pid, signal.SIGTERM)
+
+    signal.signal(signal.SIGTERM, forward)
+    signal.signal(signal.SIGINT, forward)
+    for child in children:
+        child.join()
+    return 0
+
+
+def _worker_process(threads: int) -> int:
+    """One worker process: first SIGTERM/SIGINT finishes the running job (within the grace
+    time), a second one releases it at once."""
+    settings = Settings()
+    configure_logging()
+    pin_blas_threads()
+    sessions = open_sessions(settings.resolved_database_url)
+    pool = WorkerPool(
+        make_queue(settings, sessions),
+        describe_handler(settings, sessions),
+        count=threads,
+        poll_interval=settings.poll_interval,
+    )
+    requested = threading.Event()
+    abort = threading.Event()
+
+    def on_signal(signum: int, _frame: FrameType | None) -> None:
+        if requested.is_set():
+            abort.set()
+        requested.set()
+        log.info("signal %d: stopping", signum)
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    pool.start()
+    deliveries = start_delivery_thread(settings, sessions)
+    while not requested.wait(0.5):
+        pass
+    pool.stop(settings.shutdown_grace_seconds, abort)
+    deliveries.stop()
+    return 0

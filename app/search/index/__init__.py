@@ -1,0 +1,483 @@
+"""The search index: an in-memory FAISS cache of the ready descriptors in the database.
+
+The database is the source of truth. Each process builds its index from the database at
+start-up (``rebuild``, streamed in chunks of rows) and then follows the change feed
+(``index_events``, see ``app.db.feed``) with ``sync``, run by a background thread: it keeps
+the last revision it applied and reads only newer events, so a sync that finds nothing new
+is one indexed query. Deletes made in this process are also applied at once with ``remove``.
+
+One partition per (tenant, descriptor_version): tenants never see each other's models and
+descriptors of different layouts are never compared. Scan mode's extra entries, the
+descriptors of each model's virtual partial views (``Model.view_descriptors``), live in a
+partition of their own, ``views_key(key)``, so that the default search never meets them; view
+``v`` of model ``i`` has the id ``view_id(i, v)``, and adding, replacing or removing a model
+does the same to all its views in the same batch. Vectors are unit-norm float32 under
+the model's integer ``index_id``. A partition is
+
+* ``flat``: exact ``IndexIDMap2(IndexFlatL2)`` while it holds at most ``exact_max``
+  vectors (4 d bytes each: ~680 MB for 10^5 vectors of 1686 dims, hence the limit);
+* ``ivf-sq8``: above that, ``IndexIVFScalarQuantizer`` with 8-bit codes (d bytes per vector,
+  4x smaller) in ``sqrt(n)`` inverted lists, ``nprobe`` of them searched per query. Its
+  distances are approximate: callers fetch ``rerank_candidates(k)`` and re-rank them
+  exactly (``app.search.similarity``) against the full vectors, which the partition keeps in a
+  memory-mapped file (``app.search.full_vectors``: page cache, not the process's own memory);
+* ``ivf-sq6``: the same with 6-bit codes (0.75 d bytes per vector: 1.3 GB at 10^6 models
+  instead of 1.7) for a partition built with more than ``compact_min`` vectors. Its scan
+  has no SIMD kernel in FAISS and costs about 3x the 8-bit one per code, which the
+  benchmark shows is affordable at that size (bench/search_scale.py, README).
+
+The index also knows each model's public id (``locate``) and gives back the vectors it
+holds, exactly as added (``vector``, ``exact_vectors``), so a similar query by model id reads
+no descriptor from the database.
+
+Searches hold a partition's read lock and run side by side (FAISS releases the GIL);
+writes (batched per sync) take the write lock briefly. A rebuild builds new partitions
+aside and swaps them in, so searches never wait for it.
+"""
+
+from __future__ import annotations
+
+import threading
+import uuid
+from collections import defaultdict
+from collections.abc import Iterable, Iterator, Sequence
+
+import numpy as np
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.db.models import FeedState, IndexEvent, Model
+from app.search.index._builder import Builder
+from app.search.index._partition import Partition
+from app.search.index._view_ids import (
+    VIEW_ID_BASE,
+    PartitionKey,
+    holds_views,
+    view_id,
+    view_ids,
+    view_of,
+    views_array,
+    views_key,
+)
+from core.settings import MAX_VIEWS
+
+__all__ = ["VIEW_ID_BASE", "PartitionKey", "ShapeIndex", "view_id", "view_of", "views_key"]
+
+# One model added: (index_id, partition, (d,) descriptor, (v, d) views or None, its public
+# id or None).
+_Added = tuple[int, PartitionKey, np.ndarray, "np.ndarray | None", "uuid.UUID | None"]
+
+_EVENT_BATCH = 5000
+# What the index holds of a model: the rows a rebuild streams and a sync reads.
+_INDEXED = (
+    Model.index_id,
+    Model.tenant,
+    Model.descriptor_version,
+    Model.descriptor,
+    Model.view_descriptors,
+    Model.id,
+)
+
+_ROW_CHUNK = 2000  # rows per query of a streamed rebuild
+
+
+class ShapeIndex:
+    """Ready descriptors by partition, kept in step with the database.
+
+    Parameters
+    ----------
+    sessions : sessionmaker or None
+        The database; None for an index filled only with ``build_partition`` (benchmarks).
+    exact_max : int
+        Largest partition searched exactly; larger ones are IVF-SQ8.
+    compact_min : int
+        Partitions built with more vectors than this are IVF-SQ6 instead of IVF-SQ8.
+    nprobe : int
+        Inverted lists searched per query in an IVF partition.
+    rerank_factor : int
+        Candidates per wanted result fetched from an IVF partition for exact re-ranking.
+    """
+
+    def __init__(
+        self,
+        sessions: sessionmaker[Session] | None,
+        *,
+        exact_max: int = 5_000,
+        compact_min: int = 500_000,
+        nprobe: int = 8,
+        rerank_factor: int = 2,
+    ) -> None:
+        self.sessions = sessions
+        self.exact_max = exact_max
+        self.compact_min = compact_min
+        self.nprobe = nprobe
+        self.rerank_factor = rerank_factor
+        self.revision = 0  # last change-feed revision applied
+        self._partitions: dict[PartitionKey, Partition] = {}
+        self._partition_of: dict[int, PartitionKey] = {}  # models only
+        self._views_of: dict[int, int] = {}  # model index_id -> views it has in the index
+        # Public model id (its 128-bit int) <-> index_id, both ways, so that a similar query
+        # by model id finds the query vector here (``locate``, ``vector``). Ints, not UUID
+        # objects: ~170 bytes per model for both maps.
+        self._index_id_of: dict[int, int] = {}
+        self._public_id_of: dict[int, int] = {}
+        self._sync_lock = threading.Lock()  # one writer of the maps at a time
+
+    # --- reading ----------------------------------------------------------------------
+
+    def __len__(self) -> int:
+        """Models held (their views not counted)."""
+        return len(self._partition_of)
+
+    def views_held(self, index_id: int) -> int:
+        """How many view entries model ``index_id`` has in the index."""
+        return self._views_of.get(index_id, 0)
+
+    def __contains__(self, index_id: int) -> bool:
+        return index_id in self._partition_of
+
+    def locate(self, tenant: str, model_id: uuid.UUID) -> tuple[int, PartitionKey] | None:
+        """The ``index_id`` and partition of the tenant's model ``model_id`` as this index
+        holds it, or None. The index may lag the database by a sync: confirm in SQL."""
+        index_id = self._index_id_of.get(model_id.int)
+        key = None if index_id is None else self._partition_of.get(index_id)
+        if index_id is None or key is None or key[0] != tenant:
+            return None
+        return index_id, key
+
+    def vector(self, key: PartitionKey, index_id: int) -> np.ndarray | None:
+        """The ``(d,) float32`` vector of ``index_id`` as it was added to partition ``key``,
+        or None when the partition does not hold it."""
+        vectors = self.exact_vectors(key, [index_id])
+        return None if vectors is None or not vectors[1][0] else vectors[0][0]
+
+    def exact_vectors(
+        self, key: PartitionKey, ids: Sequence[int]
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(m, d) float32`` vectors of ``ids`` as added to partition ``key`` (for a
+        compressed partition, from its full vectors: ``app.search.full_vectors``) and a ``(m,)
+        bool`` mask of those it holds; None without such a partition."""
+        partition = self._partitions.get(key)
+        if partition is None:
+            return None
+        with partition.lock.reading():
+            return partition.exact_vectors(ids)
+
+    def partition_size(self, key: PartitionKey) -> int:
+        partition = self._partitions.get(key)
+        return 0 if partition is None else int(partition.index.ntotal)
+
+    def nbytes(self) -> int:
+        """Bytes of vectors, codes, ids and centroids held (allocator slack not counted)."""
+        return sum(partition.nbytes() for partition in list(self._partitions.values()))
+
+    def file_bytes(self) -> int:
+        """Bytes of the compressed partitions' full-vector files (``app.search.full_vectors``:
+        local disk and the kernel's page cache, not this process's own memory)."""
+        return sum(
+            partition.full.file_bytes
+            for partition in list(self._partitions.values())
+            if partition.full is not None
+        )
+
+    def describe(self, key: PartitionKey) -> str:
+        """The kind of a partition: "flat", "ivf-sq8", "ivf-sq6" or "empty"."""
+        partition = self._partitions.get(key)
+        return "empty" if partition is None else partition.kind
+
+    def is_approximate(self, key: PartitionKey) -> bool:
+        partition = self._partitions.get(key)
+        return partition is not None and partition.approximate
+
+    def rerank_candidates(self, k: int) -> int:
+        """How many candidates to fetch from an approximate partition for ``k`` results."""
+        return max(self.rerank_factor * k, k + 10)
+
+    def search(
+        self,
+        key: PartitionKey,
+        vector: np.ndarray,
+        k: int,
+        *,
+        allowed: Sequence[int] | None = None,
+    ) -> list[tuple[int, float]]:
+        """The ``k`` nearest ``(index_id, L2 distance)`` in one partition, nearest first;
+        only among ``allowed`` ids when given. Distances of an approximate partition are
+        estimates: re-rank against the full vectors."""
+        query = np.ascontiguousarray(vector, dtype=np.float32).reshape(1, -1)
+        return self.search_batch(key, query, k, allowed=allowed)[0]
+
+    def search_batch(
+        self,
+        key: PartitionKey,
+        queries: np.ndarray,
+        k: int,
+        *,
+        allowed: Sequence[int] | None = None,
+    ) -> list[list[tuple[int, float]]]:
+        """``search`` for each row of ``queries : (m, d) float``, in one FAISS call."""
+        queries = np.ascontiguousarray(queries, dtype=np.float32)
+        partition = self._partitions.get(key)
+        if partition is None or partition.dim != queries.shape[1]:
+            return [[] for _ in queries]
+        allowed_ids = None if allowed is None else np.asarray(allowed, dtype=np.int64)
+        with partition.lock.reading():
+            held = int(partition.index.ntotal)
+            if held == 0 or (allowed_ids is not None and len(allowed_ids) == 0):
+                return [[] for _ in queries]
+            squared, ids = partition.search(queries, min(k, held), allowed_ids)
+        distances = np.sqrt(np.maximum(squared, 0.0)).tolist()  # plain floats, one call
+        return [
+            [(i, d) for i, d in zip(row_ids, row_d, strict=True) if i >= 0]
+            for row_ids, row_d in zip(ids.tolist(), distances, strict=True)
+        ]
+
+    def search_views(
+        self,
+        key: PartitionKey,
+        vector: np.ndarray,
+        k: int,
+        *,
+        allowed: Sequence[int] | None = None,
+    ) -> list[tuple[int, int, float]]:
+        """The ``k`` nearest view entries of partition ``key``'s models, as ``(index_id,
+        view, L2 distance)`` nearest first (a model may appear once per view); only views
+        of the ``allowed`` model ids when given."""
+        allowed_views = None
+        if allowed is not None:
+            allowed_views = [
+                entry for i in allowed for entry in view_ids(i, self._views_of.get(i, 0))
+            ]
+        hits = self.search(views_key(key), vector, k, allowed=allowed_views)
+        return [(*view_of(entry), distance) for entry, distance in hits]
+
+    # --- writing ----------------------------------------------------------------------
+
+    def add(
+        self,
+        index_id: int,
+        key: PartitionKey,
+        vector: np.ndarray,
+        views: np.ndarray | None = None,
+        model_id: uuid.UUID | None = None,
+    ) -> None:
+        """Add (or replace) model ``index_id`` (public id ``model_id``) with ``vector : (d,)``
+        and its scan-mode ``views : (v, d)`` (v <= ``MAX_VIEWS``)."""
+        with self._sync_lock:
+            self._apply([index_id], [(index_id, key, vector, views, model_id)])
+
+    def remove(self, index_id: int) -> None:
+        self.remove_many([index_id])
+
+    def remove_many(self, index_ids: Iterable[int]) -> None:
+        """Remove ids in one batch per partition (unknown ids are ignored)."""
+        with self._sync_lock:
+            self._apply(index_ids, [])
+
+    def build_partition(
+        self, key: PartitionKey, batches: Iterable[tuple[int, np.ndarray]], expected: int
+    ) -> None:
+        """Fill partition ``key`` from ``(first_id, (m, d) float32)`` batches whose ids run
+        on from ``first_id`` (benchmarks, and any bulk load without a database)."""
+        with self._sync_lock:
+            built = self._builder(expected)
+            for first, vectors in batches:
+                ids = np.arange(first, first + len(vectors), dtype=np.int64)
+                built.add(ids, vectors)
+            partition = built.finish()
+            if partition is not None:
+                self._partitions[key] = partition
+                for index_id in built.ids:
+                    self._partition_of[index_id] = key
+
+    def _builder(self, expected: int) -> Builder:
+        return Builder(expected, exact_max=self.exact_max, compact_min=self.compact_min,
+                       nprobe=self.nprobe, chunk=_ROW_CHUNK)
+
+    def _apply(self, removed: Iterable[int], added: Iterable[_Added]) -> None:
+        """Remove, then add, models with their views, grouped by partition; call with
+        ``_sync_lock`` held."""
+        gone: dict[PartitionKey, list[int]] = defaultdict(list)
+        for index_id in removed:
+            key = self._partition_of.pop(index_id, None)
+            public = self._public_id_of.pop(index_id, None)
+            if public is not None:
+                self._index_id_of.pop(public, None)
+            if key is not None:
+                gone[key].append(index_id)
+                gone[views_key(key)].extend(view_ids(index_id, self._views_of.pop(index_id, 0)))
+        for key, ids in gone.items():
+            partition = self._partitions.get(key)
+            if partition is not None and ids:
+                with partition.lock.writing():
+                    partition.remove(np.asarray(ids, dtype=np.int64))
+        fresh: dict[PartitionKey, list[tuple[int, np.ndarray]]] = defaultdict(list)
+        for index_id, key, vector, views, model_id in added:
+            if index_id in self._partition_of:  # re-adding replaces, views and all
+                self._apply([index_id], [])
+            if model_id is not None:
+                self._index_id_of[model_id.int] = index_id
+                self._public_id_of[index_id] = model_id.int
+            fresh[key].append((index_id, np.asarray(vector, dtype=np.float32)))
+            if views is not None and len(views):
+                views = np.asarray(views, dtype=np.float32)[:MAX_VIEWS]
+                fresh[views_key(key)].extend(
+                    zip(view_ids(index_id, len(views)), views, strict=True)
+                )
+                self._views_of[index_id] = len(views)
+        for key, rows in fresh.items():
+            ids = np.array([i for i, _ in rows], dtype=np.int64)
+            vectors = np.ascontiguousarray(np.stack([v for _, v in rows]))
+            partition = self._partitions.get(key)
+            if partition is None:
+                partition = Partition(vectors.shape[1], self.nprobe)
+                self._partitions[key] = partition
+            with partition.lock.writing():
+                if not partition.approximate and partition.index.ntotal + len(ids) > self.exact_max:
+                    flat = partition.index.index
+                    held = flat.reconstruct_n(0, flat.ntotal)[:, : partition.dim]
+                    sample = np.concatenate([held, vectors])
+                    partition.compress(sample, expected=len(sample))
+                partition.add(ids, vectors)
+            if not holds_views(key):
+                for index_id in ids.tolist():
+                    self._partition_of[index_id] = key
+
+    # --- following the database -------------------------------------------------------
+
+    def rebuild(self) -> None:
+        """Stream every ready descriptor from the database into new partitions, swap them
+        in, then catch up with the change feed."""
+        assert self.sessions is not None
+        with self._sync_lock:
+            with self.sessions() as session:
+                # Read the revision first: every change after it is replayed by sync, and
+                # replaying a change already loaded here is harmless.
+                revision = session.execute(
+                    select(FeedState.revision).where(FeedState.id == 1)
+                ).scalar_one()
+                sizes: dict[PartitionKey, int] = {}
+                for tenant, version, count, view_bytes, vector_bytes in session.execute(
+                    select(
+                        Model.tenant,
+                        Model.descriptor_version,
+                        func.count(),
+                        func.sum(func.length(Model.view_descriptors)),
+                        func.max(func.length(Model.descriptor)),
+                    )
+                    .where(Model.status == "ready", Model.descriptor_version.is_not(None))
+                    .group_by(Model.tenant, Model.descriptor_version)
+                ):
+                    sizes[(tenant, version)] = int(count)
+                    if view_bytes and vector_bytes:
+                        sizes[views_key((tenant, version))] = int(view_bytes) // int(vector_bytes)
+            builders = {key: self._builder(size) for key, size in sizes.items()}
+            views_of: dict[int, int] = {}
+            index_id_of: dict[int, int] = {}
+            for index_id, tenant, version, descriptor, view_blob, model_id in self._ready_rows():
+                builder = builders.get((tenant, version))
+                if builder is None:  # became ready after the count: sync replays it
+                    continue
+                vector = np.frombuffer(descriptor, dtype=np.float32)
+                builder.add_one(index_id, vector)
+                index_id_of[model_id.int] = index_id
+                views = views_array(view_blob, len(vector))
+                view_builder = builders.get(views_key((tenant, version)))
+                if views is not None and view_builder is not None:
+                    for entry, view in zip(view_ids(index_id, len(views)), views, strict=True):
+                        view_builder.add_one(entry, view)
+                    views_of[index_id] = len(views)
+            partitions: dict[PartitionKey, Partition] = {}
+            partition_of: dict[int, PartitionKey] = {}
+            for key, builder in builders.items():
+                partition = builder.finish()
+                if partition is not None:
+                    partitions[key] = partition
+                    if not holds_views(key):
+                        partition_of.update(dict.fromkeys(builder.ids, key))
+            self._partitions, self._partition_of = partitions, partition_of
+            self._views_of = views_of
+            self._index_id_of = index_id_of
+            self._public_id_of = {index_id: public for public, index_id in index_id_of.items()}
+            self.revision = int(revision)
+        self.sync()
+
+    def _ready_rows(self) -> Iterator[tuple[int, str, str, bytes, bytes | None, uuid.UUID]]:
+        """Every ready descriptor with its views, ``_ROW_CHUNK`` rows per query (keyset on
+        index_id)."""
+        assert self.sessions is not None
+        last = -1
+        while True:
+            with self.sessions() as session:
+                rows = session.execute(
+                    select(*_INDEXED)
+                    .where(
+                        Model.index_id > last,
+                        Model.status == "ready",
+                        Model.descriptor.is_not(None),
+                        Model.descriptor_version.is_not(None),
+                    )
+                    .order_by(Model.index_id)
+                    .limit(_ROW_CHUNK)
+                ).all()
+            if not rows:
+                return
+            yield from rows
+            last = rows[-1].index_id
+
+    def sync(self) -> int:
+        """Apply the change-feed events newer than ``revision``; returns how many."""
+        assert self.sessions is not None
+        applied = 0
+        with self._sync_lock:
+            while True:
+                with self.sessions() as session:
+                    events = session.execute(
+                        select(IndexEvent.revision, IndexEvent.index_id, IndexEvent.kind)
+                        .where(IndexEvent.revision > self.revision)
+                        .order_by(IndexEvent.revision)
+                        .limit(_EVENT_BATCH)
+                    ).all()
+                    if not events:
+                        return applied
+                    latest = {event.index_id: event.kind for event in events}  # last one wins
+                    wanted = [i for i, kind in latest.items() if kind == "ready"]
+                    rows = (
+                        session.execute(
+                            select(*_INDEXED).where(
+                                Model.index_id.in_(wanted), Model.status == "ready"
+                            )
+                        ).all()
+                        if wanted
+                        else []
+                    )
+                # Models deleted meanwhile are simply not found; their views go with them.
+                self._apply(latest, [_added(*row) for row in rows if row[3] and row[2]])
+                self.revision = int(events[-1].revision)
+                applied += len(events)
+
+
+def _added(
+    index_id: int,
+    tenant: str,
+    version: str,
+    descriptor: bytes,
+    view_blob: bytes | None,
+    model_id: uuid.UUID,
+) -> _Added:
+    """A ready row as ``_apply`` adds it."""
+    vector = np.frombuffer(descriptor, dtype=np.float32)
+    return index_id, (tenant, version), vector, views_array(view_blob, len(vector)), model_id
+
+
+def _added(
+    index_id: int,
+    tenant: str,
+    version: str,
+    descriptor: bytes,
+    view_blob: bytes | None,
+    model_id: uuid.UUID,
+) -> _Added:
+    """A ready row as ``_apply`` adds it."""
+    vector = np.frombuffer(descriptor, dtype=np.float32)
+    return index_id, (tenant, version), vector, views_array(view_blob, len(vector)), model_id

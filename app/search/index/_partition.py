@@ -1,0 +1,126 @@
+"""One FAISS partition: flat while small, IVF with scalar-quantised codes when compressed
+(the full vectors then live in a memory-mapped file, ``app.search.full_vectors``)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import faiss
+import numpy as np
+
+from app.search.full_vectors import FullVectors
+from app.search.index._lock import ReadWriteLock
+
+__all__ = ["TRAIN_PER_LIST", "Partition"]
+
+TRAIN_PER_LIST = 16  # k-means training vectors per inverted list
+_TRAIN_ITERATIONS = 8
+_QUANTIZERS = {8: faiss.ScalarQuantizer.QT_8bit, 6: faiss.ScalarQuantizer.QT_6bit}
+
+
+class Partition:
+    """The vectors of one (tenant, descriptor_version), flat or IVF with scalar-quantised
+    codes of ``bits`` 8 or 6."""
+
+    def __init__(self, dim: int, nprobe: int) -> None:
+        self.dim = dim
+        # Zero-padded to a multiple of 16: FAISS's SIMD scalar-quantiser kernels need it
+        # (1534 dims scan ~20x slower than 1536); L2 distances are unchanged.
+        self.padded = -(-dim // 16) * 16
+        self.nprobe = nprobe
+        self.index: faiss.Index = faiss.IndexIDMap2(faiss.IndexFlatL2(self.padded))
+        self.bits = 32  # float32 while flat
+        self.full: FullVectors | None = None  # the full vectors, once compressed
+        self.lock = ReadWriteLock()
+
+    @property
+    def kind(self) -> str:
+        return "flat" if self.bits == 32 else f"ivf-sq{self.bits}"
+
+    @property
+    def approximate(self) -> bool:
+        return self.bits != 32
+
+    def compress(self, sample: np.ndarray, expected: int, bits: int = 8) -> None:
+        """Switch to IVF with ``bits``-bit codes (8 or 6) trained on ``sample : (m, d)
+        float32``; moves what is held."""
+        nlist = int(np.clip(math.sqrt(expected), 16, 4096))
+        nlist = min(nlist, max(1, len(sample) // 4))
+        quantizer = faiss.IndexFlatL2(self.padded)
+        ivf = faiss.IndexIVFScalarQuantizer(
+            quantizer, self.padded, nlist, _QUANTIZERS[bits], faiss.METRIC_L2
+        )
+        ivf.cp.niter = _TRAIN_ITERATIONS
+        ivf.cp.min_points_per_centroid = 1  # a small sample is enough for coarse lists
+        ivf.train(self.pad(sample[: TRAIN_PER_LIST * nlist]))
+        ivf.set_direct_map_type(faiss.DirectMap.Hashtable)  # remove_ids without a scan
+        ivf.nprobe = self.nprobe
+        held = self.index
+        full = FullVectors(self.dim, expected)
+        if held.ntotal:
+            ids = faiss.vector_to_array(held.id_map).astype(np.int64)
+            vectors = held.index.reconstruct_n(0, held.ntotal)  # padded already
+            full.put(ids.tolist(), vectors)
+            ivf.add_with_ids(vectors, ids)
+        self.index, self.bits, self.full = ivf, bits, full
+
+    def nbytes(self) -> int:
+        n = int(self.index.ntotal)
+        if not self.approximate:
+            return n * (4 * self.padded + 16)  # float32 rows, the id map both ways
+        # Codes and an id per vector, ~24 bytes of direct map, float32 centroids.
+        return n * (self.index.code_size + 8 + 24) + self.index.nlist * self.padded * 4
+
+    def pad(self, vectors: np.ndarray) -> np.ndarray:
+        """``vectors : (m, dim) float`` as ``(m, padded) float32``."""
+        padded = np.zeros((len(vectors), self.padded), dtype=np.float32)
+        padded[:, : vectors.shape[1]] = vectors
+        return padded
+
+    def add(self, ids: np.ndarray, vectors: np.ndarray) -> None:
+        if self.full is not None:  # first: when its disk is full, nothing is added
+            self.full.put(ids.tolist(), vectors)
+        self.index.add_with_ids(self.pad(vectors), ids)
+
+    def remove(self, ids: np.ndarray) -> None:
+        # An array selector: the IVF direct map (a hashtable) then removes without a scan.
+        self.index.remove_ids(faiss.IDSelectorArray(len(ids), faiss.swig_ptr(ids)))
+        if self.full is not None:
+            self.full.drop(ids.tolist())
+
+    def exact_vectors(self, ids: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """``(m, dim) float32`` vectors of ``ids`` as added, and a ``(m,) bool`` mask of
+        the ids held."""
+        if self.full is not None:
+            return self.full.get(ids)
+        vectors = np.zeros((len(ids), self.dim), dtype=np.float32)
+        held = np.zeros(len(ids), dtype=bool)
+        for row, vector_id in enumerate(ids):
+            try:
+                vectors[row] = self.index.reconstruct(int(vector_id))[: self.dim]
+                held[row] = True
+            except RuntimeError:  # not held
+                pass
+        return vectors, held
+
+    def search(
+        self, query: np.ndarray, k: int, allowed: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        params = None
+        if allowed is not None:
+            selector = faiss.IDSelectorBatch(allowed)
+            if self.approximate:
+                # Every list may hold an allowed id: probe them all, the selector keeps
+                # the scan to the allowed codes' distances.
+                params = faiss.SearchParametersIVF(sel=selector, nprobe=self.index.nlist)
+            else:
+                params = faiss.SearchParameters(sel=selector)
+        squared, ids = self.index.search(self.pad(query), k, params=params)
+        if params is None and self.approximate and (ids[:, -1] < 0).any():
+            # The nprobe nearest lists held fewer than k vectors: a caller widening its
+            # search (filters, scan mode) would take that for the end of the partition.
+            # Probe every list instead, so k results come back whenever k exist.
+            every = faiss.SearchParametersIVF(nprobe=self.index.nlist)
+            squared, ids = self.index.search(self.pad(query), k, params=every)
+        return squared, ids

@@ -1,0 +1,400 @@
+"""Similarity queries: nearest descriptors from the index, confirmed, re-ranked and filtered
+by the database, scored.
+
+Score: descriptors are unit vectors, so the L2 distance ``d`` lies in [0, 2] and
+``score = 1 - d**2 / 4`` (clipped to [0, 1]) equals ``(1 + cos) / 2``: 1 for identical
+descriptors, 0.5 for orthogonal ones, 0 for opposite ones.
+
+Every candidate is confirmed by the database, the source of truth, in one statement of
+the few columns an answer shows: a model deleted by another process a moment ago is never
+returned. When the partition is approximate (IVF-SQ, see ``app.search.index``) the distances are
+recomputed exactly from the full vectors the index keeps (``app.search.full_vectors``), so scores
+never carry quantisation error.
+
+Metadata filters, two ways, and either way "k results whenever k matching models exist":
+
+* selective (at most ``pushdown_max`` models match): the matching ids are selected in SQL
+  (``jsonb @>`` on PostgreSQL, served by a GIN index; on SQLite from a table of metadata
+  entries indexed on (tenant, key, value), kept by triggers) and only those ids are
+  searched (a FAISS ``IDSelectorBatch``);
+* otherwise the index is searched for more and more candidates (x4 each round) until ``k``
+  of them pass the filters or the partition is exhausted; matches are then common, so few
+  rounds are needed.
+
+SQL only narrows the candidates; ``metadata_matches`` decides, so both ways agree exactly.
+
+Two modes (``SearchMode``): ``shape`` compares the query with each model's descriptor;
+``scan``, for partial scans, also with the descriptors of each model's virtual partial views
+(``app.search.index.views_key``). A model's distance is then that of its best entry (the whole
+model or one view), recomputed exactly from the stored descriptors, and each model is one
+result. Both partitions are searched for more and more candidates until ``k`` of them are
+certain: no model not yet seen can be nearer than the last hit of a partition not exhausted.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import uuid
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from sqlalchemy import (
+    BigInteger,
+    ColumnElement,
+    Connection,
+    Row,
+    Select,
+    and_,
+    any_,
+    bindparam,
+    cast,
+    column,
+    false,
+    literal,
+    or_,
+    select,
+    table,
+)
+from sqlalchemy.dialects.postgresql import ARRAY, JSONB
+
+from app.db.models import Model
+from app.search.index import PartitionKey, ShapeIndex, views_key
+
+__all__ = [
+    "Candidate",
+    "Match",
+    "QueryChanged",
+    "SearchMode",
+    "find_similar",
+    "matching_ids",
+    "metadata_matches",
+    "score_of",
+]
+
+PUSHDOWN_MAX = 10_000
+
+# SQLite's metadata entries, kept by triggers (migrations/versions/0007_metadata_values.py).
+_METADATA_VALUES = table(
+    "metadata_values", column("index_id"), column("tenant"), column("key"), column("value")
+)
+
+#: ``shape``: whole models only (the default); ``scan``: best of each model and its views.
+SearchMode = Literal["shape", "scan"]
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """What an answer shows of a matching model (the fields of ``ModelSummary``)."""
+
+    index_id: int
+    id: uuid.UUID
+    external_id: str | None
+    name: str | None
+    meta: dict[str, Any] | None
+
+
+@dataclass(frozen=True)
+class Match:
+    """One result; ``view`` is the view that matched best in scan mode (None: the whole
+    model, and always in shape mode)."""
+
+    model: Candidate
+    distance: float
+    score: float
+    view: int | None = None
+
+
+def score_of(distance: float) -> float:
+    return float(np.clip(1.0 - distance * distance / 4.0, 0.0, 1.0))
+
+
+def metadata_matches(metadata: dict[str, Any], filters: dict[str, str]) -> bool:
+    """Equality on every filter; non-string values compare by their JSON text (3, true)."""
+    for key, wanted in filters.items():
+        if key not in metadata:
+            return False
+        value = metadata[key]
+        text = value if isinstance(value, str) else json.dumps(value)
+        if text != wanted:
+            return False
+    return True
+
+
+def _values_written_as(wanted: str) -> list[Any]:
+    """The JSON values whose filter text is ``wanted``: the string itself and, when
+    ``wanted`` is the exact JSON text of a non-string, that value."""
+    values: list[Any] = [wanted]
+    try:
+        parsed = json.loads(wanted)
+    except ValueError:
+        return values
+    if not isinstance(parsed, str) and json.dumps(parsed) == wanted:
+        values.append(parsed)
+    return values
+
+
+def _sql_filter(
+    connection: Connection, tenant: str, filters: dict[str, str]
+) -> ColumnElement[bool]:
+    """A SQL condition true for every model of ``tenant`` that ``metadata_matches`` (perhaps
+    a few more), served by an index on either backend."""
+    conditions = []
+    postgres = connection.dialect.name == "postgresql"
+    for key, wanted in filters.items():
+        values = _values_written_as(wanted)
+        if postgres:  # the GIN index of migration 0005
+            document = cast(Model.meta, JSONB)
+            conditions.append(
+                or_(
+                    *(document.op("@>")(cast(literal(json.dumps({key: v})), JSONB)) for v in values)
+                )
+            )
+            continue
+        # SQLite: the (tenant, key, value) entries of migration 0007, whose values are
+        # json_each's: text, numbers (true and false as 1 and 0), compact JSON text.
+        entries = [
+            json.dumps(v, separators=(",", ":")) if isinstance(v, list | dict) else v
+            for v in values
+            if v is not None
+        ]
+        if not entries:
+            conditions.append(false())
+            continue
+        conditions.append(
+            Model.index_id.in_(
+                select(_METADATA_VALUES.c.index_id).where(
+                    _METADATA_VALUES.c.tenant == tenant,
+                    _METADATA_VALUES.c.key == key,
+                    _METADATA_VALUES.c.value.in_(entries),
+                )
+            )
+        )
+    return and_(*conditions)
+
+
+def matching_ids(
+    connection: Connection, key: PartitionKey, filters: dict[str, str], limit: int
+) -> list[int] | None:
+    """The ids of the ready models of partition ``key`` that pass ``filters``, or None when
+    more than ``limit`` do (the filter is not selective)."""
+    tenant, version = key
+    ids = connection.scalars(
+        select(Model.index_id)
+        .where(
+            Model.tenant == tenant,
+            Model.descriptor_version == version,
+            Model.status == "ready",
+            _sql_filter(connection, tenant, filters),
+        )
+        .limit(limit + 1)
+    ).all()
+    return None if len(ids) > limit else list(ids)
+
+
+def find_similar(
+    index: ShapeIndex,
+    connection: Connection,
+    key: PartitionKey,
+    vector: np.ndarray,
+    *,
+    k: int,
+    min_score: float | None = None,
+    filters: dict[str, str] | None = None,
+    exclude: int | None = None,
+    pushdown_max: int = PUSHDOWN_MAX,
+    mode: SearchMode = "shape",
+    indexed_query: bool = False,
+) -> list[Match]:
+    """The ``k`` best matches in partition ``key`` (tenant, descriptor version); in
+    ``scan`` mode each model's best entry counts (see the module's docstring).
+
+    ``indexed_query`` (shape mode): ``vector`` is the index's copy of model ``exclude``
+    (``ShapeIndex.vector``: the vector as added, in a compressed partition too), not read
+    from the database. That model's row is then confirmed in the statement that confirms
+    the first candidates, one statement for the whole query. Raises ``QueryChanged`` when
+    the row is no longer ready under ``key``.
+    """
+    filters = filters or {}
+    vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
+    allowed = matching_ids(connection, key, filters, pushdown_max) if filters else None
+    if allowed is not None:
+        allowed = [i for i in allowed if i != exclude]
+    if mode == "scan":
+        return _best_entries(
+            index, connection, key, vector, k, min_score, filters, exclude, allowed
+        )
+    approximate = index.is_approximate(key)
+    wanted = k + 1 if exclude is not None else k
+    fetch = index.rerank_candidates(wanted) if approximate else wanted
+    if filters and allowed is None:
+        fetch *= 4
+    matches: list[Match] = []
+    seen: set[int] = set()
+    query_id = exclude if indexed_query else None
+    while True:
+        hits = index.search(key, vector, fetch, allowed=allowed)
+        fresh = [i for i, _ in hits if i not in seen and i != exclude]
+        seen.update(i for i, _ in hits)
+        if query_id is None:
+            rows = _ready_candidates(connection, key[0], fresh)
+        else:  # the query model's own row rides along, once
+            rows = _ready_candidates(connection, key[0], [*fresh, query_id], "descriptor_version")
+            rows = _without_query(rows, query_id, key)
+            query_id = None
+        distances = dict(hits)
+        if approximate:  # estimates from the codes: exact ones from the full vectors
+            distances.update(_exact_distances(index, key, [row.index_id for row in rows], vector))
+        for row in rows:
+            if metadata_matches(row.meta or {}, filters):
+                distance = distances[row.index_id]
+                matches.append(Match(_candidate(row), distance, score_of(distance)))
+        matches.sort(key=lambda match: (match.distance, match.model.index_id))
+        if min_score is not None:
+            matches = [m for m in matches if m.score >= min_score]
+        exhausted = len(hits) < fetch or fetch >= index.partition_size(key)
+        # Hits come nearest first: past min_score, nothing further can qualify.
+        below_min = min_score is not None and bool(hits) and score_of(hits[-1][1]) < min_score
+        # Not "allowed, so done": SQL may allow a few ids the filters then refuse (a SQLite
+        # entry 1 stands for both 1 and true), and the rule is k results whenever k match.
+        if len(matches) >= k or exhausted or below_min:
+            # Equal distances (identical files) in upload order, whatever order the index
+            # happened to insert them in: every process answers alike.
+            return matches[:k]
+        fetch *= 4
+
+
+class QueryChanged(LookupError):
+    """The query model of an ``indexed_query`` is no longer ready under the partition the
+    index holds it in (deleted, re-described or being described since the last sync)."""
+
+
+def _without_query(rows: list[Row[Any]], query_id: int, key: PartitionKey) -> list[Row[Any]]:
+    """The candidate rows without the query model's own, which must still be ready under
+    the partition ``key`` (else ``QueryChanged``)."""
+    own = [row for row in rows if row.index_id == query_id]
+    if not own or own[0].descriptor_version != key[1]:
+        raise QueryChanged(query_id)
+    return [row for row in rows if row.index_id != query_id]
+
+
+def _exact_distances(
+    index: ShapeIndex, key: PartitionKey, ids: list[int], query: np.ndarray
+) -> dict[int, float]:
+    """Exact L2 distances from ``query`` to the full vectors of ``ids`` that partition
+    ``key`` holds, in one vectorised pass."""
+    found = index.exact_vectors(key, ids) if ids else None
+    if found is None:
+        return {}
+    vectors, held = found
+    distances = np.linalg.norm(vectors - query, axis=1).tolist()
+    return {i: d for i, d, h in zip(ids, distances, held.tolist(), strict=True) if h}
+
+
+def _ready_candidates(
+    connection: Connection, tenant: str, ids: list[int], *extra: str
+) -> list[Row[Any]]:
+    """The tenant's ready models among ``ids``: the columns of a ``Candidate`` and the
+    ``extra`` columns named.
+
+    Plain rows of the columns an answer needs, not ORM objects: building and tracking a
+    few dozen ``Model`` instances per query cost more than the query itself; the statement
+    is built once per dialect and columns (building it per query cost a third of its time)."""
+    if not ids:
+        return []
+    statement = _candidates_statement(connection.dialect.name == "postgresql", extra)
+    return list(connection.execute(statement, {"ids": ids, "tenant": tenant}))
+
+
+@functools.lru_cache(maxsize=16)
+def _candidates_statement(postgres: bool, extra: tuple[str, ...]) -> Select[Any]:
+    # ``index_id`` among the bound parameter ``ids``: one array parameter on PostgreSQL,
+    # so the statement text is the same for any number of ids and is prepared once per
+    # connection; an expanded ``IN`` elsewhere.
+    among = (
+        Model.index_id == any_(bindparam("ids", type_=ARRAY(BigInteger)))
+        if postgres
+        else Model.index_id.in_(bindparam("ids", expanding=True))
+    )
+    return select(
+        Model.index_id,
+        Model.id,
+        Model.external_id,
+        Model.name,
+        Model.meta.label("meta"),
+        *(getattr(Model, name) for name in extra),
+    ).where(among, Model.tenant == bindparam("tenant"), Model.status == "ready")
+
+
+def _candidate(row: Row[Any]) -> Candidate:
+    return Candidate(row.index_id, row.id, row.external_id, row.name, row.meta)
+
+
+def _best_entries(
+    index: ShapeIndex,
+    connection: Connection,
+    key: PartitionKey,
+    vector: np.ndarray,
+    k: int,
+    min_score: float | None,
+    filters: dict[str, str],
+    exclude: int | None,
+    allowed: list[int] | None,
+) -> list[Match]:
+    """Scan mode's ``find_similar``: the ``k`` models whose best entry is nearest."""
+    sizes = (index.partition_size(key), index.partition_size(views_key(key)))
+    # Views per model (on average): a model's views tend to be near the query together.
+    per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
+    fetch = (k + 1 if exclude is not None else k) * (4 if filters and allowed is None else 1)
+    if index.is_approximate(key) or index.is_approximate(views_key(key)):
+        fetch = index.rerank_candidates(fetch)  # estimated distances: a margin of candidates
+    matches: dict[int, Match] = {}
+    seen: set[int] = set()
+    while True:
+        wanted = (fetch, fetch * per_model)
+        model_hits = index.search(key, vector, wanted[0], allowed=allowed)
+        view_hits = index.search_views(key, vector, wanted[1], allowed=allowed)
+        found = [i for i, _ in model_hits] + [i for i, _, _ in view_hits]
+        fresh = [i for i in dict.fromkeys(found) if i not in seen and i != exclude]
+        seen.update(found)
+        for model, distance, view in _confirmed_best(connection, key[0], fresh, vector):
+            if metadata_matches(model.meta or {}, filters):
+                matches[model.index_id] = Match(model, distance, score_of(distance), view)
+        # A model not seen yet is no nearer than the last hit of each partition not yet
+        # exhausted (inf when both are): matches up to that bound are certain.
+        bound = float("inf")
+        for hits, asked, size in zip((model_hits, view_hits), wanted, sizes, strict=True):
+            if len(hits) == asked and asked < size:
+                bound = min(bound, hits[-1][-1])
+        ranked = sorted(matches.values(), key=lambda m: (m.distance, m.model.index_id))
+        if min_score is not None:
+            ranked = [m for m in ranked if m.score >= min_score]
+        # Exact distances against the index's float32 ones: allow for rounding.
+        certain = [m for m in ranked if m.distance <= bound + 1e-5]
+        past_min = min_score is not None and score_of(bound) < min_score
+        if len(certain) >= k or bound == float("inf") or past_min:
+            return certain[:k]
+        fetch *= 4
+
+
+def _confirmed_best(
+    connection: Connection, tenant: str, ids: list[int], query: np.ndarray
+) -> list[tuple[Candidate, float, int | None]]:
+    """The candidates still ready in the database, each with the exact distance of its
+    best entry (read from the stored descriptors) and which one it is (None: the model)."""
+    confirmed = []
+    for row in _ready_candidates(connection, tenant, ids, "descriptor", "view_descriptors"):
+        if row.descriptor is None:
+            continue
+        entries = [np.frombuffer(row.descriptor, dtype=np.float32)]
+        if row.view_descriptors:
+            entries += list(
+                np.frombuffer(row.view_descriptors, np.float32).reshape(-1, len(entries[0]))
+            )
+        if len(entries[0]) != len(query):
+            continue
+        distances = np.linalg.norm(np.stack(entries) - query, axis=1)
+        best = int(np.argmin(distances))
+        confirmed.append((_candidate(row), float(distances[best]), None if best == 0 else best - 1))
+    return confirmed

@@ -1,0 +1,218 @@
+"""Delivering webhooks: a ``Deliverer`` claims due deliveries under a lease (like jobs,
+``app.jobs.lease``), POSTs them signed per Standard Webhooks, logs every attempt and retries
+with capped exponential backoff; a deliverer that dies mid-way loses its lease and another
+one delivers: at least once. ``DeliveryThread`` runs one next to the job workers."""
+
+from __future__ import annotations
+
+import json
+import logging
+import secrets
+import socket
+import threading
+import time
+import uuid
+from dataclasses import dataclass
+from datetime import timedelta
+from typing import Any
+
+import httpx
+from sqlalchemy import update
+from sqlalchemy.orm import Session, sessionmaker
+from standardwebhooks.webhooks import Webhook as Signer
+
+from app.db.models import Webhook, WebhookAttempt, WebhookDelivery, utcnow
+from app.jobs.lease import backoff_seconds, claim_next
+from app.observability.metrics import WEBHOOK_ATTEMPTS
+from app.webhooks.targets import TargetRefused, check_target, pinned
+
+__all__ = ["Deliverer", "DeliveryThread", "start_delivery_thread"]
+
+log = logging.getLogger("shapesearch.webhooks")
+
+
+@dataclass(frozen=True)
+class _Claimed:
+    id: uuid.UUID
+    attempts: int
+    url: str
+    secret: str
+    payload: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class _Outcome:
+    status_code: int | None
+    error: str | None
+    duration_ms: float
+
+    @property
+    def ok(self) -> bool:
+        return self.status_code is not None and 200 <= self.status_code < 300
+
+
+class Deliverer:
+    """Claims and sends due deliveries; every database step is one short transaction."""
+
+    def __init__(
+        self,
+        sessions: sessionmaker[Session],
+        *,
+        worker_id: str,
+        allow_private: bool,
+        timeout: float,
+        max_attempts: int,
+        backoff_base: float,
+        backoff_cap: float,
+        lease_seconds: float,
+    ) -> None:
+        self.sessions = sessions
+        self.worker_id = worker_id
+        self.allow_private = allow_private
+        self.max_attempts = max_attempts
+        self.backoff_base = backoff_base
+        self.backoff_cap = backoff_cap
+        self.lease = timedelta(seconds=max(lease_seconds, timeout * 2))
+        # Redirects are never followed: a 3xx is a failed attempt.
+        self.client = httpx.Client(timeout=timeout, follow_redirects=False, trust_env=False)
+
+    def close(self) -> None:
+        self.client.close()
+
+    def claim(self) -> _Claimed | None:
+        """Take the next due delivery, or one whose deliverer's lease expired."""
+        with self.sessions.begin() as session:
+            row = claim_next(
+                session, WebhookDelivery, waiting="pending", held="sending",
+                worker_id=self.worker_id, now=utcnow(), lease=self.lease,
+                returning=(WebhookDelivery.id, WebhookDelivery.attempts,
+                           WebhookDelivery.webhook_id, WebhookDelivery.payload),
+            )
+            if row is None:
+                return None
+            hook = session.get(Webhook, row.webhook_id)
+            if hook is None:  # deleted meanwhile; its deliveries went with it
+                return None
+            return _Claimed(row.id, row.attempts, hook.url, hook.secret, row.payload)
+
+    def send(self, claimed: _Claimed) -> _Outcome:
+        started = time.perf_counter()
+        try:
+            address = check_target(claimed.url, allow_private=self.allow_private)
+            url, host_header, extensions = pinned(claimed.url, address)
+            body = json.dumps(claimed.payload, separators=(",", ":"))
+            now = utcnow()
+            headers = {
+                "content-type": "application/json",
+                "user-agent": "shapesearch-webhooks/1",
+                "webhook-id": str(claimed.id),
+                "webhook-timestamp": str(int(now.timestamp())),
+                "webhook-signature": Signer(claimed.secret).sign(str(claimed.id), now, body),
+                **host_header,
+            }
+            response = self.client.post(
+                url, content=body.encode(), headers=headers, extensions=extensions
+            )
+        except (httpx.HTTPError, TargetRefused, OSError) as error:
+            elapsed = (time.perf_counter() - started) * 1000
+            return _Outcome(None, f"{type(error).__name__}: {error}"[:2000], elapsed)
+        elapsed = (time.perf_counter() - started) * 1000
+        error = None if 200 <= response.status_code < 300 else f"HTTP {response.status_code}"
+        return _Outcome(response.status_code, error, elapsed)
+
+    def finish(self, claimed: _Claimed, outcome: _Outcome) -> bool:
+        """Log the attempt and settle the delivery; False if the lease was lost meanwhile."""
+        now = utcnow()
+        if outcome.ok:
+            values: dict[str, Any] = {"status": "delivered"}
+        elif claimed.attempts >= self.max_attempts:
+            values = {"status": "failed"}
+        else:
+            delay = backoff_seconds(claimed.attempts, self.backoff_base, self.backoff_cap)
+            values = {"status": "pending", "run_after": now + timedelta(seconds=delay)}
+        with self.sessions.begin() as session:
+            settled = session.execute(
+                update(WebhookDelivery)
+                .where(
+                    WebhookDelivery.id == claimed.id,
+                    WebhookDelivery.status == "sending",
+                    WebhookDelivery.worker_id == self.worker_id,
+                    WebhookDelivery.attempts == claimed.attempts,
+                )
+                .values(leased_until=None, worker_id=None, updated_at=now, **values)
+            )
+            if settled.rowcount != 1:
+                return False
+            session.add(
+                WebhookAttempt(
+                    delivery_id=claimed.id,
+                    attempt=claimed.attempts,
+                    status_code=outcome.status_code,
+                    error=outcome.error,
+                    duration_ms=outcome.duration_ms,
+                    created_at=now,
+                )
+            )
+        WEBHOOK_ATTEMPTS.labels(outcome=_OUTCOMES[values["status"]]).inc()
+        return True
+
+    def run_once(self) -> bool:
+        """Deliver one due event; False if there was none."""
+        claimed = self.claim()
+        if claimed is None:
+            return False
+        outcome = self.send(claimed)
+        if not self.finish(claimed, outcome):
+            log.warning("delivery %s: lease lost, attempt not recorded", claimed.id)
+        elif not outcome.ok:
+            log.info("delivery %s attempt %d: %s", claimed.id, claimed.attempts, outcome.error)
+        return True
+
+
+# Metric label of each settled state of a delivery.
+_OUTCOMES = {"delivered": "delivered", "pending": "retry", "failed": "failed"}
+
+
+class DeliveryThread:
+    """Runs a ``Deliverer`` until stopped; a database outage is waited out."""
+
+    def __init__(self, deliverer: Deliverer, poll_interval: float) -> None:
+        self.deliverer = deliverer
+        self.poll_interval = poll_interval
+        self.stop_event = threading.Event()
+        self.thread = threading.Thread(target=self._run, name="webhooks", daemon=True)
+
+    def start(self) -> None:
+        self.thread.start()
+
+    def stop(self) -> None:
+        self.stop_event.set()
+        self.thread.join()
+        self.deliverer.close()
+
+    def _run(self) -> None:
+        while not self.stop_event.is_set():
+            try:
+                found = self.deliverer.run_once()
+            except Exception:
+                log.exception("webhook delivery failed; retrying")
+                found = False
+            if not found:
+                self.stop_event.wait(self.poll_interval)
+
+
+def start_delivery_thread(settings: Any, sessions: sessionmaker[Session]) -> DeliveryThread:
+    """A started ``DeliveryThread`` configured from the service ``settings``."""
+    deliverer = Deliverer(
+        sessions,
+        worker_id=f"{socket.gethostname()}:webhooks:{secrets.token_hex(3)}",
+        allow_private=settings.webhook_allow_private,
+        timeout=settings.webhook_timeout_seconds,
+        max_attempts=settings.webhook_max_attempts,
+        backoff_base=settings.webhook_backoff_seconds,
+        backoff_cap=settings.webhook_backoff_max_seconds,
+        lease_seconds=settings.lease_seconds,
+    )
+    thread = DeliveryThread(deliverer, settings.poll_interval)
+    thread.start()
+    return thread

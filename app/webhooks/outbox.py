@@ -1,0 +1,73 @@
+"""The webhook outbox: one delivery row per subscribed endpoint, written inside the
+transaction that makes the change (the change and its event commit together)."""
+
+from __future__ import annotations
+
+import uuid
+from typing import Any
+
+from sqlalchemy import insert, select
+from sqlalchemy.orm import Session
+
+from app.db.models import Job, Model, Webhook, WebhookDelivery, utcnow
+
+__all__ = ["EVENT_TYPES", "record_model_event"]
+
+EVENT_TYPES = ("model.ready", "model.failed", "model.deleted")
+
+
+def _model_data(session: Session, model_id: uuid.UUID) -> tuple[str, dict[str, Any]] | None:
+    model = session.scalar(select(Model).where(Model.id == model_id))
+    if model is None:
+        return None
+    return model.tenant, {
+        "id": str(model.id),
+        "external_id": model.external_id,
+        "name": model.name,
+        "status": model.status,
+        "descriptor_version": model.descriptor_version,
+        "error": model.error,
+    }
+
+
+def record_model_event(
+    session: Session, model_id: uuid.UUID, event_type: str, job_id: uuid.UUID | None = None
+) -> int:
+    """Queue ``event_type`` about a model for every endpoint of its tenant that wants it.
+
+    Call it inside the transaction that makes the change (for deletes: before the delete).
+    Returns the number of deliveries written.
+    """
+    found = _model_data(session, model_id)
+    if found is None:
+        return 0
+    tenant, model = found
+    endpoints = [
+        hook.id
+        for hook in session.scalars(select(Webhook).where(Webhook.tenant == tenant))
+        if event_type in hook.events
+    ]
+    if not endpoints:
+        return 0
+    data: dict[str, Any] = {"model": model}
+    if job_id is not None:
+        job = session.get(Job, job_id)
+        if job is not None:
+            data["job"] = {
+                "id": str(job.id), "status": job.status, "attempts": job.attempts,
+                "error": job.last_error,
+            }
+    now = utcnow()
+    payload = {"type": event_type, "timestamp": now.isoformat(), "data": data}
+    session.execute(
+        insert(WebhookDelivery),
+        [
+            {
+                "id": uuid.uuid4(), "webhook_id": hook_id, "event_type": event_type,
+                "payload": payload, "status": "pending", "attempts": 0, "run_after": now,
+                "created_at": now, "updated_at": now,
+            }
+            for hook_id in endpoints
+        ],
+    )
+    return len(endpoints)
