@@ -17,9 +17,10 @@ from pydantic import Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from core.descriptor import DescriptorSpec
-from core.settings import DESCRIPTOR_FAMILIES, MAX_VIEWS, CutoffSettings, EngineSettings
+from core.errors import SettingsError
+from core.settings import DESCRIPTOR_FAMILIES, CutoffSettings, EngineSettings
 
-__all__ = ["Settings", "engine_settings"]
+__all__ = ["ENGINE_VARIABLES", "Settings", "engine_settings", "variables_of"]
 
 MIB = 1024 * 1024
 # Engine defaults come from core, so that the service and ``shapesearch describe`` agree.
@@ -106,14 +107,12 @@ class Settings(BaseSettings):
     # --- engine (mapped onto core.settings.EngineSettings by engine_settings) ----------
     max_points: int = Field(
         default=_ENGINE.max_points,
-        ge=10,
         description="Points per shape: meshes are sampled with exactly this many, larger "
         "clouds thinned to it, smaller clouds keep all theirs. Raise it (e.g. 20000) for "
         "thin-walled parts; one database uses one value (docs/results.md).",
     )
     min_points: int = Field(
         default=_ENGINE.min_points,
-        ge=10,
         description="Fewer usable points than this: the shape is refused.",
     )
     laplacian: Literal["robust", "spcl"] = Field(
@@ -131,7 +130,6 @@ class Settings(BaseSettings):
     )
     outlier_ratio: float = Field(
         default=_ENGINE.outlier_ratio,
-        gt=1,
         description="Outlier filter cut: a cloud point whose mean distance to its 8 nearest "
         "neighbours exceeds this many times the median of that distance is dropped.",
     )
@@ -139,29 +137,27 @@ class Settings(BaseSettings):
         default=_ENGINE.cutoff.mode, description="adaptive (per-model eigenpair count) or fixed."
     )
     cutoff_xi: float = Field(
-        default=_ENGINE.cutoff.xi, gt=0, lt=1, description="Adaptive cutoff: xi."
+        default=_ENGINE.cutoff.xi, description="Adaptive cutoff: xi."
     )
     cutoff_t: float = Field(
-        default=_ENGINE.cutoff.t, gt=0, description="Adaptive cutoff: diffusion time t."
+        default=_ENGINE.cutoff.t, description="Adaptive cutoff: diffusion time t."
     )
     cutoff_seed: int = Field(
         default=_ENGINE.cutoff.seed,
-        ge=2,
         description="Adaptive cutoff: eigenpairs of the first round.",
     )
     cutoff_n_min: int = Field(
-        default=_ENGINE.cutoff.n_min, ge=1, description="Adaptive cutoff: smallest n."
+        default=_ENGINE.cutoff.n_min, description="Adaptive cutoff: smallest n."
     )
     cutoff_n_max: int = Field(
-        default=_ENGINE.cutoff.n_max, ge=1, description="Adaptive cutoff: largest n."
+        default=_ENGINE.cutoff.n_max, description="Adaptive cutoff: largest n."
     )
     cutoff_margin: int = Field(
         default=_ENGINE.cutoff.margin,
-        ge=0,
         description="Adaptive cutoff: extra eigenpairs per round.",
     )
     cutoff_n: int = Field(
-        default=_ENGINE.cutoff.n, ge=2, description="Fixed cutoff: eigenpairs per model."
+        default=_ENGINE.cutoff.n, description="Fixed cutoff: eigenpairs per model."
     )
     descriptor_family: Literal["parts", "bendable"] = Field(
         default="parts",
@@ -171,17 +167,14 @@ class Settings(BaseSettings):
     )
     descriptor_t_min: float = Field(
         default=min(_ENGINE.descriptor.hks_times),
-        gt=0,
         description="Descriptor: smallest heat-kernel time.",
     )
     descriptor_t_max: float = Field(
         default=max(_ENGINE.descriptor.hks_times),
-        gt=0,
         description="Descriptor: largest heat-kernel time.",
     )
     descriptor_times: int = Field(
         default=len(_ENGINE.descriptor.hks_times),
-        ge=1,
         description="Descriptor: number of log-spaced heat-kernel times.",
     )
     descriptor_hks_scaled: bool = Field(
@@ -189,42 +182,34 @@ class Settings(BaseSettings):
         description="Descriptor: use the scale-invariant heat-kernel signature.",
     )
     descriptor_bins: int = Field(
-        default=_ENGINE.descriptor.bins, ge=2, description="Descriptor: histogram bins."
+        default=_ENGINE.descriptor.bins, description="Descriptor: histogram bins."
     )
     descriptor_wks_energies: int = Field(
         default=_ENGINE.descriptor.wks_energies,
-        ge=0,
         description="Descriptor: wave-kernel energies (0: no WKS block).",
     )
     descriptor_hks_weight: float | None = Field(
         default=None,
-        ge=0,
         description="Descriptor: weight of the heat-kernel block (unset: the family's).",
     )
     descriptor_wks_slope_weight: float | None = Field(
         default=None,
-        ge=0,
         description="Descriptor: weight of the WKS slope block (unset: the family's).",
     )
     descriptor_wks_weight: float = Field(
         default=_ENGINE.descriptor.wks_weight,
-        ge=0,
         description="Descriptor: weight of the WKS block.",
     )
     descriptor_dna_count: int = Field(
         default=_ENGINE.descriptor.dna_count,
-        ge=0,
         description="Descriptor: eigenvalues in the shape-DNA block (0: none).",
     )
     descriptor_dna_weight: float = Field(
         default=_ENGINE.descriptor.dna_weight,
-        ge=0,
         description="Descriptor: weight of the shape-DNA block.",
     )
     scan_views: int = Field(
         default=_ENGINE.views.count,
-        ge=0,
-        le=MAX_VIEWS,
         description="Scan mode: virtual partial views described and indexed per model, next "
         "to the model itself (0: none; search?mode=scan then compares whole models only). "
         "Applies to models described from then on.",
@@ -236,18 +221,15 @@ class Settings(BaseSettings):
     )
     scan_boundary_neighbours: int = Field(
         default=_ENGINE.views.boundary_neighbours,
-        ge=3,
         description="Scan mode: neighbours that decide whether a point lies on an open rim.",
     )
     scan_boundary_threshold: float = Field(
         default=_ENGINE.views.boundary_threshold,
-        gt=0,
         description="Scan mode: a point is on a rim when its neighbours' centroid is off by "
         "more than this many mean neighbour distances.",
     )
     scan_boundary_reach: float = Field(
         default=_ENGINE.views.boundary_reach,
-        gt=0,
         description="Scan mode: distance from the rim, in square roots of the surface area, "
         "over which a point's histogram weight rises from 0 to 1.",
     )
@@ -404,9 +386,40 @@ def _or(value: float | None, family_value: float) -> float:
     return family_value if value is None else value
 
 
+#: The variables behind each engine setting (``core.errors.SettingsError.fields``); engine
+#: settings without a variable of their own keep their family's value.
+ENGINE_VARIABLES: dict[str, tuple[str, ...]] = {
+    **{name: (name,) for name in ("max_points", "min_points", "laplacian", "normalisation",
+                                  "outlier_ratio")},
+    **{f"cutoff.{name}": (f"cutoff_{name}",)
+       for name in ("mode", "xi", "t", "seed", "n_min", "n_max", "margin", "n")},
+    "descriptor.hks_times": ("descriptor_t_min", "descriptor_t_max", "descriptor_times"),
+    **{f"descriptor.{name}": (f"descriptor_{name}",)
+       for name in ("bins", "wks_energies", "hks_weight", "wks_weight", "wks_slope_weight",
+                    "dna_count", "dna_weight")},
+    "views.count": ("scan_views",),
+    **{f"views.{name}": (f"scan_{name}",)
+       for name in ("boundary_neighbours", "boundary_threshold", "boundary_reach")},
+}
+
+
+def variables_of(error: SettingsError) -> list[str]:
+    """The ``SHAPESEARCH_*`` variables an engine ``SettingsError`` is about (a setting without
+    a variable is named by its engine path)."""
+    names = [
+        f"SHAPESEARCH_{variable.upper()}" if path in ENGINE_VARIABLES else path
+        for path in error.fields
+        for variable in ENGINE_VARIABLES.get(path, (path,))
+    ]
+    return list(dict.fromkeys(names))
+
+
 def engine_settings(settings: Settings) -> EngineSettings:
-    """Map the service settings onto the engine's (validated) settings."""
+    """Map the service settings onto the engine's settings, validated by the engine
+    (``core.errors.SettingsError`` names the settings that do not work together)."""
     family = DESCRIPTOR_FAMILIES[settings.descriptor_family]
+    if min(settings.descriptor_t_min, settings.descriptor_t_max) <= 0:
+        raise SettingsError("heat-kernel times must be positive", "descriptor.hks_times")
     engine = EngineSettings(
         max_points=settings.max_points,
         min_points=settings.min_points,
@@ -453,6 +466,9 @@ def engine_settings(settings: Settings) -> EngineSettings:
         ),
     )
     engine.validate()
-    # The local block's vocabulary must fit the time grid: refused at start-up, not per job.
-    DescriptorSpec.from_settings(engine.descriptor)
+    try:
+        # The local block's vocabulary must fit the time grid: refused at start-up, not per job.
+        DescriptorSpec.from_settings(engine.descriptor)
+    except SettingsError as error:
+        raise error.within("descriptor") from None
     return engine

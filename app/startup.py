@@ -13,7 +13,8 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
 
 from app.db.session import make_engine
-from app.settings import Settings
+from app.settings import Settings, engine_settings, variables_of
+from core.errors import SettingsError
 
 __all__ = ["StartupError", "checked_settings", "startup_ok"]
 
@@ -29,14 +30,23 @@ def _first_line(error: BaseException) -> str:
 
 
 def _settings() -> Settings:
+    """The settings, each valid alone (pydantic) and all of them together (the engine's
+    rules, ``core.settings``: checked here so that a wrong combination is one line at
+    start-up, not a traceback from the app factory)."""
     try:
-        return Settings()
+        settings = Settings()
     except ValidationError as error:
         problems = "; ".join(
             f"SHAPESEARCH_{'_'.join(str(p) for p in e['loc']).upper()}: {e['msg']}"
             for e in error.errors()
         )
         raise StartupError(f"invalid setting: {problems}") from None
+    try:
+        engine_settings(settings)
+    except SettingsError as error:
+        names = ", ".join(variables_of(error))
+        raise StartupError(f"invalid setting: {names}: {error.message}") from None
+    return settings
 
 
 def _check_database(url: str) -> None:

@@ -48,7 +48,6 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
 REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
 
 PARTS = Path("/work/shared/datasets/parts")
 CAPOD = Path("/work/shared/datasets/capod")

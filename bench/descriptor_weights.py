@@ -41,7 +41,6 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
 
 from core.cutoff import make_cutoff  # noqa: E402
 from core.descriptor import BLOCK_WEIGHTS, DescriptorSpec  # noqa: E402

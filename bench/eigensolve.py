@@ -50,7 +50,6 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
 
 PARTS = Path("/work/shared/datasets/parts")
 MESH_SUFFIXES = {".stl", ".ply", ".obj", ".off"}

@@ -35,7 +35,6 @@ import numpy as np
 import trimesh
 
 REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO))
 PARTS = REPO / "tests" / "fixtures" / "parts"
 CATALOGUE = ("angle_block.STL", "featuretype.STL", "round.stl", "plate_holes.STL")
 

@@ -27,7 +27,7 @@ The solver is anything with ``solve(count) -> (eigenvalues, eigenvectors)`` and 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, Protocol
 
 import numpy as np
@@ -36,6 +36,7 @@ from core.settings import CutoffSettings
 
 __all__ = [
     "AdaptiveCutoff",
+    "CutoffRecord",
     "CutoffResult",
     "FixedCutoff",
     "contribution_cutoff",
@@ -54,9 +55,10 @@ class EigenSolver(Protocol):
     def solve(self, count: int) -> tuple[np.ndarray, np.ndarray]: ...
 
 
-@dataclass
-class CutoffResult:
-    """What a cutoff decided.
+@dataclass(frozen=True)
+class CutoffRecord:
+    """What the cutoff decided for one model: the one record of it that the database
+    stores (``to_json``), the API and the command line show, and the evaluation keeps.
 
     Attributes
     ----------
@@ -69,24 +71,71 @@ class CutoffResult:
     predicted : list of int
         Unclamped ``n`` extrapolated in each round that had to ask for more (empty for a
         fixed cutoff, or when the first call already decided).
-    eigenvalues : (m,) float
-        Every eigenvalue computed, ``m >= n``.
-    params : dict
-        Parameters of the cutoff, for the record.
+    xi, t, seed, n_min, n_max, margin : float, float, int, int, int, int, or None
+        The adaptive cutoff's parameters (``AdaptiveCutoff``); None for a fixed cutoff.
     prediction : int or None
         ``n`` predicted before the solve (``core.cutoff_predictor``), None without one.
     prediction_held : bool or None
         Whether the first call, to ``prediction + 2 margin``, decided ``n`` (None without one).
+    features : list of float or None
+        The pre-solve features the predictor learns ``n`` from (None when not recorded).
     """
 
     mode: str
     n: int
     solver_calls: int
     predicted: list[int] = field(default_factory=list)
-    eigenvalues: np.ndarray = field(default_factory=lambda: np.empty(0))
-    params: dict[str, Any] = field(default_factory=dict)
+    xi: float | None = None
+    t: float | None = None
+    seed: int | None = None
+    n_min: int | None = None
+    n_max: int | None = None
+    margin: int | None = None
     prediction: int | None = None
     prediction_held: bool | None = None
+    features: list[float] | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """Plain JSON types only (numpy scalars converted)."""
+        return {f.name: _plain(getattr(self, f.name)) for f in fields(CutoffRecord)}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> CutoffRecord:
+        """The record ``to_json`` wrote. Records stored before the record had this form kept
+        the adaptive parameters under ``params``: they are read too."""
+        flat = {**(data.get("params") or {}), **data}
+        flat.pop("n", None)  # a fixed cutoff's params held its n: the record's n wins
+        known = {f.name for f in fields(CutoffRecord)}
+        return cls(n=int(data["n"]), **{k: v for k, v in flat.items() if k in known})
+
+
+@dataclass(frozen=True)
+class CutoffResult(CutoffRecord):
+    """A cutoff's record with every eigenvalue the solve computed.
+
+    Attributes
+    ----------
+    eigenvalues : (m,) float
+        Every eigenvalue computed, ``m >= n``.
+    """
+
+    eigenvalues: np.ndarray = field(default_factory=lambda: np.empty(0))
+
+    def record(self, features: np.ndarray | None = None) -> CutoffRecord:
+        """The record to keep, with the predictor's pre-solve ``features : (f,) float``."""
+        kept = {f.name: getattr(self, f.name) for f in fields(CutoffRecord)}
+        if features is not None:
+            kept["features"] = [float(v) for v in np.asarray(features).ravel()]
+        return CutoffRecord(**kept)
+
+
+def _plain(value: Any) -> Any:
+    """A JSON-ready copy of a value that may hold numpy scalars or arrays."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(item) for item in value]
+    return value
 
 
 def contribution_cutoff(eigenvalues: np.ndarray, xi: float, t: float) -> int | None:
@@ -230,7 +279,7 @@ class AdaptiveCutoff:
             solver_calls=calls,
             predicted=predictions,
             eigenvalues=_all_eigenvalues(solver, eigenvalues),
-            params=self.params(),
+            **self.params(),
             prediction=None if prediction is None else int(prediction),
             prediction_held=None if prediction is None else calls == 1,
         )
@@ -348,7 +397,6 @@ class FixedCutoff:
             n=self.n,
             solver_calls=solver.solver_calls_ - calls_before,
             eigenvalues=_all_eigenvalues(solver, eigenvalues),
-            params={"n": self.n},
         )
 
 

@@ -30,13 +30,7 @@ def summary(description: Description, preview: int = 8) -> dict[str, object]:
     return {
         "format": description.format,
         "n_points": description.n_points,
-        "cutoff": {
-            "mode": cutoff.mode,
-            "n": cutoff.n,
-            "solver_calls": cutoff.solver_calls,
-            "predicted": cutoff.predicted,
-            **cutoff.params,
-        },
+        "cutoff": cutoff.record(description.features).to_json(),
         "eigenvalues_head": [round(float(v), 6) for v in description.eigenvalues[:preview]],
         "timings": description.timings,
         "descriptor_version": description.descriptor_version,

@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from core.errors import SettingsError
 from core.extrinsic import (
     axis_offsets,
     centroid_distance_ratios,
@@ -86,12 +87,14 @@ def load_vocabulary(name: str) -> Vocabulary:
 
     Raises
     ------
-    ValueError
+    SettingsError
         No such vocabulary.
     """
     path = VOCABULARY_DIR / f"{name}.npz"
     if not name or not path.is_file():
-        raise ValueError(f"unknown local vocabulary {name!r} (looked for {path})")
+        raise SettingsError(
+            f"unknown local vocabulary {name!r} (looked for {path})", "local_vocabulary"
+        )
     return Vocabulary.load(path)
 
 
@@ -214,11 +217,12 @@ class DescriptorSpec:
             ) + len(settings.local_neighbours)
             width = load_vocabulary(settings.local_vocabulary).width
             if width != columns:
-                raise ValueError(
+                raise SettingsError(
                     f"local vocabulary {settings.local_vocabulary!r} was fitted on {width} "
                     f"columns, these settings give {columns} ({settings.local_columns}"
                     f" with {len(settings.hks_times)} times): fit a vocabulary for them "
-                    "or set local_weight 0"
+                    "or set local_weight 0",
+                    "hks_times", "local_vocabulary", "local_weight",
                 )
         energies = np.linspace(*settings.wks_range, settings.wks_energies)
         # Aubry et al. tie the filter width to the energy step; on a coarse 16-step grid

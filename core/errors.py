@@ -5,7 +5,9 @@ One hierarchy, documented once (in the manner of httpx):
     ShapeSearchError            anything the engine raises on purpose
     ├── InvalidShapeError       the input can never be described (bad file, bad geometry);
     │                           retrying will not help, the message tells the user what to fix
-    └── SolverError             a numerical step failed on acceptable input; may be transient
+    ├── SolverError             a numerical step failed on acceptable input; may be transient
+    └── SettingsError           engine settings that cannot work together (also a ValueError);
+                                ``fields`` names the settings involved
 
 Every refusal of user input is an ``InvalidShapeError`` with a short machine-readable
 ``reason`` code and a human-readable message.
@@ -13,7 +15,7 @@ Every refusal of user input is an ``InvalidShapeError`` with a short machine-rea
 
 from __future__ import annotations
 
-__all__ = ["InvalidShapeError", "ShapeSearchError", "SolverError"]
+__all__ = ["InvalidShapeError", "SettingsError", "ShapeSearchError", "SolverError"]
 
 
 class ShapeSearchError(Exception):
@@ -52,3 +54,25 @@ class InvalidShapeError(ShapeSearchError):
 
 class SolverError(ShapeSearchError):
     """A numerical step (factorisation, eigen-solve) failed on acceptable input."""
+
+
+class SettingsError(ShapeSearchError, ValueError):
+    """Engine settings that are invalid alone or together.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, in terms of the settings.
+    *fields : str
+        The settings involved, as dotted paths in ``EngineSettings`` (``"cutoff.n_min"``),
+        so that a front end can name its own variables for them.
+    """
+
+    def __init__(self, message: str, *fields: str) -> None:
+        super().__init__(message)
+        self.message = message
+        self.fields = fields
+
+    def within(self, section: str) -> SettingsError:
+        """The same error with its fields prefixed by ``section.``."""
+        return SettingsError(self.message, *(f"{section}.{name}" for name in self.fields))

@@ -11,6 +11,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from core.errors import SettingsError
 from core.io._outliers import OUTLIER_RATIO
 
 __all__ = [
@@ -45,19 +46,21 @@ class CutoffSettings:
 
     def validate(self) -> None:
         if self.mode not in ("adaptive", "fixed"):
-            raise ValueError(f"cutoff mode must be 'adaptive' or 'fixed', not {self.mode!r}")
+            raise SettingsError(
+                f"cutoff mode must be 'adaptive' or 'fixed', not {self.mode!r}", "mode"
+            )
         if not 0 < self.xi < 1:
-            raise ValueError("cutoff xi must lie in (0, 1)")
+            raise SettingsError("cutoff xi must lie in (0, 1)", "xi")
         if self.t <= 0:
-            raise ValueError("cutoff t must be positive")
+            raise SettingsError("cutoff t must be positive", "t")
         if self.seed < 2:
-            raise ValueError("cutoff seed must be at least 2 eigenpairs")
+            raise SettingsError("cutoff seed must be at least 2 eigenpairs", "seed")
         if not 1 <= self.n_min <= self.n_max:
-            raise ValueError("cutoff needs 1 <= n_min <= n_max")
+            raise SettingsError("cutoff needs 1 <= n_min <= n_max", "n_min", "n_max")
         if self.margin < 0:
-            raise ValueError("cutoff margin must be >= 0")
+            raise SettingsError("cutoff margin must be >= 0", "margin")
         if self.n < 2:
-            raise ValueError("fixed cutoff n must be at least 2")
+            raise SettingsError("fixed cutoff n must be at least 2", "n")
 
 
 @dataclass(frozen=True)
@@ -154,6 +157,11 @@ class DescriptorSettings:
         "d2_weight", "spread_weight", "d1_weight", "normal_weight", "symmetry_weight",
         "axis_weight",
     )
+    #: Every block's weight.
+    WEIGHTS: ClassVar[tuple[str, ...]] = (
+        "hks_weight", "wks_weight", "wks_slope_weight", "dna_weight", *EXTRINSIC_WEIGHTS,
+        "local_weight",
+    )
 
     def intrinsic(self) -> DescriptorSettings:
         """The same settings with every extrinsic block off: a purely spectral descriptor.
@@ -165,41 +173,52 @@ class DescriptorSettings:
 
     def validate(self) -> None:
         if not self.hks_times or min(self.hks_times) <= 0:
-            raise ValueError("hks_times must be a non-empty list of positive times")
+            raise SettingsError("hks_times must be a non-empty list of positive times", "hks_times")
         if self.bins < 2:
-            raise ValueError("descriptor needs at least 2 histogram bins")
+            raise SettingsError("descriptor needs at least 2 histogram bins", "bins")
         for name in ("hks_range", "wks_range", "wks_log_range", "wks_slope_range", "d2_range",
                      "d1_range", "axis_range"):
             low, high = getattr(self, name)
             if not low < high:
-                raise ValueError(f"{name} must be (low, high) with low < high")
+                raise SettingsError(f"{name} must be (low, high) with low < high", name)
         if self.wks_energies < 0 or self.dna_count < 0:
-            raise ValueError("wks_energies and dna_count must be >= 0")
+            raise SettingsError(
+                "wks_energies and dna_count must be >= 0", "wks_energies", "dna_count"
+            )
         if self.wks_sigma <= 0:
-            raise ValueError("wks_sigma must be positive")
+            raise SettingsError("wks_sigma must be positive", "wks_sigma")
         extrinsic = [getattr(self, name) for name in self.EXTRINSIC_WEIGHTS]
-        weights = (
-            self.hks_weight, self.wks_weight, self.wks_slope_weight, self.dna_weight, *extrinsic
-        )
-        if min(weights) < 0:
-            raise ValueError("channel weights must be >= 0")
+        negative = [name for name in self.WEIGHTS if getattr(self, name) < 0]
+        if negative:
+            raise SettingsError("channel weights must be >= 0", *negative)
         if min(self.normal_bins, self.axis_bins) < 2 or self.normal_neighbours < 3:
-            raise ValueError("normal_bins and axis_bins must be >= 2, normal_neighbours >= 3")
+            raise SettingsError(
+                "normal_bins and axis_bins must be >= 2, normal_neighbours >= 3",
+                "normal_bins", "axis_bins", "normal_neighbours",
+            )
         if self.d2_pairs < 100:
-            raise ValueError("d2_pairs must be at least 100")
+            raise SettingsError("d2_pairs must be at least 100", "d2_pairs")
         if self.local_weight < 0:
-            raise ValueError("local_weight must be >= 0")
+            raise SettingsError("local_weight must be >= 0", "local_weight")
         if self.local_weight > 0:
             if self.local_encoding not in ("vlad", "bof"):
-                raise ValueError("local_encoding must be 'vlad' or 'bof'")
+                raise SettingsError("local_encoding must be 'vlad' or 'bof'", "local_encoding")
             if not self.local_vocabulary:
-                raise ValueError("a local block (local_weight > 0) needs a local_vocabulary")
+                raise SettingsError(
+                    "a local block (local_weight > 0) needs a local_vocabulary",
+                    "local_weight", "local_vocabulary",
+                )
             if self.local_columns not in ("hks", "hks+wks"):
-                raise ValueError("local_columns must be 'hks' or 'hks+wks'")
+                raise SettingsError("local_columns must be 'hks' or 'hks+wks'", "local_columns")
             if self.local_columns == "hks+wks" and self.wks_energies == 0:
-                raise ValueError("local_columns 'hks+wks' needs wks_energies > 0")
+                raise SettingsError(
+                    "local_columns 'hks+wks' needs wks_energies > 0",
+                    "local_columns", "wks_energies",
+                )
             if any(count < 3 for count in self.local_neighbours):
-                raise ValueError("local_neighbours must each be at least 3")
+                raise SettingsError(
+                    "local_neighbours must each be at least 3", "local_neighbours"
+                )
         if not (
             self.hks_weight > 0
             or (self.wks_energies > 0 and self.wks_weight > 0)
@@ -208,7 +227,7 @@ class DescriptorSettings:
             or max(extrinsic) > 0
             or self.local_weight > 0
         ):
-            raise ValueError("descriptor has no block with a positive weight")
+            raise SettingsError("descriptor has no block with a positive weight", *self.WEIGHTS)
 
 
 def _bendable() -> DescriptorSettings:
@@ -266,13 +285,16 @@ class ViewSettings:
 
     def validate(self) -> None:
         if not 0 <= self.count <= MAX_VIEWS:
-            raise ValueError(f"view count must lie in [0, {MAX_VIEWS}]")
+            raise SettingsError(f"view count must lie in [0, {MAX_VIEWS}]", "count")
         if self.distance <= 0:
-            raise ValueError("view distance must be positive")
+            raise SettingsError("view distance must be positive", "distance")
         if self.boundary_neighbours < 3:
-            raise ValueError("boundary_neighbours must be at least 3")
+            raise SettingsError("boundary_neighbours must be at least 3", "boundary_neighbours")
         if self.boundary_threshold <= 0 or self.boundary_reach <= 0:
-            raise ValueError("boundary_threshold and boundary_reach must be positive")
+            raise SettingsError(
+                "boundary_threshold and boundary_reach must be positive",
+                "boundary_threshold", "boundary_reach",
+            )
 
 
 @dataclass(frozen=True)
@@ -304,15 +326,21 @@ class EngineSettings:
 
     def validate(self) -> None:
         if self.min_points < 10:
-            raise ValueError("min_points must be at least 10")
+            raise SettingsError("min_points must be at least 10", "min_points")
         if self.max_points < self.min_points:
-            raise ValueError("max_points must be >= min_points")
+            raise SettingsError("max_points must be >= min_points", "max_points", "min_points")
         if self.laplacian not in ("robust", "spcl"):
-            raise ValueError(f"laplacian must be 'robust' or 'spcl', not {self.laplacian!r}")
+            raise SettingsError(
+                f"laplacian must be 'robust' or 'spcl', not {self.laplacian!r}", "laplacian"
+            )
         if not self.outlier_ratio > 1.0:
-            raise ValueError("outlier_ratio must be > 1 (in median neighbour spacings)")
+            raise SettingsError(
+                "outlier_ratio must be > 1 (in median neighbour spacings)", "outlier_ratio"
+            )
         if self.normalisation not in ("area", "bbox"):
-            raise ValueError("normalisation must be 'area' or 'bbox'")
-        self.cutoff.validate()
-        self.descriptor.validate()
-        self.views.validate()
+            raise SettingsError("normalisation must be 'area' or 'bbox'", "normalisation")
+        for section in ("cutoff", "descriptor", "views"):
+            try:
+                getattr(self, section).validate()
+            except SettingsError as error:
+                raise error.within(section) from None

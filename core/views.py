@@ -20,7 +20,9 @@ from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from core.extrinsic import neighbourhood_normals
 
-__all__ = ["boundary_weights", "hidden_point_removal", "view_directions", "virtual_views"]
+__all__ = [
+    "boundary_weights", "hidden_point_removal", "view_directions", "virtual_view", "virtual_views",
+]
 
 
 def hidden_point_removal(
@@ -84,16 +86,27 @@ def virtual_views(
         One per direction, in the order of ``view_directions(count)``; rows of ``points``.
         Empty when the view is degenerate: a flat shape seen exactly edge-on.
     """
+    return [virtual_view(points, index, count, distance, exponent) for index in range(count)]
+
+
+def virtual_view(
+    points: np.ndarray, index: int, count: int, distance: float = 3.0, exponent: float = 3.0
+) -> np.ndarray:
+    """View ``index`` of ``virtual_views(points, count, distance, exponent)``.
+
+    Returns
+    -------
+    view : (m, 3) float
+        Rows of ``points``; empty when a flat shape is seen exactly edge-on.
+    """
     low, high = points.min(axis=0), points.max(axis=0)
     centre, diagonal = (low + high) / 2.0, float(np.linalg.norm(high - low))
-    views = []
-    for direction in view_directions(count):
-        try:
-            seen = hidden_point_removal(points, centre + distance * diagonal * direction, exponent)
-        except QhullError:  # the points and the viewpoint lie in one plane: no surface seen
-            seen = np.empty(0, dtype=int)
-        views.append(points[seen])
-    return views
+    viewpoint = centre + distance * diagonal * view_directions(count)[index]
+    try:
+        seen = hidden_point_removal(points, viewpoint, exponent)
+    except QhullError:  # the points and the viewpoint lie in one plane: no surface seen
+        seen = np.empty(0, dtype=int)
+    return points[seen]
 
 
 def boundary_weights(

@@ -28,6 +28,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
 from app.settings import Settings
+from core.cutoff import CutoffRecord
 
 PARTS = Path(__file__).parent / "fixtures" / "parts"
 EDGE_CASES = PARTS / "edge_cases"
@@ -152,13 +153,10 @@ def fake_describe(content: bytes, filename: str) -> dict[str, Any]:
     vector /= np.linalg.norm(vector)
     return {
         "n_points": 100,
-        "cutoff": {
-            "mode": "adaptive",
-            "n": 10,
-            "solver_calls": 2,
-            "params": {"xi": 1e-10, "t": 1e-3, "n_min": 5, "n_max": 20},
-            "predicted": [10],
-        },
+        "cutoff": CutoffRecord(
+            mode="adaptive", n=10, solver_calls=2, predicted=[10], xi=1e-10, t=1e-3,
+            n_min=5, n_max=20,
+        ).to_json(),
         "eigenvalues": [float(i) for i in range(10)],
         "descriptor": vector.tobytes(),
         "descriptor_version": "fake-1",

@@ -85,10 +85,16 @@ def test_upload_is_accepted_and_becomes_ready(client: TestClient) -> None:
         "mode": "adaptive",
         "n": 10,
         "solver_calls": 2,
+        "predicted": [10],
         "xi": 1e-10,
         "t": 1e-3,
+        "seed": None,
         "n_min": 5,
         "n_max": 20,
+        "margin": None,
+        "prediction": None,
+        "prediction_held": None,
+        "features": None,
     }
     assert ready["descriptor_version"] == "fake-1"
     assert ready["n_points"] == 100

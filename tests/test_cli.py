@@ -74,3 +74,34 @@ def test_start_up_errors_are_one_line_and_exit_code_2(command, url, message) -> 
     assert lines[0].startswith("error: ") and message in lines[0]
     if "no_such_database" in url:
         assert "shapesearch_no_such_database" in lines[0]
+
+
+@pytest.mark.parametrize(
+    ("variables", "named"),
+    [
+        ({"SHAPESEARCH_CUTOFF_N_MIN": "600"},
+         ["SHAPESEARCH_CUTOFF_N_MIN", "SHAPESEARCH_CUTOFF_N_MAX"]),
+        ({"SHAPESEARCH_MAX_POINTS": "50"}, ["SHAPESEARCH_MAX_POINTS", "SHAPESEARCH_MIN_POINTS"]),
+        ({"SHAPESEARCH_CUTOFF_XI": "2"}, ["SHAPESEARCH_CUTOFF_XI"]),
+        ({"SHAPESEARCH_DESCRIPTOR_T_MIN": "0"}, ["SHAPESEARCH_DESCRIPTOR_T_MIN"]),
+        # The shipped vocabulary was fitted on 16 times: 8 cannot use it.
+        ({"SHAPESEARCH_DESCRIPTOR_TIMES": "8"},
+         ["SHAPESEARCH_DESCRIPTOR_TIMES", "descriptor.local_vocabulary"]),
+    ],
+)
+def test_settings_that_do_not_work_together_are_named_at_start_up(
+    tmp_path: Path, variables: dict[str, str], named: list[str]
+) -> None:
+    """The engine's cross-field rules are checked before anything starts, and the line names
+    the variables involved (each valid alone, as pydantic checks them)."""
+    env = {**os.environ, "SHAPESEARCH_DATA_DIR": str(tmp_path), **variables}
+    env.pop("SHAPESEARCH_DATABASE_URL", None)
+    done = subprocess.run(
+        [sys.executable, "-m", "app.cli", "serve"],
+        env=env, capture_output=True, text=True, timeout=120,
+    )
+    assert done.returncode == 2
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: invalid setting: "), done.stderr
+    for name in named:
+        assert name in lines[0]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import pytest
 
 from core.cutoff import (
     AdaptiveCutoff,
+    CutoffRecord,
     FixedCutoff,
     contribution_cutoff,
     make_cutoff,
@@ -286,3 +288,26 @@ def test_predicted_path_gives_the_seeded_n_on_real_parts(part_operators) -> None
             )
         exact = cutoff.select(SpectralSolver(stiffness, mass), prediction=expected)
         assert exact.n == expected and exact.prediction_held and exact.solver_calls == 1
+
+
+def test_the_cutoff_record_round_trips_and_reads_records_stored_before_it() -> None:
+    solver = SpectrumSolver(np.arange(1, 400, dtype=float))
+    result = make_cutoff(CutoffSettings(xi=1e-10, t=1e-3, seed=20, n_min=5, n_max=300)).select(
+        solver
+    )
+    record = result.record(np.array([8.0, 0.3, 0.7, 0.5]))
+    stored = json.loads(json.dumps(record.to_json()))  # what the database gives back
+    assert CutoffRecord.from_json(stored) == record
+    assert stored["n"] == result.n and stored["xi"] == 1e-10 and stored["n_min"] == 5
+    assert stored["features"] == [8.0, 0.3, 0.7, 0.5]
+    # Rows written before the record kept the adaptive parameters under "params", and a
+    # fixed cutoff's n there too.
+    legacy = {"mode": "adaptive", "n": 120, "solver_calls": 2, "predicted": [118],
+              "params": {"xi": 1e-10, "t": 0.01, "seed": 50, "n_min": 80, "n_max": 500,
+                         "margin": 10}}
+    read = CutoffRecord.from_json(legacy)
+    assert (read.n, read.xi, read.n_max, read.margin, read.predicted) == (120, 1e-10, 500, 10,
+                                                                          [118])
+    fixed = CutoffRecord.from_json({"mode": "fixed", "n": 300, "solver_calls": 1,
+                                    "params": {"n": 300}, "predicted": []})
+    assert fixed.n == 300 and fixed.xi is None

@@ -54,7 +54,8 @@ def test_predictor_learns_only_from_ready_models_of_its_version(sessions) -> Non
     store(sessions, {"cutoff": record(150, [1.0, 0.0]), "descriptor_version": "v1"})
     store(sessions, {"cutoff": record(400, [1.0, 0.0]), "descriptor_version": "v2"})
     store(sessions, {"cutoff": record(90, [1.0, 0.0]), "descriptor_version": "v1"}, "failed")
-    store(sessions, {"cutoff": {"mode": "fixed", "n": 300}, "descriptor_version": "v1"})
+    store(sessions, {"cutoff": {"mode": "fixed", "n": 300, "solver_calls": 1},
+                     "descriptor_version": "v1"})
     predictor = cache.predictor()  # a young catalogue refits on every call
     assert predictor is not None and predictor.n_samples_ == 1
     assert predictor.predict([1.0, 0.0]) == 150

@@ -11,6 +11,7 @@ from fastapi import Depends, Request
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session, sessionmaker
 
+from app.ingest.describing import descriptor_version
 from app.search.index import ShapeIndex
 from app.settings import Settings
 from core.settings import EngineSettings
@@ -29,6 +30,11 @@ class Services:
     reader: Engine  # hot read-only paths (app.db.session.read_only)
     queries: ThreadPoolExecutor  # similarity queries (app.api.routes.models.similar_models)
     index: ShapeIndex
+
+    @property
+    def descriptor_version(self) -> str:
+        """The descriptor_version this service's engine settings produce."""
+        return descriptor_version(self.engine_settings)
 
 
 async def get_services(request: Request) -> Services:

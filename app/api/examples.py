@@ -18,6 +18,7 @@ from app.api.inputs import invalid_input
 from app.api.limits import too_large_problem
 from app.api.problems import PROBLEM_JSON, Problem, problem_response
 from app.problems import blank_problem, problem
+from core.cutoff import CutoffRecord
 
 __all__ = ["EXAMPLES", "install_examples"]
 
@@ -39,8 +40,11 @@ _FILE = {
     "sha256": "9a4c5e0f3b1d7a26c8e4f0b2d6a8c1e3f5a7b9d0c2e4f6a8b0c1d3e5f7a9b2c4",
     "format": "stl",
 }
-_CUTOFF = {"mode": "adaptive", "n": 191, "solver_calls": 3, "xi": 1e-10, "t": 0.01,
-           "n_min": 80, "n_max": 500}
+_CUTOFF = CutoffRecord(
+    mode="adaptive", n=191, solver_calls=3, predicted=[186],
+    xi=1e-10, t=0.01, seed=50, n_min=80, n_max=500, margin=10,
+    prediction=None, prediction_held=None, features=[8.006, 0.338, 0.707, 0.512],
+).to_json()
 
 MODEL_QUEUED: dict[str, Any] = {
     "id": _ID,
@@ -253,9 +257,10 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
                 "fixed_n": 300,
                 "models": [
                     {"id": _ID2, "external_id": "PN-1002", "name": "Feature block",
-                     "n_points": 3120, "n": 168, "solver_calls": 2, "mode": "adaptive"},
+                     "n_points": 3120,
+                     "cutoff": {**_CUTOFF, "n": 168, "solver_calls": 2, "predicted": []}},
                     {"id": _ID, "external_id": "PN-1001", "name": "Angle block",
-                     "n_points": 4767, "n": 191, "solver_calls": 3, "mode": "adaptive"},
+                     "n_points": 4767, "cutoff": _CUTOFF},
                 ],
                 "solver_calls": [{"solver_calls": 2, "models": 1},
                                  {"solver_calls": 3, "models": 1}],

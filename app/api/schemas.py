@@ -10,9 +10,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.db.models import Job, Model
 from app.search.similarity import Candidate
+from core.cutoff import CutoffRecord
 
 __all__ = [
-    "CutoffInfo",
     "FileInfo",
     "Health",
     "JobResource",
@@ -27,7 +27,7 @@ __all__ = [
     "SimilarQuery",
     "SimilarResponse",
     "SimilarResult",
-    "cutoff_info",
+    "cutoff_record",
     "job_resource",
     "job_summary",
     "model_resource",
@@ -52,18 +52,6 @@ class FileInfo(BaseModel):
     format: str = Field(description="Detected file format, e.g. stl, ply, obj, off.")
 
 
-class CutoffInfo(BaseModel):
-    """How many eigenpairs the model got, and how the cutoff decided."""
-
-    mode: str
-    n: int
-    solver_calls: int
-    xi: float | None = None
-    t: float | None = None
-    n_min: int | None = None
-    n_max: int | None = None
-
-
 class JobSummary(BaseModel):
     """The latest job of a model; GET /v1/jobs/{id} has the rest."""
 
@@ -83,7 +71,7 @@ class ModelResource(BaseModel):
     error: ModelError | None
     file: FileInfo
     n_points: int | None
-    cutoff: CutoffInfo | None
+    cutoff: CutoffRecord | None
     descriptor_version: str | None
     timings: dict[str, float] | None = Field(description="Seconds per stage of the description.")
     created_at: datetime
@@ -134,7 +122,7 @@ class SearchQuery(BaseModel):
     """The uploaded scan as described for the search (nothing is stored)."""
 
     n_points: int
-    cutoff: CutoffInfo
+    cutoff: CutoffRecord
     descriptor_version: str
     format: str
 
@@ -160,19 +148,9 @@ class Health(BaseModel):
     checks: dict[str, str] | None = None
 
 
-def cutoff_info(record: dict[str, Any] | None) -> CutoffInfo | None:
-    if not record:
-        return None
-    params = record.get("params") or {}
-    return CutoffInfo(
-        mode=record["mode"],
-        n=record["n"],
-        solver_calls=record["solver_calls"],
-        xi=params.get("xi"),
-        t=params.get("t"),
-        n_min=params.get("n_min"),
-        n_max=params.get("n_max"),
-    )
+def cutoff_record(stored: dict[str, Any] | None) -> CutoffRecord | None:
+    """A model's stored cutoff (``Model.cutoff``) as the API shows it."""
+    return CutoffRecord.from_json(stored) if stored else None
 
 
 def job_summary(job: Job) -> JobSummary:
@@ -200,7 +178,7 @@ def model_resource(model: Model, job: Job | None = None) -> ModelResource:
             format=model.file_format,
         ),
         n_points=model.n_points,
-        cutoff=cutoff_info(model.cutoff),
+        cutoff=cutoff_record(model.cutoff),
         descriptor_version=model.descriptor_version,
         timings=model.timings,
         created_at=model.created_at,

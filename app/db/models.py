@@ -116,7 +116,8 @@ class Model(Base):
     file_format: Mapped[str] = mapped_column(String(20))
 
     n_points: Mapped[int | None] = mapped_column(Integer)
-    # {"mode", "n", "solver_calls", "params": {...}, "predicted": [...]}
+    # core.cutoff.CutoffRecord.to_json() (rows written before it held the adaptive
+    # parameters under "params"; CutoffRecord.from_json reads both)
     cutoff: Mapped[dict[str, Any] | None] = mapped_column(JSON)
     eigenvalues: Mapped[list[float] | None] = deferred(mapped_column(JSON))
     # float32 bytes of a unit vector; deferred so that lists do not carry vectors.

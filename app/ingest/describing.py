@@ -10,9 +10,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from sqlalchemy import select
 from threadpoolctl import threadpool_limits
 
+from app.db.models import Model
 from app.ingest.previews import encode_preview
+from core.cutoff import CutoffRecord
 from core.cutoff_predictor import CutoffPredictor
 from core.descriptor import DescriptorSpec
 from core.io import load_points
@@ -21,7 +24,6 @@ from core.settings import EngineSettings
 
 __all__ = [
     "CutoffPredictorCache",
-    "cutoff_record",
     "describe_upload",
     "described_columns",
     "descriptor_version",
@@ -102,22 +104,6 @@ def quick_check(content: bytes, name: str, points: int, min_points: int, seed: i
     load_points(content, filename=name, max_points=points, min_points=min_points, seed=seed)
 
 
-def cutoff_record(description: Description) -> dict[str, Any]:
-    """The cutoff as stored: mode, n, solver calls, parameters, the predicted n per round, and
-    the pre-solve features with the prediction made from them (``CutoffPredictorCache``)."""
-    cutoff = description.cutoff
-    return {
-        "mode": cutoff.mode,
-        "n": int(cutoff.n),
-        "solver_calls": int(cutoff.solver_calls),
-        "params": {key: _plain(value) for key, value in cutoff.params.items()},
-        "predicted": [int(n) for n in cutoff.predicted],
-        "features": [float(value) for value in np.asarray(description.features).ravel()],
-        "prediction": cutoff.prediction,
-        "prediction_held": cutoff.prediction_held,
-    }
-
-
 def model_columns(description: Description, hks_times: Sequence[float]) -> dict[str, Any]:
     """The Model columns a finished description fills in; ``hks_times`` is the descriptor's
     time grid, the first columns of ``description.signature`` (its log scaled HKS).
@@ -127,7 +113,7 @@ def model_columns(description: Description, hks_times: Sequence[float]) -> dict[
     views = np.ascontiguousarray(description.views, dtype=np.float32)
     return {
         "n_points": description.n_points,
-        "cutoff": cutoff_record(description),
+        "cutoff": description.cutoff.record(description.features).to_json(),
         "eigenvalues": [float(v) for v in np.asarray(description.eigenvalues).ravel()],
         "descriptor": descriptor.tobytes(),
         "descriptor_version": description.descriptor_version,
@@ -199,10 +185,6 @@ class CutoffPredictorCache:
             return self._predictor
 
     def _fit(self) -> CutoffPredictor | None:
-        from sqlalchemy import select
-
-        from app.db.models import Model
-
         query = (
             select(Model.cutoff)
             .where(Model.status == "ready", Model.descriptor_version == self.descriptor_version)
@@ -210,11 +192,12 @@ class CutoffPredictorCache:
             .limit(self.limit)
         )
         with self.sessions() as session:
-            records = [record for record in session.scalars(query) if record]
+            stored = [record for record in session.scalars(query) if record]
+        records = [CutoffRecord.from_json(record) for record in stored]
         rows = [
-            (record["features"], record["n"])
+            (record.features, record.n)
             for record in records
-            if record.get("mode") == "adaptive" and record.get("features")
+            if record.mode == "adaptive" and record.features
         ]
         if not rows:
             return None
@@ -223,11 +206,3 @@ class CutoffPredictorCache:
         features = np.array([features for features, _ in rows], dtype=np.float64)
         return CutoffPredictor().fit(features, np.array([n for _, n in rows]))
 
-
-def _plain(value: Any) -> Any:
-    """JSON-safe copy of a numpy scalar or array."""
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    return value

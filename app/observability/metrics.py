@@ -43,6 +43,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.db.models import Job, Model, utcnow
 from app.search.index import ShapeIndex
+from core.cutoff import CutoffRecord
 
 __all__ = [
     "CONTENT_TYPE_LATEST",
@@ -81,11 +82,10 @@ def observe_description(columns: dict[str, Any]) -> None:
     """Record a finished describe (``app.ingest.describing.model_columns``)."""
     for stage, seconds in (columns.get("timings") or {}).items():
         DESCRIBE_SECONDS.labels(stage=stage).observe(float(seconds))
-    cutoff = columns.get("cutoff") or {}
-    if "solver_calls" in cutoff:
-        SOLVER_CALLS.inc(int(cutoff["solver_calls"]))
-    if "n" in cutoff:
-        CUTOFF_N.observe(int(cutoff["n"]))
+    if columns.get("cutoff"):
+        cutoff = CutoffRecord.from_json(columns["cutoff"])
+        SOLVER_CALLS.inc(cutoff.solver_calls)
+        CUTOFF_N.observe(cutoff.n)
 
 
 def _route_template(scope: Scope) -> str:

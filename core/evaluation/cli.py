@@ -140,8 +140,8 @@ def score_variant(
 
 
 def _stats(results: dict[str, ModelResult]) -> dict[str, Any]:
-    n = np.array([r.n for r in results.values()], dtype=float)
-    calls = np.array([r.solver_calls for r in results.values()], dtype=float)
+    n = np.array([r.cutoff.n for r in results.values()], dtype=float)
+    calls = np.array([r.cutoff.solver_calls for r in results.values()], dtype=float)
     eig = np.array([r.eigensolve_seconds for r in results.values()])
     desc = np.array([r.descriptor_seconds for r in results.values()])
     ingest = np.array([r.extra.get("front_seconds", 0.0) for r in results.values()]) + eig + desc
@@ -178,7 +178,7 @@ def _resampling_study(
     spreads = []
     per_model = []
     for model_name in common:
-        counts = np.array([runs[size][model_name].n for size in sizes], dtype=float)
+        counts = np.array([runs[size][model_name].cutoff.n for size in sizes], dtype=float)
         spreads.append((counts.max() - counts.min()) / np.median(counts))
         per_model.append({"model": model_name, "n": counts.tolist(),
                           "points": [runs[size][model_name].n_points for size in sizes]})
@@ -289,9 +289,11 @@ def evaluate(
                 "scores": {"clean": scores},
                 "stats": {"clean": _stats(clean[name])},
                 "pr": {"clean": {"recall": curve[0], "precision": curve[1]}},
-                "per_model": {m: {"n": r.n, "calls": r.solver_calls, "points": r.n_points,
-                                  "eig_s": round(r.eigensolve_seconds, 4)}
-                              for m, r in clean[name].items()},
+                "per_model": {
+                    m: {"n": r.cutoff.n, "calls": r.cutoff.solver_calls, "points": r.n_points,
+                        "eig_s": round(r.eigensolve_seconds, 4)}
+                    for m, r in clean[name].items()
+                },
             }
         chosen_scan = {n: variants[n] for n in scan_variants if n in variants}
         for kind in scans:

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from core.cutoff import CutoffResult, make_cutoff
+from core.cutoff import CutoffRecord, CutoffResult, make_cutoff
 from core.evaluation.dataset import Model
 from core.evaluation.scans import random_rotation, scan_of_kind
 from core.io import OUTLIER_RATIO, denoise_points, load_points, validate_points
@@ -358,9 +358,7 @@ def describe_sampling(
 class ModelResult:
     """One variant on one model (or one scan of it)."""
 
-    n: int
-    solver_calls: int
-    predicted: list[int]
+    cutoff: CutoffRecord
     eigensolve_seconds: float
     descriptor_seconds: float
     descriptor: np.ndarray
@@ -386,9 +384,7 @@ def run_variants(
             eigenvalues, eigenvectors, store.areas, store.points, settings, timings
         )
         results[name] = ModelResult(
-            n=int(cutoff.n),
-            solver_calls=int(cutoff.solver_calls),
-            predicted=[int(p) for p in cutoff.predicted],
+            cutoff=cutoff.record(),
             eigensolve_seconds=store.seconds_for(view.served),
             descriptor_seconds=timings.get("signature", 0.0) + timings.get("descriptor", 0.0),
             descriptor=descriptor,

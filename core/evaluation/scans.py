@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.views import hidden_point_removal, view_directions
+from core.views import hidden_point_removal, view_directions, virtual_view
 
 __all__ = [
     "SCAN_KINDS",
@@ -355,17 +355,6 @@ def sensor_scan(
     scan = np.vstack(merged)
     scan = scan[scan[:, 2] > low[2] + settings.table_clip * metre]
     return add_noise_and_outliers(scan, rng, diagonal, (low, high), 0.0, settings.outliers)
-
-
-def virtual_view(points: np.ndarray, index: int, count: int, distance: float = 3.0) -> np.ndarray:
-    """What viewpoint ``index`` of ``count`` fixed directions sees of ``points : (n, 3)``.
-
-    A clean partial view (no noise, no outliers) of a catalogue model, described and indexed
-    next to the whole model so that a partial scan can match a partial view.
-    """
-    low, high, diagonal = _bbox(points)
-    viewpoint = (low + high) / 2.0 + distance * diagonal * view_directions(count)[index]
-    return points[hidden_point_removal(points, viewpoint)]
 
 
 def view_kind(index: int, count: int) -> str:

@@ -10,7 +10,6 @@ from pydantic import BaseModel, Field
 
 from app.api.deps import ServicesDep, SessionDep
 from app.api.problems import Problem, problem_responses
-from app.api.routes.stats import current_descriptor_version
 from app.auth.dependency import TenantDep
 from app.search.duplicates import find_groups
 
@@ -71,7 +70,7 @@ def duplicates(
         raise Problem(
             "invalid-cursor", "cursor is not valid; pass next_cursor unchanged."
         ) from error
-    version = descriptor_version or current_descriptor_version(services)
+    version = descriptor_version or services.descriptor_version
     groups = find_groups(session, tenant, version, min_score)
     page = groups[offset : offset + limit]
     return DuplicateReport(

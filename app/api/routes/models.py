@@ -11,12 +11,13 @@ from fastapi import APIRouter, Depends, File, Form, Header, Query, Request, Resp
 from fastapi.responses import JSONResponse
 from sqlalchemy import Connection, Row, and_, delete, or_, select, update
 from sqlalchemy.exc import IntegrityError
-from sqlalchemy.orm import Session, undefer
+from sqlalchemy.orm import Session
 
 from app.api.cursors import decode_cursor, encode_cursor
 from app.api.deps import Services, ServicesDep, SessionDep
 from app.api.idempotency import remember, replay_or_refuse, request_sha256
 from app.api.inputs import InputLimits
+from app.api.lookups import load_model, model_not_found, parse_model_id
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import (
     ModelList,
@@ -29,6 +30,7 @@ from app.api.schemas import (
     model_resource,
     model_summary,
 )
+from app.api.search_params import SCAN_MODE_HELP, ModeQuery, metadata_filters
 from app.api.uploads import read_checked_upload
 from app.auth.dependency import TenantDep
 from app.db.feed import record_event
@@ -37,59 +39,9 @@ from app.ingest.revisions import create_model_rows, latest_jobs, lock_models
 from app.search.similarity import Match, QueryChanged, SearchMode, find_similar
 from app.webhooks import record_model_event
 
-__all__ = [
-    "SCAN_MODE_HELP",
-    "ModeQuery",
-    "load_model",
-    "metadata_filters",
-    "query_column",
-    "ready_query",
-    "router",
-]
+__all__ = ["router"]
 
 router = APIRouter(prefix="/v1", tags=["models"])
-
-SCAN_MODE_HELP = (
-    "mode=scan is for partial scans (one side of a part): the query is described with the "
-    "points near its open rim faded out, and every model is compared both whole and as "
-    "each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's "
-    "distance is that of its best view, one result per model. mode=shape (the default) "
-    "compares whole models only, which suits complete meshes and merged scans better."
-)
-ModeQuery = Annotated[
-    SearchMode,
-    Query(description="shape (default): whole models; scan: for partial scans, best view "
-          "of each model."),
-]
-
-
-def query_column(mode: SearchMode) -> str:
-    """The descriptor column a query uses in ``mode``: the scan descriptor in scan mode."""
-    return "scan_descriptor" if mode == "scan" else "descriptor"
-
-
-def _uuid_or_none(text: str) -> uuid.UUID | None:
-    try:
-        return uuid.UUID(text)
-    except ValueError:
-        return None
-
-
-def _not_found(model_id: str) -> Problem:
-    return Problem("model-not-found", f"There is no model {model_id}.")
-
-
-def load_model(session: Session, tenant: str, model_id: str, *, descriptor: bool = False) -> Model:
-    """The tenant's model ``model_id``, or 404 (also for ids that are not UUIDs)."""
-    parsed = _uuid_or_none(model_id)
-    query = select(Model).where(Model.id == parsed, Model.tenant == tenant)
-    if descriptor:
-        query = query.options(undefer(Model.descriptor), undefer(Model.scan_descriptor))
-    model = session.scalar(query) if parsed is not None else None
-    if model is None:
-        raise _not_found(model_id)
-    return model
-
 
 def _duplicate(session: Session, tenant: str, external_id: str) -> Problem | None:
     existing = session.scalar(
@@ -247,7 +199,7 @@ def patch_model(
         changes["name"] = limits.text(patch.name, "/name")
     if "metadata" in patch.model_fields_set:
         changes["meta"] = limits.metadata(patch.metadata)
-    model_uuid = _uuid_or_none(model_id)
+    model_uuid = parse_model_id(model_id)
     with services.sessions.begin() as session:
         model = session.scalar(
             update(Model)
@@ -256,7 +208,7 @@ def patch_model(
             .returning(Model)
         )
         if model is None:
-            raise _not_found(model_id)
+            raise model_not_found(model_id)
         return model_resource(model, latest_jobs(session, [model.id]).get(model.id))
 
 
@@ -272,7 +224,7 @@ def delete_model(
     tenant: TenantDep,
     services: ServicesDep,
 ) -> Response:
-    model_uuid = _uuid_or_none(model_id)
+    model_uuid = parse_model_id(model_id)
     with services.sessions.begin() as session:
         if lock_models(session, Model.id == model_uuid, Model.tenant == tenant):
             record_model_event(session, model_uuid, "model.deleted")  # commits with the delete
@@ -283,19 +235,10 @@ def delete_model(
             .returning(Model.index_id)
         )
         if index_id is None:
-            raise _not_found(model_id)
+            raise model_not_found(model_id)
         record_event(session, index_id, "deleted")  # other processes follow the feed
     services.index.remove(index_id)  # this process: at once
     return Response(status_code=204)
-
-
-async def metadata_filters(request: Request) -> dict[str, str]:
-    """``metadata.KEY=VALUE`` query parameters as {KEY: VALUE} (async: no thread hop)."""
-    return {
-        key.removeprefix("metadata."): value
-        for key, value in request.query_params.items()
-        if key.startswith("metadata.") and len(key) > len("metadata.")
-    }
 
 
 @router.get(
@@ -334,7 +277,7 @@ def ready_query(
     """The ``id, index_id, descriptor, descriptor_version`` (and in scan mode
     ``scan_descriptor``) of the tenant's ready model ``model_id``: only what a similarity
     query needs, not the whole row; 404 or 409."""
-    parsed = _uuid_or_none(model_id)
+    parsed = parse_model_id(model_id)
     model = None
     if parsed is not None:
         model = connection.execute(
@@ -348,7 +291,7 @@ def ready_query(
             ).where(Model.id == parsed, Model.tenant == tenant)
         ).one_or_none()
     if model is None:
-        raise _not_found(model_id)
+        raise model_not_found(model_id)
     if model.status != "ready" or model.descriptor is None or model.descriptor_version is None:
         raise Problem(
             "model-not-ready",
@@ -400,7 +343,7 @@ def _similar_by_index(
     confirmed with the candidates': one statement instead of two. None when this path does
     not apply (scan mode's own descriptor, a model the index does not hold) or the model
     changed since the index saw it: then the database decides, with its 404 or 409."""
-    parsed = _uuid_or_none(model_id)
+    parsed = parse_model_id(model_id)
     located = None if parsed is None or mode != "shape" else services.index.locate(tenant, parsed)
     if located is None:
         return None

@@ -12,8 +12,8 @@ import hashlib
 from fastapi import APIRouter, Header, Response
 
 from app.api.deps import SessionDep
+from app.api.lookups import load_model
 from app.api.problems import Problem, problem_responses
-from app.api.routes.models import load_model
 from app.auth.dependency import TenantDep
 from app.ingest.previews import PREVIEW_POINTS
 

@@ -22,8 +22,8 @@ from sqlalchemy.orm import Session
 
 from app.api.deps import ServicesDep, SessionDep
 from app.api.inputs import InputLimits, invalid_input
+from app.api.lookups import load_model, parse_model_id
 from app.api.problems import Problem, problem_responses
-from app.api.routes.models import _uuid_or_none, load_model
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
 from app.api.uploads import CheckedUpload, read_checked_upload
 from app.auth.dependency import TenantDep
@@ -201,7 +201,7 @@ def redescribe_model(
     model_id: str, response: Response, tenant: TenantDep, services: ServicesDep
 ) -> JobResource:
     with services.sessions.begin() as session:
-        lock_models(session, Model.id == _uuid_or_none(model_id), Model.tenant == tenant)
+        lock_models(session, Model.id == parse_model_id(model_id), Model.tenant == tenant)
         model = load_model(session, tenant, model_id)
         job = enqueue_redescribe(session, model)
         resource = job_resource(job)

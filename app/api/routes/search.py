@@ -9,14 +9,14 @@ from fastapi import APIRouter, Depends, File, Query, Request, UploadFile
 
 from app.api.deps import ServicesDep, SessionDep
 from app.api.problems import problem_responses
-from app.api.routes.models import SCAN_MODE_HELP, ModeQuery, metadata_filters, query_column
 from app.api.schemas import (
     SearchQuery,
     SearchResponse,
     SimilarResult,
-    cutoff_info,
+    cutoff_record,
     model_summary,
 )
+from app.api.search_params import SCAN_MODE_HELP, ModeQuery, metadata_filters, query_column
 from app.api.uploads import invalid_shape_problem, read_checked_upload
 from app.auth.dependency import TenantDep
 from app.ingest.sandbox import SandboxCrash
@@ -72,7 +72,7 @@ def search(
         pushdown_max=services.settings.filter_pushdown_max,
         mode=mode,
     )
-    cutoff = cutoff_info(described["cutoff"])
+    cutoff = cutoff_record(described["cutoff"])
     assert cutoff is not None
     return SearchResponse(
         query=SearchQuery(

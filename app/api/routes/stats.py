@@ -18,14 +18,13 @@ from app.api.deps import ServicesDep, SessionDep
 from app.api.problems import problem_responses
 from app.auth.dependency import TenantDep
 from app.db.models import Job, Model
-from app.ingest.describing import descriptor_version
+from core.cutoff import CutoffRecord
 
 __all__ = [
     "CutoffPoint",
     "CutoffStats",
     "SolverCallsBin",
     "Stats",
-    "current_descriptor_version",
     "router",
 ]
 
@@ -41,11 +40,6 @@ class Stats(BaseModel):
     )
     jobs_by_status: dict[str, int]
     current_descriptor_version: str
-
-
-def current_descriptor_version(services: ServicesDep) -> str:
-    """The descriptor_version this service's engine settings produce."""
-    return descriptor_version(services.engine_settings)
 
 
 def _counts(session: Session, column: object, *where: object) -> dict[str, int]:
@@ -71,7 +65,7 @@ def stats(tenant: TenantDep, services: ServicesDep, session: SessionDep) -> Stat
             session, Model.descriptor_version, Model.tenant == tenant, Model.status == "ready"
         ),
         jobs_by_status=_counts(session, Job.status, Job.tenant == tenant),
-        current_descriptor_version=current_descriptor_version(services),
+        current_descriptor_version=services.descriptor_version,
     )
 
 
@@ -82,9 +76,7 @@ class CutoffPoint(BaseModel):
     external_id: str | None
     name: str | None
     n_points: int = Field(description="Points the description used.")
-    n: int = Field(description="Eigenpairs the cutoff chose.")
-    solver_calls: int
-    mode: str = Field(description="adaptive or fixed")
+    cutoff: CutoffRecord
 
 
 class SolverCallsBin(BaseModel):
@@ -119,14 +111,12 @@ def cutoff_stats(tenant: TenantDep, session: SessionDep, services: ServicesDep) 
             external_id=row.external_id,
             name=row.name,
             n_points=row.n_points,
-            n=row.cutoff["n"],
-            solver_calls=row.cutoff["solver_calls"],
-            mode=row.cutoff["mode"],
+            cutoff=CutoffRecord.from_json(row.cutoff),
         )
         for row in rows
         if row.cutoff is not None and row.n_points is not None
     ]
-    calls = Counter(point.solver_calls for point in points)
+    calls = Counter(point.cutoff.solver_calls for point in points)
     return CutoffStats(
         fixed_n=services.settings.cutoff_n,
         models=points,
