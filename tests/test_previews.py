@@ -168,8 +168,8 @@ def test_cutoff_stats_list_every_ready_model_and_the_solver_call_histogram(
     for model_id, path in ids.items():
         size = path.stat().st_size
         assert by_id[model_id]["n_points"] == size % 1000 + 100
-        assert by_id[model_id]["solver_calls"] == 2 + size % 2
-        assert by_id[model_id]["n"] == 10
+        assert by_id[model_id]["cutoff"]["solver_calls"] == 2 + size % 2
+        assert by_id[model_id]["cutoff"]["n"] == 10
     counts: dict[int, int] = {}
     for path in files:
         counts[2 + path.stat().st_size % 2] = counts.get(2 + path.stat().st_size % 2, 0) + 1
