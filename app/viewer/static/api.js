@@ -113,7 +113,7 @@ function halfToFloat(halves) {
   return out;
 }
 
-// The blob of app/previews.py: {n, times, eigenvalues, points (n*3), logHks (n*s)}.
+// The blob of app/ingest/previews.py: {n, times, eigenvalues, points (n*3), logHks (n*s)}.
 export function decodePreview(buffer) {
   const view = new DataView(buffer);
   const magic = String.fromCharCode(...new Uint8Array(buffer, 0, 4));
