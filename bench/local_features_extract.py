@@ -69,8 +69,8 @@ def extract(sources: Path, out: Path, scan: str, only: list[str] | None) -> None
             except (InvalidShapeError, SolverError, ValueError, RuntimeError) as error:
                 print(f"  failed {source.name}/{model.name}: {error}", file=sys.stderr)
                 continue
-            values = store.eigenvalues[: result.n]
-            vectors = store.eigenvectors[:, : result.n]
+            values = store.eigenvalues[: result.cutoff.n]
+            vectors = store.eigenvectors[:, : result.cutoff.n]
             signature = spec.signature(values, vectors)
             blocks = spec.blocks(signature, store.areas, values, store.points)
             np.savez(
@@ -81,7 +81,7 @@ def extract(sources: Path, out: Path, scan: str, only: list[str] | None) -> None
                 areas=store.areas,
                 signature=signature.astype(np.float32),
                 eigenvalues=values,
-                n=result.n,
+                n=result.cutoff.n,
                 **{f"blocks_{key}": value for key, value in blocks.items()},
             )
             if index % 20 == 0 or index == len(models):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -97,3 +99,23 @@ def test_cleanup_steps_parse_filters_and_denoising() -> None:
     assert _cleanup_steps("mor2.5+quadric24") == (False, ("quadric", 24, 1), 2.5)
     with pytest.raises(ValueError, match="cleanup"):
         _cleanup_steps("sor+smooth")
+
+
+def test_the_scan_study_runs_end_to_end_on_a_tiny_set(tmp_path: Path) -> None:
+    """``run`` describes, caches and scores (a regression guard for the study's plumbing:
+    it once read a field that the cutoff record had moved)."""
+    import trimesh
+
+    from core.evaluation.scan_retrieval import run
+
+    shapes = {"box": [trimesh.creation.box((1, 2, 3)), trimesh.creation.box((1, 2, 3.3))],
+              "cyl": [trimesh.creation.cylinder(1, 4), trimesh.creation.cylinder(1, 4.4)]}
+    for label, meshes in shapes.items():
+        (tmp_path / "data" / label).mkdir(parents=True)
+        for i, mesh in enumerate(meshes):
+            mesh.export(tmp_path / "data" / label / f"{label}{i}.stl")
+    record = run(tmp_path / "data", tmp_path / "out", per_class=None, views=1,
+                 query_kinds=("clean",), points=400)
+    assert record["failures"] == [] and record["models"] == 4
+    # A box is nearer to the other box than to a cylinder (and so on): every NN is right.
+    assert record["scores"]["global|default|clean"]["nn"] == 1.0

@@ -137,7 +137,8 @@ def describe(
     result = run_variants(store, {"default": settings})["default"]
     if store.changed and cache_dir is not None:
         store.save(cache_dir / sampling.cache_name(model.sha256))
-    values, vectors = store.eigenvalues[: result.n], store.eigenvectors[:, : result.n]
+    n = result.cutoff.n
+    values, vectors = store.eigenvalues[:n], store.eigenvectors[:, :n]
     points, _ = _sample_points(model, sampling, settings.min_points)
     started = time.perf_counter()
     weights = boundary_weights(points)
