@@ -31,6 +31,7 @@ from core.io import LoadedShape, load_points
 from core.laplacian import build_laplacian
 from core.normalise import centre, unit_area_mass, unit_bbox_scale
 from core.settings import EngineSettings
+from core.size import ShapeSize
 from core.views import boundary_weights, virtual_views
 
 __all__ = [
@@ -74,6 +75,8 @@ class Description:
     views : (v, d) float32
         ``scan_descriptor`` of each virtual view that could be described (``views=K``
         asks for K; a view with fewer than ``min_points`` points, or that fails, is left out).
+    size : ShapeSize or None
+        Extents, area and volume in the file's units (``core.size``).
     """
 
     points: np.ndarray
@@ -88,6 +91,7 @@ class Description:
     features: np.ndarray = field(default_factory=lambda: np.empty(0))
     scan_descriptor: np.ndarray | None = None
     views: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=np.float32))
+    size: ShapeSize | None = None
 
     @property
     def n_points(self) -> int:
@@ -297,6 +301,7 @@ def _describe_loaded(
 ) -> Description:
     with _timed(timings, "laplacian"):
         points, stiffness, mass = normalised_operators(shape.points, settings)
+    size = shape.size or _cloud_size(shape.points, points, mass)
     features = shape_features(points, mass)
     with pin_blas_threads(), _timed(timings, "eigensolve"):
         # One solver per model: the cutoff's rounds continue the spectrum it already has.
@@ -335,4 +340,13 @@ def _describe_loaded(
         timings=timings,
         features=features,
         scan_descriptor=scan_descriptor,
+        size=size,
     )
+
+
+def _cloud_size(raw: np.ndarray, normalised: np.ndarray, mass: sp.spmatrix) -> ShapeSize:
+    """A point cloud's size in its own units: extents of ``raw : (n, 3)``, and the area of
+    the mass matrix built on ``normalised : (n, 3)`` (the same points, centred and scaled),
+    scaled back."""
+    scale = float(np.linalg.norm(normalised) / np.linalg.norm(raw - raw.mean(axis=0)))
+    return ShapeSize.of_points(raw, float(mass.diagonal().sum()) / scale**2)

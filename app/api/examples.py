@@ -55,6 +55,7 @@ MODEL_QUEUED: dict[str, Any] = {
     "error": None,
     "file": _FILE,
     "n_points": None,
+    "size": None,
     "cutoff": None,
     "descriptor_version": None,
     "timings": None,
@@ -65,6 +66,8 @@ MODEL_READY: dict[str, Any] = {
     **MODEL_QUEUED,
     "status": "ready",
     "n_points": 4767,
+    "size": {"length": 34.34, "width": 34.0, "height": 25.4, "area": 6056.3, "volume": 18771.9,
+             "units": "mm"},
     "cutoff": _CUTOFF,
     "descriptor_version": _VERSION,
     "timings": {"load": 0.031, "laplacian": 0.42, "eigensolve": 1.333, "signature": 0.032,
@@ -83,7 +86,9 @@ MODEL_FAILED: dict[str, Any] = {
     ),
 }
 _SUMMARY2 = {"id": _ID2, "external_id": "PN-1002", "name": "Feature block",
-             "metadata": {"material": "steel"}}
+             "metadata": {"material": "steel"},
+             "size": {"length": 127.0, "width": 63.5, "height": 34.93, "area": 34727.2,
+                      "volume": 190543.2, "units": "mm"}}
 _SIMILAR_RESULTS = [{"model": _SUMMARY2, "distance": 0.4176, "score": 0.9564}]
 
 
@@ -227,10 +232,13 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
         "responses": {
             200: {
                 "query": {"n_points": 7289, "cutoff": {**_CUTOFF, "n": 204},
-                          "descriptor_version": _VERSION, "format": "ply"},
+                          "descriptor_version": _VERSION, "format": "ply",
+                          "size": {"length": 36.24, "width": 35.55, "height": 25.5,
+                                   "area": 6283.8, "volume": None, "units": "mm"}},
                 "results": [
                     {"model": {"id": _ID, "external_id": "PN-1001", "name": "Angle block",
-                               "metadata": {"material": "steel"}},
+                               "metadata": {"material": "steel"},
+                               "size": MODEL_READY["size"]},
                      "distance": 0.2449, "score": 0.985},
                     *_SIMILAR_RESULTS,
                 ],
@@ -310,6 +318,7 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
                 "by_descriptor_version": {_VERSION: 2},
                 "jobs_by_status": {"done": 2, "failed": 1},
                 "current_descriptor_version": _VERSION,
+                "ready_without_size": 0,
             },
             401: _UNAUTHORIZED,
         },
@@ -319,6 +328,7 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
             200: {
                 "descriptor_version": _VERSION,
                 "min_score": 0.98,
+                "size_tolerance": None,
                 "groups": [{
                     "size": 2,
                     "members": [

@@ -24,10 +24,18 @@ __all__ = ["remember", "replay_or_refuse", "request_sha256"]
 
 
 def request_sha256(
-    file_sha256: str, external_id: str | None, name: str | None, meta: dict[str, Any]
+    file_sha256: str,
+    external_id: str | None,
+    name: str | None,
+    meta: dict[str, Any],
+    units: str | None = None,
 ) -> str:
-    """The digest that says whether two requests ask for the same thing."""
-    canonical = json.dumps([file_sha256, external_id, name, meta], sort_keys=True)
+    """The digest that says whether two requests ask for the same thing (``units`` counts
+    only when given, so that digests stored before it existed still match)."""
+    fields: list[Any] = [file_sha256, external_id, name, meta]
+    if units is not None:
+        fields.append(units)
+    canonical = json.dumps(fields, sort_keys=True)
     return hashlib.sha256(canonical.encode()).hexdigest()
 
 

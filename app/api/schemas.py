@@ -22,6 +22,7 @@ __all__ = [
     "ModelPatch",
     "ModelResource",
     "ModelSummary",
+    "Size",
     "SearchQuery",
     "SearchResponse",
     "SimilarQuery",
@@ -32,6 +33,7 @@ __all__ = [
     "job_summary",
     "model_resource",
     "model_summary",
+    "size_of",
 ]
 
 ModelStatus = Literal["queued", "processing", "ready", "failed"]
@@ -50,6 +52,19 @@ class FileInfo(BaseModel):
     size: int = Field(description="Bytes.")
     sha256: str
     format: str = Field(description="Detected file format, e.g. stl, ply, obj, off.")
+
+
+class Size(BaseModel):
+    """A model's size in the units of its file (``units``; null: not declared, compared as
+    given): the sorted extents of its minimum-volume oriented bounding box, its surface
+    area, and the volume it encloses when it is a watertight mesh (null otherwise)."""
+
+    length: float
+    width: float
+    height: float
+    area: float
+    volume: float | None
+    units: Literal["mm", "cm", "m", "in"] | None
 
 
 class JobSummary(BaseModel):
@@ -71,6 +86,8 @@ class ModelResource(BaseModel):
     error: ModelError | None
     file: FileInfo
     n_points: int | None
+    size: Size | None = Field(description="Null until described (and for models described "
+                              "before sizes were measured: re-describe them).")
     cutoff: CutoffRecord | None
     descriptor_version: str | None
     timings: dict[str, float] | None = Field(description="Seconds per stage of the description.")
@@ -101,6 +118,7 @@ class ModelSummary(BaseModel):
     external_id: str | None
     name: str | None
     metadata: dict[str, Any]
+    size: Size | None
 
 
 class SimilarResult(BaseModel):
@@ -125,6 +143,8 @@ class SearchQuery(BaseModel):
     cutoff: CutoffRecord
     descriptor_version: str
     format: str
+    size: Size | None = Field(description="As measured on the upload (a partial scan "
+                              "under-measures), in the units given with it.")
 
 
 class SearchResponse(BaseModel):
@@ -178,6 +198,8 @@ def model_resource(model: Model, job: Job | None = None) -> ModelResource:
             format=model.file_format,
         ),
         n_points=model.n_points,
+        size=size_of(model.size_length, model.size_width, model.size_height, model.size_area,
+                     model.size_volume, model.units),
         cutoff=cutoff_record(model.cutoff),
         descriptor_version=model.descriptor_version,
         timings=model.timings,
@@ -187,10 +209,23 @@ def model_resource(model: Model, job: Job | None = None) -> ModelResource:
     )
 
 
-def model_summary(model: Model | Candidate) -> ModelSummary:
+def model_summary(model: Candidate) -> ModelSummary:
+    size = None if model.size is None else size_of(*model.size.to_json().values(), model.units)
     return ModelSummary(
-        id=model.id, external_id=model.external_id, name=model.name, metadata=model.meta or {}
+        id=model.id, external_id=model.external_id, name=model.name, metadata=model.meta or {},
+        size=size,
     )
+
+
+def size_of(
+    length: float | None, width: float | None, height: float | None, area: float | None,
+    volume: float | None, units: str | None,
+) -> Size | None:
+    """The ``Size`` of stored size columns (None when the model has none)."""
+    if length is None or width is None or height is None or area is None:
+        return None
+    return Size(length=length, width=width, height=height, area=area, volume=volume,
+                units=units)  # type: ignore[arg-type]
 
 
 def job_resource(job: Job) -> JobResource:

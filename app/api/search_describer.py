@@ -40,9 +40,10 @@ from core.settings import EngineSettings
 __all__ = ["SearchAdmission", "SearchDescriber"]
 
 # The columns a search answer needs (model_columns of the description), per mode.
+_SIZE = ("size_length", "size_width", "size_height", "size_area", "size_volume")
 _COLUMNS: dict[str, tuple[str, ...]] = {
-    "shape": ("n_points", "cutoff", "descriptor", "descriptor_version"),
-    "scan": ("n_points", "cutoff", "scan_descriptor", "descriptor_version"),
+    "shape": ("n_points", "cutoff", "descriptor", "descriptor_version", *_SIZE),
+    "scan": ("n_points", "cutoff", "scan_descriptor", "descriptor_version", *_SIZE),
 }
 
 

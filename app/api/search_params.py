@@ -3,13 +3,26 @@ metadata filters."""
 
 from __future__ import annotations
 
-from typing import Annotated
+import math
+from dataclasses import dataclass
+from typing import Annotated, Literal
 
-from fastapi import Query, Request
+from fastapi import Form, Query, Request
 
+from app.api.inputs import invalid_input
 from app.search.similarity import SearchMode
+from app.search.sizing import SIZE_FILTER_FIELDS, SizeQuery
 
-__all__ = ["SCAN_MODE_HELP", "ModeQuery", "metadata_filters", "query_column"]
+__all__ = [
+    "SCAN_MODE_HELP",
+    "SIZE_HELP",
+    "ModeQuery",
+    "SizeOptions",
+    "UnitsField",
+    "metadata_filters",
+    "query_column",
+    "size_options",
+]
 
 SCAN_MODE_HELP = (
     "mode=scan is for partial scans (one side of a part): the query is described with the "
@@ -37,3 +50,79 @@ async def metadata_filters(request: Request) -> dict[str, str]:
         for key, value in request.query_params.items()
         if key.startswith("metadata.") and len(key) > len("metadata.")
     }
+
+
+SIZE_HELP = (
+    " Size (sizes compare in millimetres where the models' units are known, as given "
+    "otherwise): `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep "
+    "models in a range, before the top-k cut; `size_tolerance=0.1` keeps models whose three "
+    "extents are each within +-10% of the query's; `size_weight=w` (default 0) ranks by "
+    "D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three extents, and score = "
+    "1 - D^2/4. Models without a size pass no size filter."
+)
+
+#: The units of an uploaded file (``core.size.UNIT_MILLIMETRES``).
+Units = Literal["mm", "cm", "m", "in"]
+UnitsField = Annotated[
+    Units | None,
+    Form(description="Units of the file's coordinates: mm, cm, m or in. Sizes compare in "
+         "millimetres where units are known; without, the numbers are compared as given."),
+]
+
+
+@dataclass(frozen=True)
+class SizeOptions:
+    """The size parameters of a query, before the query's own size is known."""
+
+    ranges: dict[str, tuple[float | None, float | None]]
+    tolerance: float | None
+    weight: float
+
+    @property
+    def needs_query_size(self) -> bool:
+        return self.tolerance is not None or self.weight > 0
+
+    def query(self, extents: tuple[float, float, float] | None) -> SizeQuery:
+        """The ``SizeQuery`` around a query of ``extents`` (millimetres); a tolerance or a
+        weight without a query size is a 422."""
+        if self.needs_query_size and extents is None:
+            name = "size_tolerance" if self.tolerance is not None else "size_weight"
+            raise invalid_input(f"/query/{name}", "the query has no size (re-describe the model)")
+        return SizeQuery(extents, self.tolerance, self.weight, self.ranges)
+
+
+async def size_options(
+    request: Request,
+    size_tolerance: Annotated[
+        float | None,
+        Query(ge=0, le=10, description="Keep models whose three extents are each within "
+              "this relative tolerance of the query's (0.1: +-10%)."),
+    ] = None,
+    size_weight: Annotated[
+        float,
+        Query(ge=0, le=100, description="Weight of the size term in the ranking distance "
+              "(0: the descriptor alone)."),
+    ] = 0.0,
+) -> SizeOptions:
+    """``size.FIELD.gte`` / ``size.FIELD.lte`` query parameters, the tolerance and the
+    weight (async: no thread hop)."""
+    ranges: dict[str, list[float | None]] = {}
+    for key, value in request.query_params.items():
+        if not key.startswith("size."):
+            continue
+        pointer = f"/query/{key}"
+        name, _, bound = key.removeprefix("size.").partition(".")
+        if name not in SIZE_FILTER_FIELDS or bound not in ("gte", "lte"):
+            raise invalid_input(
+                pointer, f"size filters are size.<{'|'.join(SIZE_FILTER_FIELDS)}>.<gte|lte>"
+            )
+        try:
+            number = float(value)
+        except ValueError:
+            number = float("nan")
+        if not math.isfinite(number):
+            raise invalid_input(pointer, "must be a finite number")
+        ranges.setdefault(name, [None, None])[0 if bound == "gte" else 1] = number
+    return SizeOptions(
+        {name: (low, high) for name, (low, high) in ranges.items()}, size_tolerance, size_weight
+    )

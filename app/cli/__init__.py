@@ -10,6 +10,7 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch redescribe [--from-version V | --all] [--wait]
     shapesearch duplicates [--min-score 0.98] [--format csv|json] [--tenant T]
     shapesearch import PATH --url URL [--key KEY] [--external-id path|stem] [--metadata F]
+                       [--units mm|cm|m|in]
                        [--concurrency N] [--wait] [--report CSV]
     shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
     shapesearch eval-parts OUT_DIR [--per-family N] [--seed S]
@@ -77,7 +78,8 @@ def _duplicates(args: argparse.Namespace) -> int:
     from app.cli import duplicates
 
     return duplicates.run(min_score=args.min_score, output_format=args.format,
-                          tenant=args.tenant, descriptor_version=args.descriptor_version)
+                          tenant=args.tenant, descriptor_version=args.descriptor_version,
+                          size_tolerance=args.size_tolerance)
 
 
 def _import(args: argparse.Namespace) -> int:
@@ -91,7 +93,7 @@ def _import(args: argparse.Namespace) -> int:
         url=args.url, key=args.key, external_id=args.external_id,
         metadata=Path(args.metadata) if args.metadata else None,
         concurrency=args.concurrency, wait=args.wait, report=Path(args.report),
-        retries=args.retries,
+        retries=args.retries, units=args.units,
     )
     try:
         code, _counts = run_import(Path(args.path), options)
@@ -163,6 +165,8 @@ def build_parser() -> argparse.ArgumentParser:
     duplicates.add_argument("--min-score", type=float, default=0.98)
     duplicates.add_argument("--format", choices=("csv", "json"), default="csv")
     duplicates.add_argument("--tenant", default="default")
+    duplicates.add_argument("--size-tolerance", type=float, default=None,
+                            help="same size too: every extent within this relative tolerance")
     duplicates.add_argument("--descriptor-version", default=None,
                             help="default: the version of the current engine settings")
     duplicates.set_defaults(handler=_duplicates)
@@ -174,6 +178,8 @@ def build_parser() -> argparse.ArgumentParser:
     importer.add_argument("--external-id", choices=("path", "stem"), default="path",
                           help="external id: the relative path (default) or the file stem")
     importer.add_argument("--metadata", default=None, help="sidecar .csv or .json of metadata")
+    importer.add_argument("--units", choices=("mm", "cm", "m", "in"), default=None,
+                          help="units of the files' coordinates (sizes compare in mm)")
     importer.add_argument("--concurrency", type=int, default=4)
     importer.add_argument("--wait", action="store_true", help="wait until described")
     importer.add_argument("--report", default="import-report.csv", help="CSV of every file")

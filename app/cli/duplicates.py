@@ -15,12 +15,13 @@ __all__ = ["run"]
 
 
 def run(*, min_score: float, output_format: str, tenant: str,
-        descriptor_version: str | None) -> int:
+        descriptor_version: str | None, size_tolerance: float | None = None) -> int:
     """Write the groups at ``min_score`` (CSV: one row per member; JSON: the API's groups)."""
     settings = Settings()
     version = descriptor_version or current_version(settings)
     with open_sessions(settings.resolved_database_url)() as session:
-        groups = find_groups(session, tenant, version, min_score)
+        groups = find_groups(session, tenant, version, min_score,
+                             size_tolerance=size_tolerance)
     if output_format == "json":
         _write_json(groups)
     else:

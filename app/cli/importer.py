@@ -77,6 +77,7 @@ class ImportOptions:
     retries: int = 5
     wait_timeout: float = 3600.0
     progress: bool = True
+    units: str | None = None  # mm, cm, m or in: the units of every file's coordinates
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -199,9 +200,12 @@ def _problem_detail(response: httpx.Response) -> str:
 
 
 def _upload(
-    client: _Client, source: SourceFile, external_id: str, meta: dict[str, Any] | None
+    client: _Client, source: SourceFile, external_id: str, meta: dict[str, Any] | None,
+    units: str | None = None,
 ) -> Outcome:
     data = {"metadata": json.dumps(meta)} if meta else {}
+    if units is not None:
+        data["units"] = units
     filename = PurePosixPath(source.path).name
     try:
         response = client.request(
@@ -272,7 +276,7 @@ def run_import(path: Path, options: ImportOptions) -> tuple[int, Counter[str]]:
             else:
                 meta = (sidecar.get(external_id) or sidecar.get(source.path)
                         or sidecar.get(PurePosixPath(source.path).name))
-                result = _upload(client, source, external_id, meta)
+                result = _upload(client, source, external_id, meta, options.units)
             with lock:
                 counts[result.outcome] += 1
                 bar.update(1)

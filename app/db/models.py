@@ -129,6 +129,14 @@ class Model(Base):
     view_descriptors: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
     scan_descriptor: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
     timings: Mapped[dict[str, Any] | None] = mapped_column(JSON)
+    # core.size.ShapeSize in the file's units (migration 0009): sorted extents, area, and
+    # the volume of a watertight mesh; ``units`` as declared (mm, cm, m, in) or NULL.
+    size_length: Mapped[float | None] = mapped_column(Float)
+    size_width: Mapped[float | None] = mapped_column(Float)
+    size_height: Mapped[float | None] = mapped_column(Float)
+    size_area: Mapped[float | None] = mapped_column(Float)
+    size_volume: Mapped[float | None] = mapped_column(Float)
+    units: Mapped[str | None] = mapped_column(String(4))
     # app.ingest.previews blob for the viewer (points, HKS, eigenvalues); deferred like descriptor.
     preview: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
 

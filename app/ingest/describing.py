@@ -21,6 +21,7 @@ from core.descriptor import DescriptorSpec
 from core.io import load_points
 from core.pipeline import Description, describe
 from core.settings import EngineSettings
+from core.size import SIZE_FIELDS, ShapeSize
 
 __all__ = [
     "CutoffPredictorCache",
@@ -31,6 +32,7 @@ __all__ = [
     "model_columns",
     "pin_blas_threads",
     "quick_check",
+    "size_columns",
 ]
 
 log = logging.getLogger("shapesearch.describing")
@@ -121,6 +123,7 @@ def model_columns(description: Description, hks_times: Sequence[float]) -> dict[
         "view_descriptors": views.tobytes() if len(views) else None,
         "scan_descriptor": None if scan is None else np.asarray(scan, np.float32).tobytes(),
         "timings": {stage: float(seconds) for stage, seconds in description.timings.items()},
+        **size_columns(description.size),
         "preview": encode_preview(
             description.points,
             description.signature[:, : len(hks_times)],
@@ -128,6 +131,12 @@ def model_columns(description: Description, hks_times: Sequence[float]) -> dict[
             description.eigenvalues,
         ),
     }
+
+
+def size_columns(size: ShapeSize | None) -> dict[str, float | None]:
+    """The Model's size columns (migration 0009) for ``size`` (all None without one)."""
+    values = size.to_json() if size is not None else dict.fromkeys(SIZE_FIELDS)
+    return {f"size_{name}": values[name] for name in SIZE_FIELDS}
 
 
 class CutoffPredictorCache:

@@ -25,6 +25,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from app.db.models import Model
+from app.search.sizing import millimetres
 
 __all__ = ["DuplicateGroup", "Member", "find_groups", "group_vectors"]
 
@@ -46,7 +47,11 @@ class DuplicateGroup:
 
 
 def group_vectors(
-    vectors: np.ndarray, min_score: float, neighbours: int = DEFAULT_NEIGHBOURS
+    vectors: np.ndarray,
+    min_score: float,
+    neighbours: int = DEFAULT_NEIGHBOURS,
+    extents: np.ndarray | None = None,
+    size_tolerance: float | None = None,
 ) -> list[np.ndarray]:
     """Row indices of each group of two or more, largest group first.
 
@@ -58,6 +63,11 @@ def group_vectors(
         Keep kNN edges with (1 + cosine) / 2 >= min_score.
     neighbours : int
         k of the kNN graph (the row itself included).
+    extents : (n, 3) float, optional
+        Each row's length, width and height in millimetres (NaN: unknown).
+    size_tolerance : float, optional
+        Keep only edges between rows whose extents each differ by at most this factor
+        (``max / min - 1``): true duplicates, same shape and same size. None: any size.
     """
     n = len(vectors)
     if n < 2:
@@ -69,6 +79,10 @@ def group_vectors(
     rows = np.repeat(np.arange(n), ids.shape[1])
     cols = ids.ravel()
     keep = (cols >= 0) & (cols != rows) & ((1.0 + cosines.ravel()) / 2.0 >= min_score)
+    if size_tolerance is not None and extents is not None:
+        a, b = extents[rows], extents[np.where(cols >= 0, cols, 0)]
+        ratio = np.maximum(a, b) / np.minimum(a, b)  # NaN for unknown sizes: never kept
+        keep &= np.all(ratio - 1.0 <= size_tolerance + 1e-9, axis=1)
     graph = coo_matrix((np.ones(int(keep.sum())), (rows[keep], cols[keep])), shape=(n, n))
     count, labels = connected_components(graph, directed=False)
     sizes = np.bincount(labels, minlength=count)
@@ -78,11 +92,13 @@ def group_vectors(
 
 def find_groups(
     session: Session, tenant: str, descriptor_version: str, min_score: float,
-    neighbours: int = DEFAULT_NEIGHBOURS,
+    neighbours: int = DEFAULT_NEIGHBOURS, size_tolerance: float | None = None,
 ) -> list[DuplicateGroup]:
-    """Duplicate groups among the tenant's ready models of one descriptor version."""
+    """Duplicate groups among the tenant's ready models of one descriptor version; with
+    ``size_tolerance``, of the same size too (extents compared in millimetres)."""
     rows = session.execute(
-        select(Model.id, Model.external_id, Model.name, Model.descriptor)
+        select(Model.id, Model.external_id, Model.name, Model.descriptor, Model.size_length,
+               Model.size_width, Model.size_height, Model.units)
         .where(
             Model.tenant == tenant,
             Model.status == "ready",
@@ -94,8 +110,14 @@ def find_groups(
     if len(rows) < 2:
         return []
     vectors = np.stack([np.frombuffer(row.descriptor, dtype=np.float32) for row in rows])
+    extents = np.array([
+        [np.nan] * 3 if row.size_length is None
+        else [value * millimetres(row.units)
+              for value in (row.size_length, row.size_width, row.size_height)]
+        for row in rows
+    ], dtype=np.float64)
     groups = []
-    for members in group_vectors(vectors, min_score, neighbours):
+    for members in group_vectors(vectors, min_score, neighbours, extents, size_tolerance):
         block = vectors[members]
         scores = (1.0 + block @ block.T) / 2.0  # small: one group
         i, j = np.triu_indices(len(members), k=1)

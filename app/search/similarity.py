@@ -56,11 +56,14 @@ from sqlalchemy import (
     or_,
     select,
     table,
+    true,
 )
 from sqlalchemy.dialects.postgresql import ARRAY, JSONB
 
 from app.db.models import Model
 from app.search.index import PartitionKey, ShapeIndex, views_key
+from app.search.sizing import SizeQuery
+from core.size import SIZE_FIELDS, ShapeSize
 
 __all__ = [
     "Candidate",
@@ -86,13 +89,16 @@ SearchMode = Literal["shape", "scan"]
 
 @dataclass(frozen=True)
 class Candidate:
-    """What an answer shows of a matching model (the fields of ``ModelSummary``)."""
+    """What an answer shows of a matching model (the fields of ``ModelSummary``); ``size``
+    in the file's ``units`` (None: described before sizes were stored)."""
 
     index_id: int
     id: uuid.UUID
     external_id: str | None
     name: str | None
     meta: dict[str, Any] | None
+    size: ShapeSize | None = None
+    units: str | None = None
 
 
 @dataclass(frozen=True)
@@ -171,14 +177,18 @@ def _sql_filter(
                 )
             )
         )
-    return and_(*conditions)
+    return and_(true(), *conditions)
 
 
 def matching_ids(
-    connection: Connection, key: PartitionKey, filters: dict[str, str], limit: int
+    connection: Connection,
+    key: PartitionKey,
+    filters: dict[str, str],
+    limit: int,
+    size: SizeQuery | None = None,
 ) -> list[int] | None:
-    """The ids of the ready models of partition ``key`` that pass ``filters``, or None when
-    more than ``limit`` do (the filter is not selective)."""
+    """The ids of the ready models of partition ``key`` that pass ``filters`` and the size
+    filters, or None when more than ``limit`` do (the filter is not selective)."""
     tenant, version = key
     ids = connection.scalars(
         select(Model.index_id)
@@ -187,6 +197,7 @@ def matching_ids(
             Model.descriptor_version == version,
             Model.status == "ready",
             _sql_filter(connection, tenant, filters),
+            size.sql() if size is not None else true(),
         )
         .limit(limit + 1)
     ).all()
@@ -206,6 +217,7 @@ def find_similar(
     pushdown_max: int = PUSHDOWN_MAX,
     mode: SearchMode = "shape",
     indexed_query: bool = False,
+    size: SizeQuery | None = None,
 ) -> list[Match]:
     """The ``k`` best matches in partition ``key`` (tenant, descriptor version); in
     ``scan`` mode each model's best entry counts (see the module's docstring).
@@ -215,20 +227,28 @@ def find_similar(
     from the database. That model's row is then confirmed in the statement that confirms
     the first candidates, one statement for the whole query. Raises ``QueryChanged`` when
     the row is no longer ready under ``key``.
+
+    ``size`` (``app.search.sizing``): size filters, which narrow the candidates like the
+    metadata filters, and a size term that ranks by the combined distance; a match's
+    ``distance`` and ``score`` are then the combined ones.
     """
     filters = filters or {}
+    size = size or SizeQuery()
     vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
-    allowed = matching_ids(connection, key, filters, pushdown_max) if filters else None
+    filtered = bool(filters) or size.filters
+    allowed = (
+        matching_ids(connection, key, filters, pushdown_max, size) if filtered else None
+    )
     if allowed is not None:
         allowed = [i for i in allowed if i != exclude]
     if mode == "scan":
         return _best_entries(
-            index, connection, key, vector, k, min_score, filters, exclude, allowed
+            index, connection, key, vector, k, min_score, filters, exclude, allowed, size
         )
     approximate = index.is_approximate(key)
     wanted = k + 1 if exclude is not None else k
     fetch = index.rerank_candidates(wanted) if approximate else wanted
-    if filters and allowed is None:
+    if filtered and allowed is None:
         fetch *= 4
     matches: list[Match] = []
     seen: set[int] = set()
@@ -247,8 +267,8 @@ def find_similar(
         if approximate:  # estimates from the codes: exact ones from the full vectors
             distances.update(_exact_distances(index, key, [row.index_id for row in rows], vector))
         for row in rows:
-            if metadata_matches(row.meta or {}, filters):
-                distance = distances[row.index_id]
+            if metadata_matches(row.meta or {}, filters) and size.admits(row):
+                distance = size.distance(distances[row.index_id], row)
                 matches.append(Match(_candidate(row), distance, score_of(distance)))
         matches.sort(key=lambda match: (match.distance, match.model.index_id))
         if min_score is not None:
@@ -256,12 +276,17 @@ def find_similar(
         exhausted = len(hits) < fetch or fetch >= index.partition_size(key)
         # Hits come nearest first: past min_score, nothing further can qualify.
         below_min = min_score is not None and bool(hits) and score_of(hits[-1][1]) < min_score
+        # A size term only adds to a distance: a model not seen yet is no nearer than the
+        # last hit, so matches up to that bound are certain.
+        certain = matches
+        if size.weight > 0 and hits and not exhausted:
+            certain = [m for m in matches if m.distance <= hits[-1][1] + 1e-5]
         # Not "allowed, so done": SQL may allow a few ids the filters then refuse (a SQLite
         # entry 1 stands for both 1 and true), and the rule is k results whenever k match.
-        if len(matches) >= k or exhausted or below_min:
+        if len(certain) >= k or exhausted or below_min:
             # Equal distances (identical files) in upload order, whatever order the index
             # happened to insert them in: every process answers alike.
-            return matches[:k]
+            return certain[:k]
         fetch *= 4
 
 
@@ -323,12 +348,17 @@ def _candidates_statement(postgres: bool, extra: tuple[str, ...]) -> Select[Any]
         Model.external_id,
         Model.name,
         Model.meta.label("meta"),
+        *(getattr(Model, f"size_{name}") for name in SIZE_FIELDS),
+        Model.units,
         *(getattr(Model, name) for name in extra),
     ).where(among, Model.tenant == bindparam("tenant"), Model.status == "ready")
 
 
 def _candidate(row: Row[Any]) -> Candidate:
-    return Candidate(row.index_id, row.id, row.external_id, row.name, row.meta)
+    size = None
+    if row.size_length is not None:
+        size = ShapeSize(*(getattr(row, f"size_{name}") for name in SIZE_FIELDS))
+    return Candidate(row.index_id, row.id, row.external_id, row.name, row.meta, size, row.units)
 
 
 def _best_entries(
@@ -341,12 +371,14 @@ def _best_entries(
     filters: dict[str, str],
     exclude: int | None,
     allowed: list[int] | None,
+    size: SizeQuery,
 ) -> list[Match]:
     """Scan mode's ``find_similar``: the ``k`` models whose best entry is nearest."""
     sizes = (index.partition_size(key), index.partition_size(views_key(key)))
     # Views per model (on average): a model's views tend to be near the query together.
     per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
-    fetch = (k + 1 if exclude is not None else k) * (4 if filters and allowed is None else 1)
+    filtered = bool(filters) or size.filters
+    fetch = (k + 1 if exclude is not None else k) * (4 if filtered and allowed is None else 1)
     if index.is_approximate(key) or index.is_approximate(views_key(key)):
         fetch = index.rerank_candidates(fetch)  # estimated distances: a margin of candidates
     matches: dict[int, Match] = {}
@@ -358,9 +390,10 @@ def _best_entries(
         found = [i for i, _ in model_hits] + [i for i, _, _ in view_hits]
         fresh = [i for i in dict.fromkeys(found) if i not in seen and i != exclude]
         seen.update(found)
-        for model, distance, view in _confirmed_best(connection, key[0], fresh, vector):
-            if metadata_matches(model.meta or {}, filters):
-                matches[model.index_id] = Match(model, distance, score_of(distance), view)
+        for row, distance, view in _confirmed_best(connection, key[0], fresh, vector):
+            if metadata_matches(row.meta or {}, filters) and size.admits(row):
+                distance = size.distance(distance, row)
+                matches[row.index_id] = Match(_candidate(row), distance, score_of(distance), view)
         # A model not seen yet is no nearer than the last hit of each partition not yet
         # exhausted (inf when both are): matches up to that bound are certain.
         bound = float("inf")
@@ -380,7 +413,7 @@ def _best_entries(
 
 def _confirmed_best(
     connection: Connection, tenant: str, ids: list[int], query: np.ndarray
-) -> list[tuple[Candidate, float, int | None]]:
+) -> list[tuple[Row[Any], float, int | None]]:
     """The candidates still ready in the database, each with the exact distance of its
     best entry (read from the stored descriptors) and which one it is (None: the model)."""
     confirmed = []
@@ -396,5 +429,5 @@ def _confirmed_best(
             continue
         distances = np.linalg.norm(np.stack(entries) - query, axis=1)
         best = int(np.argmin(distances))
-        confirmed.append((_candidate(row), float(distances[best]), None if best == 0 else best - 1))
+        confirmed.append((row, float(distances[best]), None if best == 0 else best - 1))
     return confirmed

@@ -27,6 +27,7 @@ from core.io._pcd import read_pcd
 from core.io._pointfiles import read_npy, read_text_points
 from core.io._sampling import sample_surface, triangle_areas
 from core.io._validate import validate_points
+from core.size import ShapeSize
 
 __all__ = ["LoadedShape", "load_points"]
 
@@ -48,12 +49,16 @@ class LoadedShape:
         ``"mesh"`` (points sampled on triangles) or ``"points"`` (points from the file).
     n_input : int
         Number of points, or of mesh vertices, in the file.
+    size : ShapeSize or None
+        A mesh's size, measured on its triangles in the file's units (``core.size``); None
+        for a point cloud, whose area is estimated later (``core.pipeline``).
     """
 
     points: np.ndarray
     format: str
     kind: str
     n_input: int
+    size: ShapeSize | None = None
 
 
 def _read_source(source: str | os.PathLike[str] | bytes) -> tuple[bytes, str | None]:
@@ -139,6 +144,16 @@ def _mesh_points(
         ) from exc
 
 
+def _mesh_size(geometry: RawGeometry) -> ShapeSize | None:
+    """The mesh's size; None if it cannot be measured (then the pipeline measures the
+    sampled points instead): size is told beside the shape, never a reason to refuse it."""
+    try:
+        return ShapeSize.of_mesh(geometry.vertices, geometry.faces)
+    except Exception as exc:  # a library error on odd geometry must not fail the describe
+        logger.info("mesh size not measured: %r", exc)
+        return None
+
+
 def load_points(
     source: str | os.PathLike[str] | bytes,
     *,
@@ -202,7 +217,8 @@ def load_points(
         )
     if len(geometry.faces):
         points = _mesh_points(geometry, max_points=max_points, min_points=min_points, seed=seed)
-        return LoadedShape(points=points, format=fmt, kind="mesh", n_input=n_input)
+        return LoadedShape(points=points, format=fmt, kind="mesh", n_input=n_input,
+                           size=_mesh_size(geometry))
     points = validate_points(
         geometry.vertices,
         max_points=max_points,

@@ -39,6 +39,8 @@ class DuplicateGroupResource(BaseModel):
 class DuplicateReport(BaseModel):
     descriptor_version: str
     min_score: float
+    size_tolerance: float | None = Field(description="As asked: null groups parts of any "
+                                         "size (families), a number parts of the same size.")
     groups: list[DuplicateGroupResource] = Field(description="Largest groups first.")
     next_cursor: str | None = Field(description="Pass as `cursor` for the next page; null: last.")
 
@@ -51,7 +53,10 @@ class DuplicateReport(BaseModel):
     description="Connected components of the k-nearest-neighbour graph of the ready "
     "descriptors (one batched search), keeping edges with score >= min_score. The "
     "descriptor is intrinsic and scale-normalised: mirror images and uniformly scaled copies "
-    "group with their part. Default descriptor_version: the service's current one.",
+    "group with their part: without size_tolerance the report answers 'which parts are "
+    "alike at any size' (families); with it (e.g. 0.02: every extent within 2%, in "
+    "millimetres where units are known) 'do we already have this part' (true duplicates). "
+    "Default descriptor_version: the service's current one.",
 )
 def duplicates(
     tenant: TenantDep,
@@ -61,6 +66,11 @@ def duplicates(
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     cursor: Annotated[str | None, Query(description="next_cursor of the previous page")] = None,
     descriptor_version: str | None = None,
+    size_tolerance: Annotated[
+        float | None,
+        Query(ge=0, le=10, description="Same size too: every extent within this relative "
+              "tolerance (models without a size then group with none)."),
+    ] = None,
 ) -> DuplicateReport:
     try:
         offset = int(cursor) if cursor is not None else 0
@@ -71,11 +81,12 @@ def duplicates(
             "invalid-cursor", "cursor is not valid; pass next_cursor unchanged."
         ) from error
     version = descriptor_version or services.descriptor_version
-    groups = find_groups(session, tenant, version, min_score)
+    groups = find_groups(session, tenant, version, min_score, size_tolerance=size_tolerance)
     page = groups[offset : offset + limit]
     return DuplicateReport(
         descriptor_version=version,
         min_score=min_score,
+        size_tolerance=size_tolerance,
         groups=[
             DuplicateGroupResource(
                 size=len(group.members),

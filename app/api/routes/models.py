@@ -30,13 +30,22 @@ from app.api.schemas import (
     model_resource,
     model_summary,
 )
-from app.api.search_params import SCAN_MODE_HELP, ModeQuery, metadata_filters
+from app.api.search_params import (
+    SCAN_MODE_HELP,
+    SIZE_HELP,
+    ModeQuery,
+    SizeOptions,
+    UnitsField,
+    metadata_filters,
+    size_options,
+)
 from app.api.uploads import read_checked_upload
 from app.auth.dependency import TenantDep
 from app.db.feed import record_event
 from app.db.models import Model, utcnow
 from app.ingest.revisions import create_model_rows, latest_jobs, lock_models
 from app.search.similarity import Match, QueryChanged, SearchMode, find_similar
+from app.search.sizing import millimetres
 from app.webhooks import record_model_event
 
 __all__ = ["router"]
@@ -74,6 +83,7 @@ def create_model(
     external_id: Annotated[str | None, Form(description="Your id; unique per tenant.")] = None,
     name: Annotated[str | None, Form()] = None,
     metadata: Annotated[str | None, Form(description="A JSON object, as a string.")] = None,
+    units: UnitsField = None,
     idempotency_key: Annotated[
         str | None,
         Header(
@@ -89,7 +99,7 @@ def create_model(
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata)
     upload = read_checked_upload(file.file, file.filename, services.settings)
-    request_digest = request_sha256(upload.sha256, external_id, name, meta)
+    request_digest = request_sha256(upload.sha256, external_id, name, meta, units)
     if idempotency_key is not None:
         replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest)
         if replay is not None:
@@ -105,6 +115,7 @@ def create_model(
         file_size=len(upload.content),
         file_sha256=upload.sha256,
         file_format=upload.format,
+        units=units,
     )
     try:
         # The model, its bytes and its job commit together: no accepted upload without a job.
@@ -251,11 +262,13 @@ def delete_model(
     "form, e.g. `metadata.qty=3`); filters apply before the top-k cut. "
     "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite. "
     + SCAN_MODE_HELP + " Use mode=scan for a model that was uploaded as a partial scan (a "
-    "model described before scan mode existed is then queried with its plain descriptor).",
+    "model described before scan mode existed is then queried with its plain descriptor)."
+    + SIZE_HELP,
 )
 async def similar_models(
     model_id: str,
     filters: Annotated[dict[str, str], Depends(metadata_filters)],
+    size: Annotated[SizeOptions, Depends(size_options)],
     tenant: TenantDep,
     services: ServicesDep,
     k: Annotated[int, Query(ge=1, le=100)] = 10,
@@ -267,7 +280,8 @@ async def similar_models(
     # than one per concurrent request would. The index is kept in step by the
     # background sync, not polled per request.
     return await asyncio.get_running_loop().run_in_executor(
-        services.queries, _similar_models, services, tenant, model_id, k, min_score, filters, mode
+        services.queries, _similar_models, services, tenant, model_id, k, min_score, filters,
+        mode, size,
     )
 
 
@@ -287,6 +301,10 @@ def ready_query(
                 Model.status,
                 Model.descriptor,
                 Model.descriptor_version,
+                Model.size_length,
+                Model.size_width,
+                Model.size_height,
+                Model.units,
                 *([Model.scan_descriptor] if mode == "scan" else []),
             ).where(Model.id == parsed, Model.tenant == tenant)
         ).one_or_none()
@@ -309,6 +327,7 @@ def _similar_models(
     min_score: float | None,
     filters: dict[str, str],
     mode: SearchMode,
+    size: SizeOptions,
 ) -> SimilarResponse:
     options: dict[str, Any] = {
         "k": k,
@@ -318,10 +337,13 @@ def _similar_models(
         "mode": mode,
     }
     with services.reader.connect() as connection:
-        found = _similar_by_index(services, connection, tenant, model_id, mode, options)
-        if found is not None:
-            return found
+        if not size.needs_query_size:  # else the query model's size is read with its row
+            options["size"] = size.query(None)
+            found = _similar_by_index(services, connection, tenant, model_id, mode, options)
+            if found is not None:
+                return found
         model = ready_query(connection, tenant, model_id, mode)
+        options["size"] = size.query(_extents_mm(model))
         query = (model.scan_descriptor if mode == "scan" else None) or model.descriptor
         vector = np.frombuffer(query, dtype=np.float32)
         key = (tenant, model.descriptor_version)
@@ -329,6 +351,14 @@ def _similar_models(
             services.index, connection, key, vector, exclude=model.index_id, **options
         )
         return _similar_response(model.id, matches)
+
+
+def _extents_mm(row: Row[Any]) -> tuple[float, float, float] | None:
+    """The query model's extents in millimetres (as given without units), or None."""
+    if row.size_length is None:
+        return None
+    scale = millimetres(row.units)
+    return (row.size_length * scale, row.size_width * scale, row.size_height * scale)
 
 
 def _similar_by_index(

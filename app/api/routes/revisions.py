@@ -25,6 +25,7 @@ from app.api.inputs import InputLimits, invalid_input
 from app.api.lookups import load_model, parse_model_id
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
+from app.api.search_params import UnitsField
 from app.api.uploads import CheckedUpload, read_checked_upload
 from app.auth.dependency import TenantDep
 from app.db.models import Job, Model, ModelRevision, Upload, utcnow
@@ -104,6 +105,7 @@ def upsert_model(
     services: ServicesDep,
     name: Annotated[str | None, Form()] = None,
     metadata: Annotated[str | None, Form(description="A JSON object, as a string.")] = None,
+    units: UnitsField = None,
 ) -> ModelResource:
     limits = InputLimits.from_settings(services.settings)
     if not external_id:
@@ -125,7 +127,7 @@ def upsert_model(
                         id=uuid.uuid4(), tenant=tenant, external_id=external_id, name=name,
                         meta=meta or {}, status="queued", file_name=upload.filename,
                         file_size=len(upload.content), file_sha256=upload.sha256,
-                        file_format=upload.format,
+                        file_format=upload.format, units=units,
                     )
                     job = create_model_rows(session, model, upload.content)
                     response.status_code = 201
@@ -135,6 +137,8 @@ def upsert_model(
                     model.name = name
                 if meta is not None:
                     model.meta = meta
+                if units is not None:
+                    model.units = units
                 model.updated_at = utcnow()
                 job = _describe_if_new(session, model, upload)
                 response.status_code = 200 if job is None else 202

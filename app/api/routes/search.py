@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any
 
 import numpy as np
 from fastapi import APIRouter, Depends, File, Query, Request, UploadFile
@@ -15,13 +15,25 @@ from app.api.schemas import (
     SimilarResult,
     cutoff_record,
     model_summary,
+    size_of,
 )
-from app.api.search_params import SCAN_MODE_HELP, ModeQuery, metadata_filters, query_column
+from app.api.search_params import (
+    SCAN_MODE_HELP,
+    SIZE_HELP,
+    ModeQuery,
+    SizeOptions,
+    UnitsField,
+    metadata_filters,
+    query_column,
+    size_options,
+)
 from app.api.uploads import invalid_shape_problem, read_checked_upload
 from app.auth.dependency import TenantDep
 from app.ingest.sandbox import SandboxCrash
 from app.search.similarity import find_similar
+from app.search.sizing import millimetres
 from core.errors import InvalidShapeError
+from core.size import SIZE_FIELDS
 
 __all__ = ["router"]
 
@@ -36,7 +48,8 @@ router = APIRouter(prefix="/v1", tags=["search"])
     description="The scan is described synchronously, which takes seconds; at most "
     "SHAPESEARCH_SEARCH_MAX_CONCURRENT at a time (beyond: 503 with Retry-After). A file "
     "seen before (same bytes, same mode) is answered without describing it again. Same "
-    "filters and score as /v1/models/{id}/similar. " + SCAN_MODE_HELP,
+    "filters and score as /v1/models/{id}/similar. " + SCAN_MODE_HELP + SIZE_HELP
+    + " The query's size is the upload's, in its `units`; a partial scan under-measures.",
 )
 def search(
     request: Request,
@@ -44,12 +57,14 @@ def search(
         UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
     ],
     filters: Annotated[dict[str, str], Depends(metadata_filters)],
+    size: Annotated[SizeOptions, Depends(size_options)],
     tenant: TenantDep,
     services: ServicesDep,
     session: SessionDep,
     k: Annotated[int, Query(ge=1, le=100)] = 10,
     min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
     mode: ModeQuery = "shape",
+    units: UnitsField = None,
 ) -> SearchResponse:
     upload = read_checked_upload(file.file, file.filename, services.settings, parse=False)
     try:
@@ -71,6 +86,7 @@ def search(
         filters=filters,
         pushdown_max=services.settings.filter_pushdown_max,
         mode=mode,
+        size=size.query(_extents_mm(described, units)),
     )
     cutoff = cutoff_record(described["cutoff"])
     assert cutoff is not None
@@ -80,9 +96,21 @@ def search(
             cutoff=cutoff,
             descriptor_version=described["descriptor_version"],
             format=upload.format,
+            size=size_of(*(described[f"size_{name}"] for name in SIZE_FIELDS), units),
         ),
         results=[
             SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
             for m in matches
         ],
     )
+
+
+def _extents_mm(
+    described: dict[str, Any], units: str | None
+) -> tuple[float, float, float] | None:
+    """The upload's extents in millimetres (as given without units), or None."""
+    if described.get("size_length") is None:
+        return None
+    scale = millimetres(units)
+    length, width, height = (described[f"size_{name}"] * scale for name in SIZE_FIELDS[:3])
+    return length, width, height

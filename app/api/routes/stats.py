@@ -40,6 +40,10 @@ class Stats(BaseModel):
     )
     jobs_by_status: dict[str, int]
     current_descriptor_version: str
+    ready_without_size: int = Field(
+        description="Ready models described before sizes were measured: re-describe them "
+        "(shapesearch redescribe --all) for size filters and size-aware ranking."
+    )
 
 
 def _counts(session: Session, column: object, *where: object) -> dict[str, int]:
@@ -66,6 +70,11 @@ def stats(tenant: TenantDep, services: ServicesDep, session: SessionDep) -> Stat
         ),
         jobs_by_status=_counts(session, Job.status, Job.tenant == tenant),
         current_descriptor_version=services.descriptor_version,
+        ready_without_size=int(session.scalar(
+            select(func.count()).where(
+                Model.tenant == tenant, Model.status == "ready", Model.size_length.is_(None)
+            )
+        ) or 0),
     )
 
 
