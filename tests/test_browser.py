@@ -153,6 +153,8 @@ def test_viewer_upload_model_page_similar_search_and_database(
     score = float(card.first.locator(".score").inner_text().removeprefix("score "))
     assert 0 < score <= 1
     assert page.locator("#facts [data-fact='cutoff n']").inner_text().isdigit()
+    # Its size (issue 21): L x W x H in the file's units.
+    assert page.locator("#facts [data-fact='size (L x W x H)']").inner_text().count(" x ") == 2
 
     page.fill("#time-slider", "0")
     page.dispatch_event("#time-slider", "input")

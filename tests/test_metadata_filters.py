@@ -13,7 +13,12 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db.migrate import upgrade
 from app.db.models import Model
 from app.search.index import ShapeIndex
-from app.search.similarity import find_similar, matching_ids, metadata_matches
+from app.search.similarity import (
+    find_similar,
+    matching_ids,
+    metadata_in_ranges,
+    metadata_matches,
+)
 from tests.test_index import add_ready, delete_model, unit
 
 KEY = ("t", "v1")
@@ -114,3 +119,35 @@ def test_sqlite_rows_from_before_the_migration_are_filled_in(
     with engine.connect() as connection:
         assert matching_ids(connection, KEY, {"material": "steel"}, limit=10) == [1]
     engine.dispose()
+
+
+RANGES: list[dict[str, tuple[float | None, float | None]]] = [
+    {"qty": (3.0, None)},
+    {"qty": (None, 3.5)},
+    {"qty": (3.2, 3.8)},
+    {"qty": (10.0, None)},
+    {"coated": (0.0, 1.0)},  # booleans are not numbers
+    {"material": (0.0, 10.0)},  # "3" is text, not a number
+    {"qty": (3.0, 4.0), "sizes": (None, None)},  # a list is not a number either
+]
+
+
+def test_numeric_ranges_in_sql_select_exactly_what_metadata_in_ranges_accepts(
+    sessions: sessionmaker[Session],
+) -> None:
+    ids = {add_ready(sessions, unit(i, 8), meta=meta): meta for i, meta in enumerate(METADATA)}
+    add_ready(sessions, unit(9, 8), tenant="other", meta={"qty": 3})
+    for ranges in RANGES:
+        want = sorted(i for i, meta in ids.items() if metadata_in_ranges(meta, ranges))
+        with sessions() as session:
+            found = matching_ids(session.connection(), KEY, {}, 100, ranges=ranges)
+        assert found is not None and sorted(found) == want, ranges
+    # Not vacuous: the ranges select some models and refuse others.
+    assert [metadata_in_ranges(m, {"qty": (3.2, 3.8)}) for m in METADATA[:3]] == [
+        False, False, True]
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    with sessions() as session:
+        matches = find_similar(index, session.connection(), KEY, unit(0, 8), k=5,
+                               metadata_ranges={"qty": (3.0, 3.9)})
+    assert sorted(m.model.meta["qty"] for m in matches) == [3, 3.5]

@@ -109,10 +109,13 @@ def similar(client: TestClient, model_id: str, **params: Any) -> list[str]:
 
 def test_size_tolerance_weight_filters_and_duplicates(client: TestClient) -> None:
     ids = {
-        "part": post(client, transformed(PART), "part", units="mm"),
-        "turned": post(client, transformed(PART, seed=1), "turned", units="mm"),
-        "x1.05": post(client, transformed(PART, scale=1.05, seed=2), "x1.05", units="mm"),
-        "x3": post(client, transformed(PART, scale=3.0, seed=3), "x3", units="mm"),
+        "part": post(client, transformed(PART), "part", units="mm", metadata='{"qty": 1}'),
+        "turned": post(client, transformed(PART, seed=1), "turned", units="mm",
+                       metadata='{"qty": 2}'),
+        "x1.05": post(client, transformed(PART, scale=1.05, seed=2), "x1.05", units="mm",
+                      metadata='{"qty": 3.5}'),
+        "x3": post(client, transformed(PART, scale=3.0, seed=3), "x3", units="mm",
+                   metadata='{"qty": "many"}'),
     }
     bodies = {name: wait_for_status(client, i) for name, i in ids.items()}
     assert all(body["status"] == "ready" for body in bodies.values()), bodies
@@ -136,6 +139,12 @@ def test_size_tolerance_weight_filters_and_duplicates(client: TestClient) -> Non
     limit = 2 * size["length"]
     assert "x3" not in similar(client, ids["part"], **{"size.length.lte": limit})
     assert similar(client, ids["part"], **{"size.length.gte": limit}) == ["x3"]
+    # Numeric metadata ranges, pushed down like the size filters ("many" is no number).
+    assert set(similar(client, ids["part"], **{"metadata.qty.gte": 2})) == {"turned", "x1.05"}
+    assert similar(client, ids["part"], **{"metadata.qty.gte": 2, "metadata.qty.lte": 3}) == [
+        "turned"]
+    bad = client.get(f"/v1/models/{ids['part']}/similar", params={"metadata.qty.gte": "x"})
+    assert bad.status_code == 422 and bad.json()["pointer"] == "/query/metadata.qty.gte"
     # Duplicates: the same shape at the same size only.
     report = client.get("/v1/duplicates",
                         params={"min_score": 0.95, "size_tolerance": 0.02}).json()

@@ -20,6 +20,7 @@ __all__ = [
     "SizeOptions",
     "UnitsField",
     "metadata_filters",
+    "metadata_ranges",
     "query_column",
     "size_options",
 ]
@@ -43,16 +44,47 @@ def query_column(mode: SearchMode) -> str:
     return "scan_descriptor" if mode == "scan" else "descriptor"
 
 
+_BOUNDS = (".gte", ".lte")
+
+
 async def metadata_filters(request: Request) -> dict[str, str]:
-    """``metadata.KEY=VALUE`` query parameters as {KEY: VALUE} (async: no thread hop)."""
+    """``metadata.KEY=VALUE`` query parameters as {KEY: VALUE} (async: no thread hop);
+    ``metadata.KEY.gte`` and ``.lte`` are ranges (``metadata_ranges``)."""
     return {
         key.removeprefix("metadata."): value
         for key, value in request.query_params.items()
         if key.startswith("metadata.") and len(key) > len("metadata.")
+        and not key.endswith(_BOUNDS)
     }
 
 
+async def metadata_ranges(request: Request) -> dict[str, tuple[float | None, float | None]]:
+    """``metadata.KEY.gte=N`` / ``metadata.KEY.lte=N`` query parameters as
+    {KEY: (low, high)}: numeric metadata within the range (async: no thread hop)."""
+    ranges: dict[str, list[float | None]] = {}
+    for name, value in request.query_params.items():
+        if not (name.startswith("metadata.") and name.endswith(_BOUNDS)):
+            continue
+        key, _, bound = name.removeprefix("metadata.").rpartition(".")
+        if not key:
+            raise invalid_input(f"/query/{name}", "name a metadata key: metadata.KEY.gte")
+        ranges.setdefault(key, [None, None])[0 if bound == "gte" else 1] = _number(name, value)
+    return {key: (low, high) for key, (low, high) in ranges.items()}
+
+
+def _number(name: str, value: str) -> float:
+    try:
+        number = float(value)
+    except ValueError:
+        number = float("nan")
+    if not math.isfinite(number):
+        raise invalid_input(f"/query/{name}", "must be a finite number")
+    return number
+
+
 SIZE_HELP = (
+    " Numeric metadata: `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY "
+    "holds a number in the range."
     " Size (sizes compare in millimetres where the models' units are known, as given "
     "otherwise): `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep "
     "models in a range, before the top-k cut; `size_tolerance=0.1` keeps models whose three "
@@ -116,13 +148,7 @@ async def size_options(
             raise invalid_input(
                 pointer, f"size filters are size.<{'|'.join(SIZE_FILTER_FIELDS)}>.<gte|lte>"
             )
-        try:
-            number = float(value)
-        except ValueError:
-            number = float("nan")
-        if not math.isfinite(number):
-            raise invalid_input(pointer, "must be a finite number")
-        ranges.setdefault(name, [None, None])[0 if bound == "gte" else 1] = number
+        ranges.setdefault(name, [None, None])[0 if bound == "gte" else 1] = _number(key, value)
     return SizeOptions(
         {name: (low, high) for name, (low, high) in ranges.items()}, size_tolerance, size_weight
     )

@@ -21,7 +21,11 @@ Metadata filters, two ways, and either way "k results whenever k matching models
   of them pass the filters or the partition is exhausted; matches are then common, so few
   rounds are needed.
 
-SQL only narrows the candidates; ``metadata_matches`` decides, so both ways agree exactly.
+Numeric ranges on metadata (``metadata.KEY.gte=``, ``.lte=``, ``metadata_ranges``) work the
+same way: a value passes when it is a JSON number (not a boolean) within the range.
+
+SQL only narrows the candidates; ``metadata_matches`` and ``metadata_in_ranges`` decide, so
+both ways agree exactly.
 
 Two modes (``SearchMode``): ``shape`` compares the query with each model's descriptor;
 ``scan``, for partial scans, also with the descriptors of each model's virtual partial views
@@ -44,14 +48,17 @@ from sqlalchemy import (
     BigInteger,
     ColumnElement,
     Connection,
+    Float,
     Row,
     Select,
     and_,
     any_,
     bindparam,
+    case,
     cast,
     column,
     false,
+    func,
     literal,
     or_,
     select,
@@ -72,6 +79,7 @@ __all__ = [
     "SearchMode",
     "find_similar",
     "matching_ids",
+    "metadata_in_ranges",
     "metadata_matches",
     "score_of",
 ]
@@ -126,6 +134,47 @@ def metadata_matches(metadata: dict[str, Any], filters: dict[str, str]) -> bool:
         if text != wanted:
             return False
     return True
+
+
+#: Metadata key -> (lowest, highest) allowed number; None: unbounded on that side.
+Ranges = dict[str, tuple[float | None, float | None]]
+
+
+def metadata_in_ranges(metadata: dict[str, Any], ranges: Ranges) -> bool:
+    """Whether every ranged key holds a JSON number (not a boolean) within its range."""
+    for key, (low, high) in ranges.items():
+        value = metadata.get(key)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return False
+        if (low is not None and value < low) or (high is not None and value > high):
+            return False
+    return True
+
+
+def _sql_ranges(connection: Connection, ranges: Ranges) -> ColumnElement[bool]:
+    """A SQL condition true for every model whose metadata ``metadata_in_ranges``; a
+    non-numeric value reads as NULL (a CASE, so no cast ever fails)."""
+    conditions = []
+    postgres = connection.dialect.name == "postgresql"
+    for key, (low, high) in ranges.items():
+        if postgres:
+            document = cast(Model.meta, JSONB)
+            number = case(
+                (func.jsonb_typeof(document[key]) == "number",
+                 cast(document[key].astext, Float)),
+            )
+        else:
+            path = '$."' + key.replace('"', '\\"') + '"'
+            number = case(
+                (func.json_type(Model.meta, path).in_(("integer", "real")),
+                 func.json_extract(Model.meta, path)),
+            )
+        conditions.append(number.is_not(None))
+        if low is not None:
+            conditions.append(number >= low)
+        if high is not None:
+            conditions.append(number <= high)
+    return and_(true(), *conditions)
 
 
 def _values_written_as(wanted: str) -> list[Any]:
@@ -186,6 +235,7 @@ def matching_ids(
     filters: dict[str, str],
     limit: int,
     size: SizeQuery | None = None,
+    ranges: Ranges | None = None,
 ) -> list[int] | None:
     """The ids of the ready models of partition ``key`` that pass ``filters`` and the size
     filters, or None when more than ``limit`` do (the filter is not selective)."""
@@ -198,6 +248,7 @@ def matching_ids(
             Model.status == "ready",
             _sql_filter(connection, tenant, filters),
             size.sql() if size is not None else true(),
+            _sql_ranges(connection, ranges) if ranges else true(),
         )
         .limit(limit + 1)
     ).all()
@@ -218,6 +269,7 @@ def find_similar(
     mode: SearchMode = "shape",
     indexed_query: bool = False,
     size: SizeQuery | None = None,
+    metadata_ranges: Ranges | None = None,
 ) -> list[Match]:
     """The ``k`` best matches in partition ``key`` (tenant, descriptor version); in
     ``scan`` mode each model's best entry counts (see the module's docstring).
@@ -234,16 +286,18 @@ def find_similar(
     """
     filters = filters or {}
     size = size or SizeQuery()
+    ranges = metadata_ranges or {}
     vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
-    filtered = bool(filters) or size.filters
+    filtered = bool(filters) or bool(ranges) or size.filters
     allowed = (
-        matching_ids(connection, key, filters, pushdown_max, size) if filtered else None
+        matching_ids(connection, key, filters, pushdown_max, size, ranges) if filtered else None
     )
     if allowed is not None:
         allowed = [i for i in allowed if i != exclude]
     if mode == "scan":
         return _best_entries(
-            index, connection, key, vector, k, min_score, filters, exclude, allowed, size
+            index, connection, key, vector, k, min_score, filters, exclude, allowed, size,
+            ranges,
         )
     approximate = index.is_approximate(key)
     wanted = k + 1 if exclude is not None else k
@@ -267,7 +321,7 @@ def find_similar(
         if approximate:  # estimates from the codes: exact ones from the full vectors
             distances.update(_exact_distances(index, key, [row.index_id for row in rows], vector))
         for row in rows:
-            if metadata_matches(row.meta or {}, filters) and size.admits(row):
+            if _passes(row, filters, ranges, size):
                 distance = size.distance(distances[row.index_id], row)
                 matches.append(Match(_candidate(row), distance, score_of(distance)))
         matches.sort(key=lambda match: (match.distance, match.model.index_id))
@@ -354,6 +408,13 @@ def _candidates_statement(postgres: bool, extra: tuple[str, ...]) -> Select[Any]
     ).where(among, Model.tenant == bindparam("tenant"), Model.status == "ready")
 
 
+def _passes(row: Row[Any], filters: dict[str, str], ranges: Ranges, size: SizeQuery) -> bool:
+    """Whether a candidate row passes every filter (metadata equality and ranges, size)."""
+    meta = row.meta or {}
+    return metadata_matches(meta, filters) and metadata_in_ranges(meta, ranges) and (
+        size.admits(row))
+
+
 def _candidate(row: Row[Any]) -> Candidate:
     size = None
     if row.size_length is not None:
@@ -372,12 +433,13 @@ def _best_entries(
     exclude: int | None,
     allowed: list[int] | None,
     size: SizeQuery,
+    ranges: Ranges,
 ) -> list[Match]:
     """Scan mode's ``find_similar``: the ``k`` models whose best entry is nearest."""
     sizes = (index.partition_size(key), index.partition_size(views_key(key)))
     # Views per model (on average): a model's views tend to be near the query together.
     per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
-    filtered = bool(filters) or size.filters
+    filtered = bool(filters) or bool(ranges) or size.filters
     fetch = (k + 1 if exclude is not None else k) * (4 if filtered and allowed is None else 1)
     if index.is_approximate(key) or index.is_approximate(views_key(key)):
         fetch = index.rerank_candidates(fetch)  # estimated distances: a margin of candidates
@@ -391,7 +453,7 @@ def _best_entries(
         fresh = [i for i in dict.fromkeys(found) if i not in seen and i != exclude]
         seen.update(found)
         for row, distance, view in _confirmed_best(connection, key[0], fresh, vector):
-            if metadata_matches(row.meta or {}, filters) and size.admits(row):
+            if _passes(row, filters, ranges, size):
                 distance = size.distance(distance, row)
                 matches[row.index_id] = Match(_candidate(row), distance, score_of(distance), view)
         # A model not seen yet is no nearer than the last hit of each partition not yet

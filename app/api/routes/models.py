@@ -37,6 +37,7 @@ from app.api.search_params import (
     SizeOptions,
     UnitsField,
     metadata_filters,
+    metadata_ranges,
     size_options,
 )
 from app.api.uploads import read_checked_upload
@@ -268,6 +269,7 @@ def delete_model(
 async def similar_models(
     model_id: str,
     filters: Annotated[dict[str, str], Depends(metadata_filters)],
+    ranges: Annotated[dict[str, tuple[float | None, float | None]], Depends(metadata_ranges)],
     size: Annotated[SizeOptions, Depends(size_options)],
     tenant: TenantDep,
     services: ServicesDep,
@@ -281,7 +283,7 @@ async def similar_models(
     # background sync, not polled per request.
     return await asyncio.get_running_loop().run_in_executor(
         services.queries, _similar_models, services, tenant, model_id, k, min_score, filters,
-        mode, size,
+        ranges, mode, size,
     )
 
 
@@ -326,6 +328,7 @@ def _similar_models(
     k: int,
     min_score: float | None,
     filters: dict[str, str],
+    ranges: dict[str, tuple[float | None, float | None]],
     mode: SearchMode,
     size: SizeOptions,
 ) -> SimilarResponse:
@@ -333,6 +336,7 @@ def _similar_models(
         "k": k,
         "min_score": min_score,
         "filters": filters,
+        "metadata_ranges": ranges,
         "pushdown_max": services.settings.filter_pushdown_max,
         "mode": mode,
     }

@@ -24,6 +24,7 @@ from app.api.search_params import (
     SizeOptions,
     UnitsField,
     metadata_filters,
+    metadata_ranges,
     query_column,
     size_options,
 )
@@ -57,6 +58,7 @@ def search(
         UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
     ],
     filters: Annotated[dict[str, str], Depends(metadata_filters)],
+    ranges: Annotated[dict[str, tuple[float | None, float | None]], Depends(metadata_ranges)],
     size: Annotated[SizeOptions, Depends(size_options)],
     tenant: TenantDep,
     services: ServicesDep,
@@ -84,6 +86,7 @@ def search(
         k=k,
         min_score=min_score,
         filters=filters,
+        metadata_ranges=ranges,
         pushdown_max=services.settings.filter_pushdown_max,
         mode=mode,
         size=size.query(_extents_mm(described, units)),

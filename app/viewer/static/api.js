@@ -170,6 +170,13 @@ export function statusBadge(status) {
   return el("span", { class: `status ${status}`, "data-status": status }, status);
 }
 
+// "34.3 x 34 x 25.4 mm": a model's size (issue 21), or "" without one.
+export function sizeLabel(size) {
+  if (!size) return "";
+  const fmt = (v) => Number(v.toPrecision(3)).toString();
+  return `${fmt(size.length)} x ${fmt(size.width)} x ${fmt(size.height)}${size.units ? " " + size.units : ""}`;
+}
+
 export function modelLabel(model) {
   return model.name || model.external_id || model.file?.filename || model.id.slice(0, 8);
 }

@@ -1,7 +1,7 @@
 // The catalogue: every model with its status (refreshed while the page is open), a text
 // search over name and external id, a metadata filter, and drag-and-drop upload.
 
-import { el, getJson, modelLabel, statusBadge, uploadFile } from "./api.js";
+import { el, getJson, modelLabel, sizeLabel, statusBadge, uploadFile } from "./api.js";
 
 const REFRESH_MS = 1500;
 
@@ -34,6 +34,7 @@ function row(model) {
     el("td", {}, model.external_id || ""),
     el("td", {}, statusBadge(model.status), model.error ? el("div", { class: "error" }, model.error.detail) : null),
     el("td", {}, model.n_points ?? ""),
+    el("td", { "data-size": "" }, sizeLabel(model.size)),
     el("td", {}, cutoff ? cutoff.n : ""),
     el("td", {}, Object.entries(model.metadata).map(([k, v]) => `${k}=${typeof v === "string" ? v : JSON.stringify(v)}`).join(", ")),
     el("td", {}, new Date(model.created_at).toLocaleString()),
@@ -109,7 +110,7 @@ export function catalogue(page, signal) {
     ...uploadPanel(refresh),
     el("div", { class: "toolbar" }, text, meta, count),
     el("table", {},
-      el("thead", {}, el("tr", {}, ["name", "external id", "status", "points", "n", "metadata", "created"].map((h) => el("th", {}, h)))),
+      el("thead", {}, el("tr", {}, ["name", "external id", "status", "points", "size (L x W x H)", "n", "metadata", "created"].map((h) => el("th", {}, h)))),
       body),
   );
   refresh();

@@ -1,7 +1,7 @@
 // A model page: the 3D point view coloured by the HKS at a chosen time, the cutoff, the
 // eigenvalues, the timings, the most similar models and a side-by-side comparison.
 
-import { ApiError, el, getJson, getPreview, modelLabel, statusBadge } from "./api.js";
+import { ApiError, el, getJson, getPreview, modelLabel, sizeLabel, statusBadge } from "./api.js";
 import { plotXY } from "./plots.js";
 import { PointView, drawThumbnail, scaledColumn } from "./pointview.js";
 
@@ -14,6 +14,7 @@ function facts(model) {
     ["external id", model.external_id || "-"],
     ["file", `${model.file.filename} (${model.file.format}, ${model.file.size} bytes)`],
     ["points", model.n_points ?? "-"],
+    ["size (L x W x H)", sizeLabel(model.size) || "-"],
     ["cutoff n", cutoff.n ?? "-"],
     ["solver calls", cutoff.solver_calls ?? "-"],
     ["cutoff mode", cutoff.mode ?? "-"],
@@ -46,6 +47,7 @@ function cards(results, onCompare) {
       thumb,
       el("a", { href: `#/models/${result.model.id}` }, modelLabel(result.model)),
       el("span", { class: "score" }, `score ${result.score.toFixed(4)}`),
+      result.model.size ? el("span", { class: "size" }, sizeLabel(result.model.size)) : null,
       onCompare ? el("button", { type: "button", onclick: () => onCompare(result) }, "side by side") : null);
   });
 }
