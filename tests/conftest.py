@@ -27,6 +27,7 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.migrate import upgrade
 from app.db.session import make_engine, make_session_factory
+from app.ingest.describing import size_columns
 from app.settings import Settings
 from core.cutoff import CutoffRecord
 
@@ -161,6 +162,7 @@ def fake_describe(content: bytes, filename: str) -> dict[str, Any]:
         "descriptor": vector.tobytes(),
         "descriptor_version": "fake-1",
         "timings": {"total": 0.0},
+        **size_columns(None),  # no size: like a model described before sizes existed
     }
 
 

@@ -131,7 +131,10 @@ class SearchDescriber:
             .limit(1)
         )
         columns = _COLUMNS[mode]
-        if model is None or any(getattr(model, name) is None for name in columns):
+        # A model described before sizes were measured still answers (without a size).
+        if model is None or any(
+            getattr(model, name) is None for name in columns if name not in _SIZE
+        ):
             return None
         return {name: getattr(model, name) for name in columns}
 
