@@ -151,3 +151,20 @@ def test_numeric_ranges_in_sql_select_exactly_what_metadata_in_ranges_accepts(
         matches = find_similar(index, session.connection(), KEY, unit(0, 8), k=5,
                                metadata_ranges={"qty": (3.0, 3.9)})
     assert sorted(m.model.meta["qty"] for m in matches) == [3, 3.5]
+
+
+
+def test_numeric_ranges_keep_k_results_when_k_match_without_pushdown(
+    sessions: sessionmaker[Session],
+) -> None:
+    """Not selective enough to push down (pushdown_max=1): the search widens until k
+    models pass the range, however far they lie from the query."""
+    for i in range(40):
+        add_ready(sessions, unit(i, 8), meta={"qty": i})
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    with sessions() as session:
+        matches = find_similar(index, session.connection(), KEY, unit(0, 8), k=3,
+                               metadata_ranges={"qty": (30.0, 35.0)}, pushdown_max=1)
+    assert len(matches) == 3
+    assert all(30 <= m.model.meta["qty"] <= 35 for m in matches)

@@ -45,6 +45,16 @@ def test_a_box_has_its_analytic_extents_area_and_volume() -> None:
     assert size.volume == pytest.approx(8000.0)
 
 
+def test_a_cylinder_has_its_analytic_area_and_volume() -> None:
+    radius, height, sections = 3.0, 10.0, 256
+    cylinder = trimesh.creation.cylinder(radius, height, sections=sections)
+    size = ShapeSize.of_mesh(np.asarray(cylinder.vertices), np.asarray(cylinder.faces))
+    # A 256-gon: area and volume within its tessellation error (~1e-4) of the circle's.
+    assert size.area == pytest.approx(2 * np.pi * radius * (radius + height), rel=1e-3)
+    assert size.volume == pytest.approx(np.pi * radius**2 * height, rel=1e-3)
+    assert size.extents == pytest.approx([height, 2 * radius, 2 * radius], rel=1e-3)
+
+
 def test_an_open_mesh_has_no_volume() -> None:
     box = trimesh.creation.box((10.0, 40.0, 20.0))
     open_box = trimesh.Trimesh(box.vertices, box.faces[:-2])  # one face missing
