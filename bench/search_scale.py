@@ -24,7 +24,8 @@ Phases (each prints its figures):
            ``--api-processes`` processes of ``--query-threads`` query threads, by default
            2 of 1, the deployment the README gives for a 2-core host; the load
            generator is a second process on 127.0.0.1, bounded by ``--requests`` and
-           ``--seconds`` per level); filtered similar (0.1%-selective); 1,000 deletes.
+           ``--seconds`` per level); filtered similar (0.1%-selective metadata, and a
+           1%-selective size range, issue 21); 1,000 deletes.
 
 Usage (run quietly for figures; the machine's load average is printed with them)::
 
@@ -321,6 +322,12 @@ def fill(url: str, real: np.ndarray, total: int, noise: float) -> tuple[list[str
                         "id": model_id,
                         "tenant": "default",
                         "metadata": {"family": f"f{(start + offset) % FAMILIES}"},
+                        # Lengths 10.0 .. 109.9 mm in 0.1 mm steps: a 1 mm range is 1%.
+                        "size_length": 10.0 + ((start + offset) * 7919 % FAMILIES) / 10.0,
+                        "size_width": 5.0,
+                        "size_height": 2.0,
+                        "size_area": 100.0,
+                        "units": "mm",
                         "status": "ready",
                         "file_name": "part.stl",
                         "file_size": 1,
@@ -346,6 +353,7 @@ def fill(url: str, real: np.ndarray, total: int, noise: float) -> tuple[list[str
 def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None:
     from app.db.session import make_engine, make_session_factory, read_only
     from app.search.similarity import find_similar
+    from app.search.sizing import SizeQuery
 
     engine = make_engine(url)
     sessions = make_session_factory(engine)
@@ -358,7 +366,12 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
     )
     reader = read_only(engine)  # as the API process reads
     rng = np.random.default_rng(5)
-    for label, filters in (("similar", {}), ("similar, family=f7 (0.1%)", {"family": "f7"})):
+    size_range = SizeQuery(ranges={"length": (50.0, 50.95)})  # 1% of the models
+    for label, filters, size in (
+        ("similar", {}, None),
+        ("similar, family=f7 (0.1%)", {"family": "f7"}, None),
+        ("similar, size.length in [50, 50.95] mm (1%)", {}, size_range),
+    ):
         times, counts = [], []
         for model_id in rng.choice(model_ids, size=args.queries):
             t0 = time.perf_counter()
@@ -373,6 +386,7 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
                     filters=filters,
                     exclude=index_id,
                     indexed_query=True,
+                    size=size,
                 )
             times.append(time.perf_counter() - t0)
             counts.append(len(matches))
@@ -518,6 +532,12 @@ def phase_db(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
             f"HTTP similar, 0.1%-selective filter, c=1: p50 {r['p50']:.1f} ms, "
             f"p99 {r['p99']:.1f} ms; "
             f"results min {r['min_results']} (k={K})"
+        )
+        ranged = [f"{p}&size.length.gte=50&size.length.lte=50.95" for p in similar]
+        r = load(base, args, 1, ranged, "GET")
+        print(
+            f"HTTP similar, 1%-selective size range, c=1: p50 {r['p50']:.1f} ms, "
+            f"p99 {r['p99']:.1f} ms; results min {r['min_results']} (k={K})"
         )
         doomed = [f"/v1/models/{m}" for m in rng.choice(model_ids, 1000, replace=False)]
         saved = args.requests

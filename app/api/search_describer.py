@@ -25,7 +25,7 @@ from typing import Any
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session, undefer
-from starlette.types import ASGIApp, Receive, Scope, Send
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.api.problems import Problem, problem_response
 from app.db.models import Model
@@ -162,7 +162,22 @@ class SearchAdmission:
             response = problem_response(busy.record, headers=busy.headers)
             await response(scope, receive, send)
             return
+        released = False
+
+        def release() -> None:
+            nonlocal released
+            if not released:
+                released = True
+                slot.__exit__(None, None, None)
+
+        async def send_releasing(message: Message) -> None:
+            # Free the slot before the last byte leaves: a client that sends its next
+            # search as soon as it has this answer must find the slot free.
+            if message["type"] == "http.response.body" and not message.get("more_body"):
+                release()
+            await send(message)
+
         try:
-            await self.app(scope, receive, send)
+            await self.app(scope, receive, send_releasing)
         finally:
-            slot.__exit__(None, None, None)
+            release()
