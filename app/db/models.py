@@ -98,6 +98,8 @@ class Model(Base):
         UniqueConstraint("tenant", "external_id", name="uq_models_tenant_external_id"),
         Index("ix_models_tenant_created", "tenant", "created_at", "id"),
         Index("ix_models_status", "status"),
+        Index("ix_models_size", "units", "size_length", "size_width", "size_height",
+              "size_area", "size_volume", "tenant", "descriptor_version", "status"),
     )
 
     index_id: Mapped[int] = mapped_column(BigId, primary_key=True, autoincrement=True)

@@ -33,8 +33,17 @@ def upgrade() -> None:
     for name in _SIZES:
         op.add_column("models", sa.Column(name, sa.Float(), nullable=True))
     op.add_column("models", sa.Column("units", sa.String(4), nullable=True))
+    # Size filters (app.search.sizing) bound each size per unit: this index serves them
+    # (a range seek on units and length) and holds every column they read, so a selective
+    # range never reads the rows' descriptors. Units and length lead, not the tenant: led by
+    # the tenant, SQLite took it for metadata filters too and scanned the tenant's rows.
+    op.create_index(
+        "ix_models_size", "models",
+        ["units", *_SIZES, "tenant", "descriptor_version", "status"],
+    )
 
 
 def downgrade() -> None:
+    op.drop_index("ix_models_size", table_name="models")
     for name in (*_SIZES, "units"):
         op.drop_column("models", name)  # SQLite >= 3.35 drops a column in place
