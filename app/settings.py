@@ -360,12 +360,24 @@ class Settings(BaseSettings):
         default=600.0, ge=0, description="Cap of the webhook retry delay."
     )
 
+    # --- browsers --------------------------------------------------------------------
+    cors_origins: str = Field(
+        default="",
+        description="Origins (comma-separated, e.g. https://plm.example.com) whose web pages "
+        "may call the API from a browser (CORS); empty: none.",
+    )
+
     # --- observability ---------------------------------------------------------------
     metrics_from_anywhere: bool = Field(
         default=False,
         description="Answer GET /metrics for any client; unset: loopback clients only (the "
         "metrics name tenants and their model counts).",
     )
+
+    @property
+    def cors_origin_list(self) -> list[str]:
+        """``cors_origins`` as a list (blank entries dropped)."""
+        return [origin.strip() for origin in self.cors_origins.split(",") if origin.strip()]
 
     @property
     def worker_count(self) -> int:

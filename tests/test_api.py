@@ -384,3 +384,40 @@ def test_openapi_matches_the_snapshot() -> None:
         "SHAPESEARCH_UPDATE_SNAPSHOTS=1 python -m pytest tests/test_api.py -k openapi "
         "and commit tests/snapshots/openapi.json."
     )
+
+
+def test_a_stored_file_keeps_only_its_base_name(client: TestClient) -> None:
+    """A client's directory part (``../../``, ``C:\\``) is never stored, shown or served."""
+    for sent in ("../../../../etc/passwd.stl", "C:\\parts\\cube.stl"):
+        response = client.post(
+            "/v1/models", files={"file": (sent, CUBE.read_bytes(), "application/octet-stream")}
+        )
+        assert response.status_code == 202, response.text
+        model = response.json()
+        expected = sent.replace("\\", "/").rsplit("/", 1)[-1]
+        assert model["file"]["filename"] == expected
+        wait_for_status(client, model["id"])
+        served = client.get(f"/v1/models/{model['id']}/file")
+        assert served.status_code == 200
+        assert f'filename="{expected}"' in served.headers["content-disposition"]
+
+
+def test_cors_is_off_by_default_and_answers_preflights_for_configured_origins(
+    make_client: ClientFactory,
+) -> None:
+    preflight = {"Origin": "https://plm.example.com", "Access-Control-Request-Method": "POST",
+                 "Access-Control-Request-Headers": "authorization"}
+    closed = make_client()
+    answer = closed.options("/v1/models", headers=preflight)
+    assert "access-control-allow-origin" not in answer.headers
+    opened = make_client(cors_origins="https://plm.example.com, https://other.example.com")
+    answer = opened.options("/v1/models", headers=preflight)
+    assert answer.status_code == 200
+    assert answer.headers["access-control-allow-origin"] == "https://plm.example.com"
+    assert "POST" in answer.headers["access-control-allow-methods"]
+    assert "authorization" in answer.headers["access-control-allow-headers"].lower()
+    stranger = opened.options("/v1/models", headers={**preflight, "Origin": "https://evil.test"})
+    assert "access-control-allow-origin" not in stranger.headers
+    simple = opened.get("/v1/models", headers={"Origin": "https://other.example.com"})
+    assert simple.headers["access-control-allow-origin"] == "https://other.example.com"
+    assert "location" in simple.headers["access-control-expose-headers"].lower()

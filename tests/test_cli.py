@@ -6,6 +6,7 @@ import json
 import os
 import subprocess
 import sys
+from importlib.metadata import version
 from pathlib import Path
 
 import pytest
@@ -105,3 +106,15 @@ def test_settings_that_do_not_work_together_are_named_at_start_up(
     assert len(lines) == 1 and lines[0].startswith("error: invalid setting: "), done.stderr
     for name in named:
         assert name in lines[0]
+
+
+def test_version_and_an_import_without_a_url(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.strip() == f"shapesearch {version('shapesearch')}"
+    monkeypatch.delenv("SHAPESEARCH_URL", raising=False)
+    assert main(["import", str(tmp_path)]) == 2
+    assert "SHAPESEARCH_URL" in capsys.readouterr().err

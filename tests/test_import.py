@@ -67,7 +67,8 @@ def read_report(path: Path) -> list[dict[str, str]]:
 
 
 def test_a_folder_is_imported_then_a_second_run_uploads_nothing(
-    service: str, catalogue: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    service: str, catalogue: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     sidecar = tmp_path / "meta.json"
     sidecar.write_text(json.dumps({"sub/box-0.stl": {"material": "steel"}}))
@@ -94,7 +95,8 @@ def test_a_folder_is_imported_then_a_second_run_uploads_nothing(
     assert by_external_id["sub/box-0.stl"]["status"] == "ready"
 
     second = tmp_path / "second.csv"
-    code = main(["import", str(catalogue), "--url", service, "--report", str(second)])
+    monkeypatch.setenv("SHAPESEARCH_URL", service)  # the URL from the environment this time
+    code = main(["import", str(catalogue), "--report", str(second)])
     assert code == 1  # the two bad files are refused again
     again = {row["path"]: row["outcome"] for row in read_report(second)}
     assert [p for p, o in again.items() if o not in ("skipped", "refused")] == []

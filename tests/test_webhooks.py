@@ -201,3 +201,23 @@ def test_a_checked_address_is_pinned_keeping_host_and_tls_name() -> None:
     assert check_target("http://93.184.216.34/x", allow_private=False) == "93.184.216.34"
     with pytest.raises(TargetRefused, match="non-public"):
         check_target("http://192.168.1.20/x", allow_private=False)
+
+
+@pytest.mark.parametrize(
+    "url",
+    [
+        "http://[64:ff9b::7f00:1]/",  # NAT64 of 127.0.0.1
+        "http://[64:ff9b:1::a00:1]/",  # local-use NAT64 of 10.0.0.1
+        "http://[2002:7f00:1::]/",  # 6to4 of 127.0.0.1
+        "http://[::ffff:127.0.0.1]/",  # IPv4-mapped
+        "http://[::127.0.0.1]/",  # IPv4-compatible
+        "http://[2001:0:4136:e378:8000:63bf:3fff:fdd2]/",  # Teredo
+    ],
+)
+def test_ipv6_forms_of_private_ipv4_addresses_are_judged_by_that_address(url: str) -> None:
+    with pytest.raises(TargetRefused, match="non-public"):
+        check_target(url, allow_private=False)
+
+
+def test_a_nat64_form_of_a_public_address_is_allowed() -> None:
+    assert check_target("http://[64:ff9b::808:808]/", allow_private=False) == "64:ff9b::808:808"

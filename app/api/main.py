@@ -14,6 +14,7 @@ from concurrent.futures import ThreadPoolExecutor
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
 from fastapi_offline import FastAPIOffline
 from prometheus_client import CollectorRegistry
 
@@ -137,7 +138,18 @@ def create_app(
     )
     app.add_middleware(QueryGuard, limits=InputLimits.from_settings(settings))
     app.add_middleware(HttpMetrics)
-    app.add_middleware(RequestId)  # outermost: every line of the request carries its id
+    app.add_middleware(RequestId)  # every line of the request carries its id
+    if settings.cors_origin_list:
+        # Outermost: a browser's preflight is answered before auth (it carries no key).
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=settings.cors_origin_list,
+            allow_methods=["GET", "POST", "PUT", "PATCH", "DELETE"],
+            allow_headers=["Authorization", "Content-Type", "Idempotency-Key", "If-None-Match"],
+            expose_headers=["Location", "Retry-After", "ETag", "Idempotent-Replayed",
+                            "X-Request-Id"],
+            max_age=600,
+        )
     for router in ROUTERS:
         app.include_router(router)
     install_viewer(app)

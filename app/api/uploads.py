@@ -70,6 +70,13 @@ def _bounded_by_size(content: bytes, fmt: str) -> bool:
     return len(content) <= IN_PROCESS_CHECK_MAX_BYTES and fmt != "glb"
 
 
+def base_name(filename: str | None) -> str:
+    """The file's own name, without any directory part a client sent (``../../x.stl``,
+    ``C:\\parts\\x.stl``): what is stored, shown and served as the file's name."""
+    name = (filename or "").replace("\\", "/").rsplit("/", 1)[-1].strip()
+    return name if name not in ("", ".", "..") else "upload"
+
+
 def read_checked_upload(
     stream: BinaryIO, filename: str | None, settings: Settings, *, parse: bool = True
 ) -> CheckedUpload:
@@ -80,7 +87,7 @@ def read_checked_upload(
     """
     sha256 = _hash_limited(stream, settings.max_upload_bytes)
     content = stream.read()
-    name = filename or "upload"
+    name = base_name(filename)
     try:
         if not content or content.isspace():
             raise InvalidShapeError("empty_file", "file is empty: upload a point cloud or mesh")

@@ -9,7 +9,8 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch keys create --tenant NAME | list | revoke PREFIX
     shapesearch redescribe [--from-version V | --all] [--wait]
     shapesearch duplicates [--min-score 0.98] [--format csv|json] [--tenant T]
-    shapesearch import PATH --url URL [--key KEY] [--external-id path|stem] [--metadata F]
+    shapesearch --version
+    shapesearch import PATH [--url URL] [--key KEY] [--external-id path|stem] [--metadata F]
                        [--units mm|cm|m|in]
                        [--concurrency N] [--wait] [--report CSV]
     shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
@@ -19,6 +20,7 @@ for the web stack, and ``serve`` does not pay for plotting.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -89,6 +91,9 @@ def _import(args: argparse.Namespace) -> int:
 
     from app.cli.importer import ImportOptions, run_import
 
+    if not args.url:
+        print("error: give the service's URL: --url or SHAPESEARCH_URL", file=sys.stderr)
+        return 2
     options = ImportOptions(
         url=args.url, key=args.key, external_id=args.external_id,
         metadata=Path(args.metadata) if args.metadata else None,
@@ -115,8 +120,18 @@ def _eval_parts(args: argparse.Namespace) -> int:
     return main([args.out, "--per-family", str(args.per_family), "--seed", str(args.seed)])
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("shapesearch")
+    except PackageNotFoundError:  # run from a source tree that was never installed
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="shapesearch", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"shapesearch {_version()}")
     commands = parser.add_subparsers(dest="command", required=True)
 
     describe = commands.add_parser("describe", help="describe one shape file and print the result")
@@ -173,8 +188,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     importer = commands.add_parser("import", help="upload a folder, .zip or .tar of parts")
     importer.add_argument("path")
-    importer.add_argument("--url", required=True, help="the service, e.g. http://127.0.0.1:8000")
-    importer.add_argument("--key", default=None, help="API key (Bearer)")
+    importer.add_argument("--url", default=os.environ.get("SHAPESEARCH_URL"),
+                          help="the service, e.g. http://127.0.0.1:8000 (default: "
+                          "SHAPESEARCH_URL)")
+    importer.add_argument("--key", default=os.environ.get("SHAPESEARCH_API_KEY"),
+                          help="API key (Bearer; default: SHAPESEARCH_API_KEY, which keeps it "
+                          "out of ps and the shell history)")
     importer.add_argument("--external-id", choices=("path", "stem"), default="path",
                           help="external id: the relative path (default) or the file stem")
     importer.add_argument("--metadata", default=None, help="sidecar .csv or .json of metadata")
