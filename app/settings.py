@@ -241,6 +241,12 @@ class Settings(BaseSettings):
         description="Worker threads of `serve` (embedded; 0: none) or processes of "
         "`shapesearch worker`. Unset: one per core (each describe pins BLAS to one thread).",
     )
+    idempotency_ttl_seconds: float = Field(
+        default=86400.0,
+        gt=0,
+        description="Seconds an Idempotency-Key is remembered; a retry after that is a new "
+        "request (expired keys are deleted as new ones are stored).",
+    )
     lease_seconds: float = Field(
         default=60.0,
         gt=0,

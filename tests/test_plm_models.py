@@ -104,6 +104,23 @@ def test_idempotency_key_replays_the_first_answer(client: TestClient) -> None:
     assert fresh.status_code == 202 and fresh.json()["id"] != first.json()["id"]
 
 
+def test_idempotency_keys_expire(make_client: ClientFactory) -> None:
+    """After ``idempotency_ttl_seconds`` a key is forgotten: the same key makes a new model,
+    and storing it deletes the tenant's expired keys."""
+    client = make_client(idempotency_ttl_seconds=0.5)
+    key = {"Idempotency-Key": "sync-7"}
+    first = upload(client, CUBE, headers=key, name="Cube")
+    assert upload(client, CUBE, headers=key, name="Cube").json()["id"] == first.json()["id"]
+    old = upload(client, CUBE, headers={"Idempotency-Key": "sync-8"}, name="Cube")
+    time.sleep(0.7)
+    later = upload(client, CUBE, headers=key, name="Cube")
+    assert later.status_code == 202 and later.json()["id"] != first.json()["id"]
+    assert "idempotent-replayed" not in later.headers
+    # sync-8 has expired as well: the same key with another body is a new request.
+    again = upload(client, CUBE, headers={"Idempotency-Key": "sync-8"}, name="Other name")
+    assert again.status_code == 202 and again.json()["id"] != old.json()["id"]
+
+
 # --- upsert and revisions -------------------------------------------------------------
 
 

@@ -10,15 +10,16 @@ from __future__ import annotations
 
 import hashlib
 import json
+from datetime import datetime, timedelta
 from typing import Any
 
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel
-from sqlalchemy import select
+from sqlalchemy import delete, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.api.problems import Problem
-from app.db.models import IdempotencyKey
+from app.db.models import IdempotencyKey, utcnow
 
 __all__ = ["remember", "replay_or_refuse", "request_sha256"]
 
@@ -40,10 +41,17 @@ def request_sha256(
 
 
 def replay_or_refuse(
-    sessions: sessionmaker[Session], tenant: str, key: str, digest: str
+    sessions: sessionmaker[Session], tenant: str, key: str, digest: str, ttl_seconds: float
 ) -> JSONResponse | None:
-    """The stored answer for ``key`` (None if the key is new); 422 if it was used for
-    another request."""
+    """The stored answer for ``key`` (None if the key is new, or older than
+    ``ttl_seconds``: an expired key is forgotten); 422 if it was used for another request."""
+    with sessions.begin() as session:
+        session.execute(
+            delete(IdempotencyKey).where(
+                IdempotencyKey.tenant == tenant, IdempotencyKey.key == key,
+                IdempotencyKey.created_at < _cutoff(ttl_seconds),
+            )
+        )
     with sessions() as session:
         stored = session.scalar(
             select(IdempotencyKey).where(
@@ -66,9 +74,17 @@ def replay_or_refuse(
 
 
 def remember(
-    session: Session, tenant: str, key: str, digest: str, status: int, answer: BaseModel
+    session: Session, tenant: str, key: str, digest: str, status: int, answer: BaseModel,
+    ttl_seconds: float,
 ) -> None:
-    """Store ``answer`` under ``key`` in the caller's transaction."""
+    """Store ``answer`` under ``key`` in the caller's transaction, and forget the tenant's
+    keys older than ``ttl_seconds`` (so that the table does not grow without bound)."""
+    session.execute(
+        delete(IdempotencyKey).where(
+            IdempotencyKey.tenant == tenant,
+            IdempotencyKey.created_at < _cutoff(ttl_seconds),
+        )
+    )
     session.add(
         IdempotencyKey(
             tenant=tenant,
@@ -78,3 +94,8 @@ def remember(
             response=answer.model_dump(mode="json"),
         )
     )
+
+
+def _cutoff(ttl_seconds: float) -> datetime:
+    return utcnow() - timedelta(seconds=ttl_seconds)
+

@@ -102,7 +102,8 @@ def create_model(
     upload = read_checked_upload(file.file, file.filename, services.settings)
     request_digest = request_sha256(upload.sha256, external_id, name, meta, units)
     if idempotency_key is not None:
-        replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest)
+        replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest,
+                                  services.settings.idempotency_ttl_seconds)
         if replay is not None:
             return replay
     model = Model(
@@ -124,10 +125,12 @@ def create_model(
             job = create_model_rows(session, model, upload.content)
             resource = model_resource(model, job)
             if idempotency_key is not None:
-                remember(session, tenant, idempotency_key, request_digest, 202, resource)
+                remember(session, tenant, idempotency_key, request_digest, 202, resource,
+                         services.settings.idempotency_ttl_seconds)
     except IntegrityError as error:  # unique (tenant, external_id) or the idempotency key
         if idempotency_key is not None:
-            replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest)
+            replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest,
+                                      services.settings.idempotency_ttl_seconds)
             if replay is not None:
                 return replay
         with services.sessions() as session:
