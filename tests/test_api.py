@@ -421,3 +421,22 @@ def test_cors_is_off_by_default_and_answers_preflights_for_configured_origins(
     simple = opened.get("/v1/models", headers={"Origin": "https://other.example.com"})
     assert simple.headers["access-control-allow-origin"] == "https://other.example.com"
     assert "location" in simple.headers["access-control-expose-headers"].lower()
+
+
+def test_the_contract_has_readable_operation_ids_and_one_problem_component(
+    client: TestClient,
+) -> None:
+    document = client.get("/openapi.json").json()
+    operations = [op for path in document["paths"].values() for op in path.values()]
+    ids = [op["operationId"] for op in operations]
+    assert len(ids) == len(set(ids))
+    assert {"upload_model", "similar_models", "search_by_upload", "upsert_model"} <= set(ids)
+    assert all(identifier.isidentifier() and "_v1_" not in identifier for identifier in ids)
+    refused = [
+        response["content"]["application/problem+json"]["schema"]
+        for op in operations
+        for status, response in op["responses"].items()
+        if status[0] in "45"
+    ]
+    assert refused and all(s == {"$ref": "#/components/schemas/Problem"} for s in refused)
+    assert "HTTPValidationError" not in document["components"]["schemas"]

@@ -127,6 +127,9 @@ def create_app(
         description="Upload meshes and scans; a worker computes a spectral shape descriptor; "
         "ask for the most similar parts. Errors are RFC 9457 application/problem+json.",
         lifespan=lifespan,
+        # operationId = the route function's name (upload_model, similar_models, ...):
+        # readable and stable for generated clients.
+        generate_unique_id_function=lambda route: route.name,
     )
     install_problem_handlers(app)
     app.state.search_describer = SearchDescriber(settings, engine_settings(settings))

@@ -14,12 +14,13 @@ here, once, for every operation:
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 
-from app.api.problems import problem_responses
+from app.api.problems import PROBLEM_SCHEMA, problem_responses
 
 __all__ = ["install_openapi"]
 
@@ -68,6 +69,14 @@ def install_openapi(app: FastAPI) -> None:
                 for operation in path.values():
                     _complete(operation)
             _link_created_models(schema.get("paths", {}))
+            schemas = schema.setdefault("components", {}).setdefault("schemas", {})
+            schemas["Problem"] = PROBLEM_SCHEMA
+            # FastAPI's own 422 body is never answered (every 422 is a Problem): drop it.
+            for unused in ("HTTPValidationError", "ValidationError"):
+                if f"#/components/schemas/{unused}" not in json.dumps(
+                    {k: v for k, v in schema.items() if k != "components"}
+                ):
+                    schemas.pop(unused, None)
             app.openapi_schema = schema
         return app.openapi_schema
 

@@ -31,6 +31,7 @@ __all__ = [
     "install_problem_handlers",
     "problem_response",
     "problem_responses",
+    "PROBLEM_SCHEMA",
 ]
 
 PROBLEM_JSON = "application/problem+json"
@@ -51,20 +52,45 @@ _MEANINGS = {
 }
 
 
+#: The JSON Schema of every problem+json body: one component, ``#/components/schemas/Problem``,
+#: that every 4xx/5xx response of the OpenAPI document references (``app.api.openapi``).
+PROBLEM_SCHEMA: dict[str, Any] = {
+    "title": "Problem",
+    "description": "RFC 9457 problem details; a kind's extension members (pointer, errors, "
+    "reason, existing_id, model_status, checks) come next to these.",
+    "type": "object",
+    "required": ["type", "title", "status", "detail"],
+    "properties": {
+        "type": {"type": "string", "description": "urn:shapesearch:problem:<kind>, or "
+                 "about:blank when the status says it all."},
+        "title": {"type": "string", "description": "The kind's title (one per type)."},
+        "status": {"type": "integer"},
+        "detail": {"type": "string"},
+        # Extension members of some kinds.
+        "pointer": {"type": "string", "description": "validation-error: a JSON pointer to "
+                    "the refused field (/query/k, /metadata/a)."},
+        "errors": {"type": "array", "items": {"type": "object"},
+                   "description": "validation-error: every refused field."},
+        "reason": {"type": "string", "description": "A refused shape file: the engine's "
+                   "reason code (too_few_points, degenerate, ...)."},
+        "limit": {"type": "integer", "description": "too-large: the limit, in bytes."},
+        "existing_id": {"type": "string", "description": "duplicate-external-id: the "
+                        "model that holds the external id."},
+        "model_status": {"type": "string", "description": "model-not-ready: its status."},
+        "checks": {"type": "object", "additionalProperties": {"type": "string"},
+                   "description": "not-ready: every readiness check's state."},
+    },
+}
+PROBLEM_REF = {"$ref": "#/components/schemas/Problem"}
+
+
 def problem_responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     """OpenAPI ``responses`` entries documenting problem+json bodies for ``statuses``."""
-    schema = {
-        "type": "object",
-        "required": ["type", "title", "status", "detail"],
-        "properties": {
-            "type": {"type": "string"},
-            "title": {"type": "string"},
-            "status": {"type": "integer"},
-            "detail": {"type": "string"},
-        },
-    }
     return {
-        status: {"description": _MEANINGS[status], "content": {PROBLEM_JSON: {"schema": schema}}}
+        status: {
+            "description": _MEANINGS[status],
+            "content": {PROBLEM_JSON: {"schema": PROBLEM_REF}},
+        }
         for status in statuses
     }
 

@@ -58,7 +58,7 @@ class DuplicateReport(BaseModel):
     "millimetres where units are known) 'do we already have this part' (true duplicates). "
     "Default descriptor_version: the service's current one.",
 )
-def duplicates(
+def get_duplicates(
     tenant: TenantDep,
     services: ServicesDep,
     session: SessionDep,

@@ -73,7 +73,7 @@ def _duplicate(session: Session, tenant: str, external_id: str) -> Problem | Non
     responses=problem_responses(401, 409, 413, 415, 422),
     summary="Upload a part; it is described in the background",
 )
-def create_model(
+def upload_model(
     request: Request,
     response: Response,
     file: Annotated[

@@ -40,7 +40,7 @@ PREVIEW_MEDIA_TYPE = "application/vnd.shapesearch.preview"
     },
     summary="A small point/HKS preview of a ready model, for drawing it",
 )
-def model_preview(
+def get_model_preview(
     model_id: str,
     tenant: TenantDep,
     session: SessionDep,

@@ -222,7 +222,7 @@ def redescribe_model(
     },
     summary="The stored original upload of the current revision",
 )
-def model_file(model_id: str, tenant: TenantDep, session: SessionDep) -> Response:
+def get_model_file(model_id: str, tenant: TenantDep, session: SessionDep) -> Response:
     model = load_model(session, tenant, model_id)
     content = session.scalar(select(Upload.content).where(Upload.model_id == model.id))
     if content is None:

@@ -52,7 +52,7 @@ router = APIRouter(prefix="/v1", tags=["search"])
     "filters and score as /v1/models/{id}/similar. " + SCAN_MODE_HELP + SIZE_HELP
     + " The query's size is the upload's, in its `units`; a partial scan under-measures.",
 )
-def search(
+def search_by_upload(
     request: Request,
     file: Annotated[
         UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")

@@ -60,7 +60,7 @@ def _counts(session: Session, column: object, *where: object) -> dict[str, int]:
     responses=problem_responses(401),
     summary="Counts of models per status and per descriptor_version, and of jobs",
 )
-def stats(tenant: TenantDep, services: ServicesDep, session: SessionDep) -> Stats:
+def get_stats(tenant: TenantDep, services: ServicesDep, session: SessionDep) -> Stats:
     by_status = _counts(session, Model.status, Model.tenant == tenant)
     return Stats(
         models=sum(by_status.values()),
@@ -108,7 +108,7 @@ class CutoffStats(BaseModel):
     responses=problem_responses(401),
     summary="Cutoff n against point count for every ready model (the paper's Figure 7)",
 )
-def cutoff_stats(tenant: TenantDep, session: SessionDep, services: ServicesDep) -> CutoffStats:
+def get_cutoff_stats(tenant: TenantDep, session: SessionDep, services: ServicesDep) -> CutoffStats:
     rows = session.execute(
         select(Model.id, Model.external_id, Model.name, Model.n_points, Model.cutoff)
         .where(Model.tenant == tenant, Model.status == "ready")
