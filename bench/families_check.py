@@ -14,7 +14,7 @@ import numpy as np
 import trimesh
 from madcad import standard
 
-from core.evaluation.sources.bendable import _knuckles, centre_line, tube_mesh
+from core.evaluation.sources.bendable import bend_check_shapes
 from core.evaluation.sources.madcad_parts import _to_trimesh
 from core.evaluation.variants import SS4_DESCRIPTOR
 from core.pipeline import describe_points
@@ -37,19 +37,7 @@ def described(
 
 
 def main() -> int:
-    length = 100.0
-    shapes = {
-        "straight": tube_mesh(centre_line(length, lambda s: 0 * s), 6.0),
-        "bent": tube_mesh(centre_line(length, lambda s: np.full_like(s, np.pi / 2 / length)),
-                          6.0),
-        "finger": tube_mesh(centre_line(90.0, _knuckles(90.0, (0.0, 0.0), 8.0)), 7.0),
-        "finger-bent": tube_mesh(
-            centre_line(90.0, _knuckles(90.0, (np.radians(70), np.radians(40)), 8.0)), 7.0
-        ),
-        "box": trimesh.creation.box((20.0, 30.0, 60.0)),
-        "torus": trimesh.creation.torus(30.0, 8.0),
-        "cone": trimesh.creation.cone(15.0, 80.0),
-    }
+    shapes = bend_check_shapes()
     others = ("box", "torus", "cone")
     for family in ("parts", "bendable"):
         vectors = described(shapes, DESCRIPTOR_FAMILIES[family])

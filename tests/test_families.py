@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from core.evaluation.sources.bendable import _knuckles, centre_line, tube_mesh
+from core.evaluation.sources.bendable import bend_check_shapes
 from core.pipeline import describe_points
 from core.settings import DESCRIPTOR_FAMILIES, EngineSettings
 
@@ -28,21 +28,7 @@ def describe_all(meshes: dict[str, trimesh.Trimesh], family: str) -> dict[str, n
 
 @pytest.fixture(scope="module")
 def bendable_shapes() -> dict[str, trimesh.Trimesh]:
-    length = 100.0
-    return {
-        "straight": tube_mesh(centre_line(length, lambda s: 0 * s), 6.0),
-        # The same tube bent by 90 degrees along its whole length (arc length kept).
-        "bent": tube_mesh(centre_line(length, lambda s: np.full_like(s, np.pi / 2 / length)),
-                          6.0),
-        "finger": tube_mesh(centre_line(90.0, _knuckles(90.0, (0.0, 0.0), 8.0)), 7.0),
-        # The same finger with its two knuckles turned by 70 and 40 degrees.
-        "finger-bent": tube_mesh(
-            centre_line(90.0, _knuckles(90.0, (np.radians(70), np.radians(40)), 8.0)), 7.0
-        ),
-        "box": trimesh.creation.box((20.0, 30.0, 60.0)),
-        "torus": trimesh.creation.torus(30.0, 8.0),
-        "cone": trimesh.creation.cone(15.0, 80.0),
-    }
+    return bend_check_shapes()
 
 
 def test_bendable_family_keeps_a_bent_copy_near_itself(bendable_shapes) -> None:

@@ -29,7 +29,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.api.problems import Problem, problem_response
 from app.db.models import Model
-from app.ingest.describing import described_columns
+from app.ingest.describing import SIZE_COLUMNS, described_columns
 from app.ingest.sandbox import sandbox_of
 from app.observability.metrics import observe_description
 from app.search.similarity import SearchMode
@@ -40,10 +40,9 @@ from core.settings import EngineSettings
 __all__ = ["SearchAdmission", "SearchDescriber"]
 
 # The columns a search answer needs (model_columns of the description), per mode.
-_SIZE = ("size_length", "size_width", "size_height", "size_area", "size_volume")
 _COLUMNS: dict[str, tuple[str, ...]] = {
-    "shape": ("n_points", "cutoff", "descriptor", "descriptor_version", *_SIZE),
-    "scan": ("n_points", "cutoff", "scan_descriptor", "descriptor_version", *_SIZE),
+    "shape": ("n_points", "cutoff", "descriptor", "descriptor_version", *SIZE_COLUMNS),
+    "scan": ("n_points", "cutoff", "scan_descriptor", "descriptor_version", *SIZE_COLUMNS),
 }
 
 
@@ -133,7 +132,7 @@ class SearchDescriber:
         columns = _COLUMNS[mode]
         # A model described before sizes were measured still answers (without a size).
         if model is None or any(
-            getattr(model, name) is None for name in columns if name not in _SIZE
+            getattr(model, name) is None for name in columns if name not in SIZE_COLUMNS
         ):
             return None
         return {name: getattr(model, name) for name in columns}

@@ -31,6 +31,7 @@ __all__ = [
     "ingest_columns",
     "model_columns",
     "pin_blas_threads",
+    "SIZE_COLUMNS",
     "quick_check",
     "size_columns",
 ]
@@ -133,10 +134,14 @@ def model_columns(description: Description, hks_times: Sequence[float]) -> dict[
     }
 
 
+#: The Model's size columns (migration 0009), in ``core.size.SIZE_FIELDS`` order.
+SIZE_COLUMNS = tuple(f"size_{name}" for name in SIZE_FIELDS)
+
+
 def size_columns(size: ShapeSize | None) -> dict[str, float | None]:
-    """The Model's size columns (migration 0009) for ``size`` (all None without one)."""
+    """The Model's size columns for ``size`` (all None without one)."""
     values = size.to_json() if size is not None else dict.fromkeys(SIZE_FIELDS)
-    return {f"size_{name}": values[name] for name in SIZE_FIELDS}
+    return dict(zip(SIZE_COLUMNS, (values[name] for name in SIZE_FIELDS), strict=True))
 
 
 class CutoffPredictorCache:

@@ -25,7 +25,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from app.db.models import Model
-from app.search.sizing import millimetres
+from app.search.sizing import extents_mm
 
 __all__ = ["DuplicateGroup", "Member", "find_groups", "group_vectors"]
 
@@ -111,9 +111,8 @@ def find_groups(
         return []
     vectors = np.stack([np.frombuffer(row.descriptor, dtype=np.float32) for row in rows])
     extents = np.array([
-        [np.nan] * 3 if row.size_length is None
-        else [value * millimetres(row.units)
-              for value in (row.size_length, row.size_width, row.size_height)]
+        extents_mm(row.size_length, row.size_width, row.size_height, row.units)
+        or (np.nan, np.nan, np.nan)
         for row in rows
     ], dtype=np.float64)
     groups = []

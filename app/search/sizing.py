@@ -30,7 +30,7 @@ from sqlalchemy import ColumnElement, select, true, union_all
 from app.db.models import Model
 from core.size import SIZE_FIELDS, UNIT_MILLIMETRES
 
-__all__ = ["SIZE_FILTER_FIELDS", "SizeQuery", "millimetres"]
+__all__ = ["SIZE_FILTER_FIELDS", "SizeQuery", "extents_mm", "millimetres"]
 
 #: The measurements a range filter may name (``size.<field>.gte`` / ``.lte``).
 SIZE_FILTER_FIELDS = SIZE_FIELDS
@@ -40,6 +40,16 @@ _POWER = {"length": 1, "width": 1, "height": 1, "area": 2, "volume": 3}
 def millimetres(units: str | None) -> float:
     """Millimetres per unit of ``units`` (1 when unknown: compared as given)."""
     return UNIT_MILLIMETRES.get(units or "", 1.0)
+
+
+def extents_mm(
+    length: float | None, width: float | None, height: float | None, units: str | None
+) -> tuple[float, float, float] | None:
+    """Stored extents in millimetres (as given without units); None without a size."""
+    if length is None or width is None or height is None:
+        return None
+    scale = millimetres(units)
+    return length * scale, width * scale, height * scale
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,7 @@ from app.db.feed import record_event
 from app.db.models import Model, utcnow
 from app.ingest.revisions import create_model_rows, latest_jobs, lock_models
 from app.search.similarity import Match, QueryChanged, SearchMode, find_similar
-from app.search.sizing import millimetres
+from app.search.sizing import extents_mm
 from app.webhooks import record_model_event
 
 __all__ = ["router"]
@@ -350,7 +350,9 @@ def _similar_models(
             if found is not None:
                 return found
         model = ready_query(connection, tenant, model_id, mode)
-        options["size"] = size.query(_extents_mm(model))
+        options["size"] = size.query(
+            extents_mm(model.size_length, model.size_width, model.size_height, model.units)
+        )
         query = (model.scan_descriptor if mode == "scan" else None) or model.descriptor
         vector = np.frombuffer(query, dtype=np.float32)
         key = (tenant, model.descriptor_version)
@@ -359,13 +361,6 @@ def _similar_models(
         )
         return _similar_response(model.id, matches)
 
-
-def _extents_mm(row: Row[Any]) -> tuple[float, float, float] | None:
-    """The query model's extents in millimetres (as given without units), or None."""
-    if row.size_length is None:
-        return None
-    scale = millimetres(row.units)
-    return (row.size_length * scale, row.size_width * scale, row.size_height * scale)
 
 
 def _similar_by_index(

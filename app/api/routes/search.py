@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 import numpy as np
 from fastapi import APIRouter, Depends, File, Query, Request, UploadFile
@@ -32,7 +32,7 @@ from app.api.uploads import invalid_shape_problem, read_checked_upload
 from app.auth.dependency import TenantDep
 from app.ingest.sandbox import SandboxCrash
 from app.search.similarity import find_similar
-from app.search.sizing import millimetres
+from app.search.sizing import extents_mm
 from core.errors import InvalidShapeError
 from core.size import SIZE_FIELDS
 
@@ -89,7 +89,9 @@ def search_by_upload(
         metadata_ranges=ranges,
         pushdown_max=services.settings.filter_pushdown_max,
         mode=mode,
-        size=size.query(_extents_mm(described, units)),
+        size=size.query(extents_mm(
+            described["size_length"], described["size_width"], described["size_height"], units
+        )),
     )
     cutoff = cutoff_record(described["cutoff"])
     assert cutoff is not None
@@ -106,14 +108,3 @@ def search_by_upload(
             for m in matches
         ],
     )
-
-
-def _extents_mm(
-    described: dict[str, Any], units: str | None
-) -> tuple[float, float, float] | None:
-    """The upload's extents in millimetres (as given without units), or None."""
-    if described.get("size_length") is None:
-        return None
-    scale = millimetres(units)
-    length, width, height = (described[f"size_{name}"] * scale for name in SIZE_FIELDS[:3])
-    return length, width, height

@@ -468,16 +468,3 @@ def _added(
     """A ready row as ``_apply`` adds it."""
     vector = np.frombuffer(descriptor, dtype=np.float32)
     return index_id, (tenant, version), vector, views_array(view_blob, len(vector)), model_id
-
-
-def _added(
-    index_id: int,
-    tenant: str,
-    version: str,
-    descriptor: bytes,
-    view_blob: bytes | None,
-    model_id: uuid.UUID,
-) -> _Added:
-    """A ready row as ``_apply`` adds it."""
-    vector = np.frombuffer(descriptor, dtype=np.float32)
-    return index_id, (tenant, version), vector, views_array(view_blob, len(vector)), model_id

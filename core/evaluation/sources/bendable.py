@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterator
 import numpy as np
 import trimesh
 
-__all__ = ["KINDS", "bend_points", "centre_line", "parts", "tube_mesh"]
+__all__ = ["KINDS", "bend_check_shapes", "bend_points", "centre_line", "parts", "tube_mesh"]
 
 _STEPS = 240  # centre-line samples: fine enough that a bend's facets stay small
 
@@ -196,3 +196,23 @@ def parts(kinds: tuple[str, ...] = KINDS, seed: int = 0
         rng = np.random.default_rng([seed, KINDS.index(kind) if kind in KINDS else number])
         for pose, fraction, jitter in _poses(rng):
             yield kind, f"pose{pose}", _BUILDERS[kind](fraction, jitter)
+
+
+def bend_check_shapes() -> dict[str, trimesh.Trimesh]:
+    """The shapes of the bend check (``tests/test_families.py``, ``bench/families_check.py``):
+    a straight tube and the same tube bent by 90 degrees along its whole length (arc length
+    kept), a finger and the same finger with its knuckles turned by 70 and 40 degrees, and
+    three other shapes (box, torus, cone) to compare the bend's distance with."""
+    length = 100.0
+    return {
+        "straight": tube_mesh(centre_line(length, lambda s: 0 * s), 6.0),
+        "bent": tube_mesh(centre_line(length, lambda s: np.full_like(s, np.pi / 2 / length)),
+                          6.0),
+        "finger": tube_mesh(centre_line(90.0, _knuckles(90.0, (0.0, 0.0), 8.0)), 7.0),
+        "finger-bent": tube_mesh(
+            centre_line(90.0, _knuckles(90.0, (np.radians(70), np.radians(40)), 8.0)), 7.0
+        ),
+        "box": trimesh.creation.box((20.0, 30.0, 60.0)),
+        "torus": trimesh.creation.torus(30.0, 8.0),
+        "cone": trimesh.creation.cone(15.0, 80.0),
+    }
