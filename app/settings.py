@@ -334,6 +334,14 @@ class Settings(BaseSettings):
         description="How long an API process trusts a key lookup; a revoked key stops "
         "working within this time.",
     )
+    response_cache_seconds: float = Field(
+        default=1.0,
+        ge=0,
+        description="How long an API process serves a repeated model list or similar-model "
+        "list from memory (0: never). Its own writes and every index change drop the kept "
+        "answers at once; other processes' changes show within this time. Never longer "
+        "than auth_cache_seconds.",
+    )
     readyz_count_seconds: float = Field(
         default=30.0,
         ge=0,

@@ -24,6 +24,7 @@ from app.api.inputs import InputLimits, QueryGuard
 from app.api.limits import BodySizeLimit
 from app.api.openapi import install_openapi
 from app.api.problems import install_problem_handlers
+from app.api.response_cache import ResponseCache
 from app.api.routes import ROUTERS
 from app.api.search_describer import SearchAdmission, SearchDescriber
 from app.db.session import make_session_factory, migrated_engine, read_only
@@ -133,6 +134,13 @@ def create_app(
     )
     install_problem_handlers(app)
     app.state.search_describer = SearchDescriber(settings, engine_settings(settings))
+    # Innermost: a hit skips routing, auth and the database, but not the metrics and logs.
+    app.add_middleware(
+        ResponseCache,
+        # Never longer than a key lookup is trusted: a revoked key stops within that time.
+        seconds=min(settings.response_cache_seconds, settings.auth_cache_seconds),
+        index_changes=lambda: app.state.services.index.changes,
+    )
     app.add_middleware(SearchAdmission, describer=app.state.search_describer)
     app.add_middleware(
         BodySizeLimit,

@@ -113,6 +113,7 @@ class ShapeIndex:
         self.nprobe = nprobe
         self.rerank_factor = rerank_factor
         self.revision = 0  # last change-feed revision applied
+        self.changes = 0  # moves on every applied change: answers cached before are stale
         self._partitions: dict[PartitionKey, Partition] = {}
         self._partition_of: dict[int, PartitionKey] = {}  # models only
         self._views_of: dict[int, int] = {}  # model index_id -> views it has in the index
@@ -297,6 +298,7 @@ class ShapeIndex:
     def _apply(self, removed: Iterable[int], added: Iterable[_Added]) -> None:
         """Remove, then add, models with their views, grouped by partition; call with
         ``_sync_lock`` held."""
+        self.changes += 1
         gone: dict[PartitionKey, list[int]] = defaultdict(list)
         for index_id in removed:
             key = self._partition_of.pop(index_id, None)
@@ -400,6 +402,7 @@ class ShapeIndex:
             self._index_id_of = index_id_of
             self._public_id_of = {index_id: public for public, index_id in index_id_of.items()}
             self.revision = int(revision)
+            self.changes += 1
         self.sync()
 
     def _ready_rows(self) -> Iterator[tuple[int, str, str, bytes, bytes | None, uuid.UUID]]:
