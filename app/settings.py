@@ -13,8 +13,10 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, ValidationInfo, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
+from sqlalchemy.engine import make_url
+from sqlalchemy.exc import ArgumentError
 
 from core.descriptor import DescriptorSpec
 from core.errors import SettingsError
@@ -37,6 +39,13 @@ class Settings(BaseSettings):
         default=None,
         description="SQLAlchemy URL of the database, e.g. postgresql+psycopg://user@host/db. "
         "Unset: a SQLite file shapesearch.db in the data directory (embedded mode).",
+    )
+    database_password_file: Path | None = Field(
+        default=None,
+        description="File holding the database password (a Docker or Compose secret, e.g. "
+        "/run/secrets/postgres_password): it takes the place of any password in "
+        "SHAPESEARCH_DATABASE_URL, so that no environment variable holds it. Trailing "
+        "newlines are not part of it. Unset: the URL's own.",
     )
     data_dir: Path = Field(
         default=Path("data"), description="Directory for the embedded SQLite database."
@@ -400,12 +409,47 @@ class Settings(BaseSettings):
         describe holding the GIL (docs/results.md, "Throughput")."""
         return self.workers if self.workers is not None else (os.cpu_count() or 1)
 
+    @field_validator("database_password_file")
+    @classmethod
+    def _password_file_usable(cls, path: Path | None, info: ValidationInfo) -> Path | None:
+        """A password file needs a server URL to go into and a password in it."""
+        if path is None:
+            return None
+        url = info.data.get("database_url")
+        if not url:
+            raise ValueError("needs SHAPESEARCH_DATABASE_URL (an embedded SQLite database "
+                             "has no password)")
+        try:
+            make_url(url)
+        except ArgumentError:
+            raise ValueError("SHAPESEARCH_DATABASE_URL is not a database URL") from None
+        _read_password(path)
+        return path
+
     @property
     def resolved_database_url(self) -> str:
-        """The database URL, defaulting to the embedded SQLite file."""
+        """The database URL with the password file's password, defaulting to the embedded
+        SQLite file."""
+        if self.database_url and self.database_password_file is not None:
+            password = _read_password(self.database_password_file)
+            url = make_url(self.database_url).set(password=password)
+            return url.render_as_string(hide_password=False)
         if self.database_url:
             return self.database_url
         return f"sqlite:///{(self.data_dir / 'shapesearch.db').as_posix()}"
+
+
+def _read_password(path: Path) -> str:
+    """The password in ``path``, without the trailing newlines (as the PostgreSQL image
+    reads its POSTGRES_PASSWORD_FILE); ``ValueError`` when unreadable or empty."""
+    try:
+        password = path.read_text(encoding="utf-8").rstrip("\n")
+    except (OSError, UnicodeDecodeError) as error:
+        reason = getattr(error, "strerror", None) or str(error)
+        raise ValueError(f"cannot read {path}: {reason}") from None
+    if not password:
+        raise ValueError(f"{path} holds no password")
+    return password
 
 
 def _or(value: float | None, family_value: float) -> float:

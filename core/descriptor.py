@@ -29,7 +29,9 @@ Layout: ``[HKS | WKS | WKS slope | eigenvalue channel | D2 | spread | D1 | norma
 symmetry | axes | local]``, blocks of weight 0 left out.
 
 Everything that changes the vector is written into ``descriptor_version``: vectors with
-different versions must never be compared.
+different versions must never be compared. That includes the installed versions of the
+libraries the numbers come from (``ENGINE_LIBRARIES``): an upgrade of one of them makes every
+stored model stale, like a change of setting, until it is re-described.
 """
 
 from __future__ import annotations
@@ -37,7 +39,9 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass
 from functools import lru_cache
+from importlib import metadata
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -57,14 +61,21 @@ from core.signatures import heat_kernel_signature, wave_kernel_signature, zero_e
 
 __all__ = [
     "BLOCK_WEIGHTS",
+    "ENGINE_LIBRARIES",
     "VERSION_LENGTH",
     "DescriptorSpec",
     "area_histograms",
     "distance_distribution",
+    "engine_library_versions",
 ]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
 _LAYOUT = "ss5"  # ss5: the local block (issue 24)
+
+#: The libraries whose upgrade can change a descriptor for unchanged code and settings
+#: (distribution names): the linear algebra and eigensolvers (numpy, scipy, qdldl), the
+#: Laplacian (robust-laplacian), mesh loading and surface sampling (trimesh).
+ENGINE_LIBRARIES = ("numpy", "scipy", "trimesh", "robust-laplacian", "qdldl")
 
 #: Longest ``descriptor_version`` (the width of the database column).
 VERSION_LENGTH = 255
@@ -79,6 +90,20 @@ BLOCK_WEIGHTS: dict[str, str] = {
 
 #: Where the shipped vocabularies live (package data).
 VOCABULARY_DIR = Path(__file__).resolve().parent / "data"
+
+
+@lru_cache(maxsize=1)
+def engine_library_versions() -> MappingProxyType[str, str]:
+    """``ENGINE_LIBRARIES``' installed versions, read once per process (reading them costs
+    ~5 ms; the code a process has loaded cannot change under it anyway). A library that is
+    not installed as a distribution is ``"none"``."""
+    versions = {}
+    for name in ENGINE_LIBRARIES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "none"
+    return MappingProxyType(versions)
 
 
 @lru_cache(maxsize=8)
@@ -427,7 +452,8 @@ class DescriptorSpec:
         return channel - channel.mean()
 
     def version(self, settings: EngineSettings) -> str:
-        """Everything that changes the vector, in one readable string."""
+        """Everything that changes the vector, in one readable string; the exact values and
+        ``engine_library_versions`` enter its closing digest."""
         cutoff = settings.cutoff
         cut = (
             f"fixed{cutoff.n}"
@@ -474,9 +500,12 @@ class DescriptorSpec:
         vocabulary_digest = (
             load_vocabulary(self.local_vocabulary).digest() if self.local_weight > 0 else ""
         )
+        # The libraries' versions only in the digest: they would crowd the readable part,
+        # and GET /v1/stats shows them (engine_libraries).
+        libraries = sorted(engine_library_versions().items())
         exact = repr((self, settings.laplacian, settings.normalisation, settings.max_points,
                       settings.sample_seed, settings.outlier_filter, settings.outlier_ratio,
-                      cutoff, vocabulary_digest))
+                      cutoff, vocabulary_digest, libraries))
         digest = hashlib.sha256(exact.encode()).hexdigest()[:10]
         # The database keeps VERSION_LENGTH characters: an unusual setting's long readable
         # part is cut, never the digest that tells versions apart.

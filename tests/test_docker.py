@@ -2,19 +2,37 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
 import pytest
+from sqlalchemy.engine import make_url
 
 yaml = pytest.importorskip("yaml")
 
 ROOT = Path(__file__).resolve().parents[1]
+SECRETS = "/run/secrets/"
 
 
 @pytest.fixture(scope="module")
 def compose() -> dict[str, Any]:
     return yaml.safe_load((ROOT / "docker-compose.yml").read_text())
+
+
+def dockerfile_stages() -> list[list[str]]:
+    """The Dockerfile's instructions (continuation lines joined, comments dropped), one
+    list per stage; the first list holds what comes before the first FROM."""
+    text = re.sub(r"\\\n\s*", " ", (ROOT / "Dockerfile").read_text())
+    lines = [line.strip() for line in text.splitlines()]
+    stages: list[list[str]] = [[]]
+    for line in lines:
+        if not line or line.startswith("#"):
+            continue
+        if line.startswith("FROM "):
+            stages.append([])
+        stages[-1].append(line)
+    return stages
 
 
 def test_compose_names_the_three_services(compose: dict[str, Any]) -> None:
@@ -26,6 +44,35 @@ def test_api_and_worker_use_the_postgres_service(compose: dict[str, Any]) -> Non
         url = compose["services"][name]["environment"]["SHAPESEARCH_DATABASE_URL"]
         assert url.startswith("postgresql+psycopg://") and "@postgres:" in url
         assert "postgres" in compose["services"][name]["depends_on"]
+
+
+def test_the_database_password_is_a_secret_file_only(compose: dict[str, Any]) -> None:
+    # The secret comes from the operator's environment (.env), not from this file.
+    secret = compose["secrets"]["postgres_password"]
+    assert secret == {"environment": "POSTGRES_PASSWORD"}
+    postgres = compose["services"]["postgres"]
+    assert "POSTGRES_PASSWORD" not in postgres["environment"]
+    assert postgres["environment"]["POSTGRES_PASSWORD_FILE"] == SECRETS + "postgres_password"
+    assert "postgres_password" in postgres["secrets"]
+    for name in ("api", "worker"):
+        service = compose["services"][name]
+        environment = service["environment"]
+        assert make_url(environment["SHAPESEARCH_DATABASE_URL"]).password is None
+        assert environment["SHAPESEARCH_DATABASE_PASSWORD_FILE"] == SECRETS + "postgres_password"
+        assert "postgres_password" in service["secrets"]
+    for name, service in compose["services"].items():
+        for key in service.get("environment", {}):
+            assert not key.endswith("PASSWORD"), f"{name} has a password variable {key}"
+
+
+def test_the_password_s_env_file_is_documented_and_never_shipped() -> None:
+    example = dict(
+        line.split("=", 1) for line in (ROOT / ".env.example").read_text().splitlines()
+        if line and not line.startswith("#")
+    )
+    assert example["POSTGRES_PASSWORD"] == ""  # the operator chooses it
+    assert ".env" in (ROOT / ".gitignore").read_text().split()
+    assert ".env" in (ROOT / ".dockerignore").read_text().split()
 
 
 def test_workers_can_be_scaled(compose: dict[str, Any]) -> None:
@@ -47,14 +94,41 @@ def test_the_database_lives_on_a_volume(compose: dict[str, Any]) -> None:
     assert any(v.endswith("/var/lib/postgresql/data") for v in volumes)
 
 
-def test_dockerfile_installs_the_package_and_runs_unprivileged() -> None:
-    lines = [
-        line.strip()
-        for line in (ROOT / "Dockerfile").read_text().splitlines()
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
-    assert lines[0] == "FROM python:3.11-slim"
-    assert any(line.startswith(("RUN pip install .", "RUN pip install '.[cad]'")) for line in lines)
-    users = [line.split()[1] for line in lines if line.startswith("USER ")]
+def test_the_base_image_is_a_pinned_patch_release() -> None:
+    preamble, *stages = dockerfile_stages()
+    (argument,) = [line for line in preamble if line.startswith("ARG PYTHON_IMAGE=")]
+    image = argument.split("=", 1)[1]
+    assert re.fullmatch(r"python:3\.11\.\d+-slim-bookworm(@sha256:[0-9a-f]{64})?", image)
+    assert [stage[0].split()[1] for stage in stages] == ["${PYTHON_IMAGE}"] * 2
+
+
+def test_dependencies_install_from_the_lock_before_the_source_is_copied() -> None:
+    _, builder, _ = dockerfile_stages()
+    copies = [i for i, line in enumerate(builder) if line.startswith("COPY ")]
+    installs = [i for i, line in enumerate(builder) if "pip install --require-hashes" in line]
+    locks = [i for i in copies if ".lock" in builder[i]]
+    sources = [i for i in copies if re.search(r"\b(core|app|migrations|pyproject\.toml)\b",
+                                              builder[i])]
+    assert locks and installs and sources
+    assert max(locks) < min(installs) < min(sources)
+    assert "requirements-runtime.lock" in builder[installs[0]]
+    assert "requirements-cad.lock" in builder[installs[0]]
+
+
+def test_the_final_stage_copies_the_venv_and_runs_unprivileged() -> None:
+    _, _, final = dockerfile_stages()
+    assert any(line.startswith("COPY --from=builder /venv /venv") for line in final)
+    assert any("pip install --no-deps --no-index /wheels/" in line for line in final)
+    users = [line.split()[1] for line in final if line.startswith("USER ")]
     assert users and users[-1] not in ("root", "0")
-    assert lines[-1] == 'CMD ["shapesearch", "serve"]'
+    assert final[-1] == 'CMD ["shapesearch", "serve"]'
+
+
+def test_cad_is_a_build_argument_and_brings_its_libraries_only_then() -> None:
+    _, builder, final = dockerfile_stages()
+    for stage in (builder, final):
+        assert "ARG WITH_CAD=false" in stage
+    apt = [line for line in final if "apt-get install" in line]
+    assert len(apt) == 1 and apt[0].startswith('RUN if [ "$WITH_CAD" = "true" ]; then')
+    assert "libgl1" in apt[0] and "libx11-6" in apt[0]
+    assert not any("apt-get" in line for line in builder)

@@ -318,6 +318,10 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
                 "by_descriptor_version": {_VERSION: 2},
                 "jobs_by_status": {"done": 2, "failed": 1},
                 "current_descriptor_version": _VERSION,
+                "engine_libraries": {
+                    "numpy": "2.4.6", "scipy": "1.17.1", "trimesh": "5.2.0",
+                    "robust-laplacian": "1.1.0", "qdldl": "0.1.9.post1",
+                },
                 "ready_without_size": 0,
             },
             401: _UNAUTHORIZED,

@@ -1,4 +1,5 @@
-"""STEP and IGES parts through OpenCascade (the optional ``cadquery-ocp`` wheel).
+"""STEP and IGES parts through OpenCascade (the optional ``cadquery-ocp`` wheel, or
+``cadquery-ocp-novtk``: the same ``OCP`` module without VTK).
 
 A CAD file holds exact surfaces (B-rep), not triangles. ``read_cad`` reads it, merges all
 root shapes into one (an assembly becomes one shape: its parts at their placements, as one
@@ -6,8 +7,9 @@ would scan the assembled product), and tessellates it with a linear deflection o
 ``RELATIVE_DEFLECTION`` times the bounding-box diagonal, so a 5 mm pin and a 5 m frame get
 the same relative fidelity. The triangles are then sampled like any mesh.
 
-The wheel is large (about 1 GB installed with its VTK dependency), so it is an extra:
-``pip install 'shapesearch[cad]'``. Without it ``read_cad`` raises ``cad_unavailable``.
+The wheel is large (about 1.3 GB installed with its VTK dependency, 380 MB without), so it
+is an extra: ``pip install 'shapesearch[cad]'`` (or ``[cad-novtk]``). Without it ``read_cad``
+raises ``cad_unavailable``.
 """
 
 from __future__ import annotations

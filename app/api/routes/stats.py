@@ -19,6 +19,7 @@ from app.api.problems import problem_responses
 from app.auth.dependency import TenantDep
 from app.db.models import Job, Model
 from core.cutoff import CutoffRecord
+from core.descriptor import ENGINE_LIBRARIES, engine_library_versions
 
 __all__ = [
     "CutoffPoint",
@@ -40,6 +41,12 @@ class Stats(BaseModel):
     )
     jobs_by_status: dict[str, int]
     current_descriptor_version: str
+    engine_libraries: dict[str, str] = Field(
+        description=f"This API process's versions of the libraries that can change a "
+        f"descriptor ({', '.join(ENGINE_LIBRARIES)}). They are part of "
+        "current_descriptor_version: after an upgrade of one of them every stored model is "
+        "from another version until it is re-described (shapesearch redescribe)."
+    )
     ready_without_size: int = Field(
         description="Ready models described before sizes were measured: re-describe them "
         "(shapesearch redescribe --all) for size filters and size-aware ranking."
@@ -70,6 +77,7 @@ def get_stats(tenant: TenantDep, services: ServicesDep, session: SessionDep) -> 
         ),
         jobs_by_status=_counts(session, Job.status, Job.tenant == tenant),
         current_descriptor_version=services.descriptor_version,
+        engine_libraries=dict(engine_library_versions()),
         ready_without_size=int(session.scalar(
             select(func.count()).where(
                 Model.tenant == tenant, Model.status == "ready", Model.size_length.is_(None)
