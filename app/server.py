@@ -1,5 +1,6 @@
 """``shapesearch serve``: the API under uvicorn, with the embedded worker unless --no-worker;
-``SHAPESEARCH_API_PROCESSES`` API processes on one port (``SO_REUSEPORT``)."""
+``SHAPESEARCH_API_PROCESSES`` API processes on one port (``SO_REUSEPORT``), whose metrics
+one scrape of ``/metrics`` sums (``app.observability.metrics``, multiprocess mode)."""
 
 from __future__ import annotations
 
@@ -19,6 +20,11 @@ from app.auth.keys import keys_exist
 from app.db.session import make_session_factory, migrated_engine
 from app.net import is_loopback
 from app.observability.logs import configure_logging
+from app.observability.metrics import (
+    process_exited,
+    remove_stale_metrics,
+    shared_metrics_directory,
+)
 from app.settings import Settings
 
 __all__ = ["is_loopback", "serve"]
@@ -47,6 +53,7 @@ def serve(host: str | None = None, port: int | None = None, embedded_worker: boo
         return 2
 
     if settings.api_processes == 1:
+        remove_stale_metrics()  # only with a PROMETHEUS_MULTIPROC_DIR of the operator's
         uvicorn.run(
             create_app(settings, embedded_worker=embedded_worker), **_UVICORN, host=host, port=port
         )
@@ -79,7 +86,9 @@ def _serve_processes(count: int, host: str, port: int, embedded_worker: bool) ->
     except OSError as error:
         print(f"error: cannot listen on {host}:{port}: {error.strerror}", file=sys.stderr)
         return 1
-    with reserved:
+    # Set before the processes start, so that each writes its metrics there from its first
+    # import of prometheus-client on.
+    with reserved, shared_metrics_directory():
         spawn = multiprocessing.get_context("spawn")  # fresh interpreters: no forked threads
         processes = [
             spawn.Process(target=_api_process, args=(host, port, embedded_worker, count),
@@ -103,6 +112,8 @@ def _serve_processes(count: int, host: str, port: int, embedded_worker: bool) ->
             _terminate(processes)
         for process in processes:
             process.join()
+            if process.pid is not None:
+                process_exited(process.pid)
         return 0 if asked_to_stop else 1
 
 

@@ -50,7 +50,11 @@ class Settings(BaseSettings):
     data_dir: Path = Field(
         default=Path("data"), description="Directory for the embedded SQLite database."
     )
-    host: str = Field(default="127.0.0.1", description="Address `shapesearch serve` binds.")
+    host: str = Field(
+        default="127.0.0.1",
+        description="Address `shapesearch serve` binds, and `shapesearch worker` for its "
+        "metrics port.",
+    )
     port: int = Field(default=8000, ge=1, le=65535, description="Port `shapesearch serve` binds.")
 
     # --- uploads -------------------------------------------------------------------------
@@ -395,6 +399,15 @@ class Settings(BaseSettings):
         default=False,
         description="Answer GET /metrics for any client; unset: loopback clients only (the "
         "metrics name tenants and their model counts).",
+    )
+
+    worker_metrics_port: int | None = Field(
+        default=None,
+        ge=1,
+        le=65535,
+        description="Port on which `shapesearch worker` serves the Prometheus metrics of all "
+        "its processes (describe, cutoff, queue, webhooks) at /metrics, on SHAPESEARCH_HOST "
+        "(--metrics-port wins); unset: none.",
     )
 
     @property

@@ -6,7 +6,9 @@ line on stderr that says what is wrong and exit code 2, never a hundred-line tra
 
 from __future__ import annotations
 
+import os
 import sys
+from pathlib import Path
 
 from pydantic import ValidationError
 from sqlalchemy.engine import make_url
@@ -66,10 +68,29 @@ def _check_database(url: str) -> None:
         engine.dispose()
 
 
+def _prepare_metrics_directory() -> None:
+    """A ``PROMETHEUS_MULTIPROC_DIR`` the operator set must exist and be writable before
+    prometheus-client writes its first value there (else every process fails at import).
+    Checked here, before anything imports prometheus-client (``app.observability.metrics``)."""
+    given = os.environ.get("PROMETHEUS_MULTIPROC_DIR")
+    if not given:
+        return
+    directory = Path(given)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise StartupError(
+            f"PROMETHEUS_MULTIPROC_DIR={given}: cannot create it: {error.strerror}"
+        ) from None
+    if not (directory.is_dir() and os.access(directory, os.W_OK | os.X_OK)):
+        raise StartupError(f"PROMETHEUS_MULTIPROC_DIR={given}: not a writable directory")
+
+
 def checked_settings() -> Settings:
     """The settings, once they are valid and the database answers; else ``StartupError``."""
     settings = _settings()
     _check_database(settings.resolved_database_url)
+    _prepare_metrics_directory()
     return settings
 
 

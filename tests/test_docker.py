@@ -82,6 +82,16 @@ def test_workers_can_be_scaled(compose: dict[str, Any]) -> None:
     assert compose["services"]["api"]["command"] == ["shapesearch", "serve", "--no-worker"]
 
 
+def test_workers_serve_metrics_where_the_readme_scrapes_them(compose: dict[str, Any]) -> None:
+    environment = compose["services"]["worker"]["environment"]
+    port = environment["SHAPESEARCH_WORKER_METRICS_PORT"]
+    # Not loopback: a Prometheus container on the compose network must reach every replica.
+    assert environment["SHAPESEARCH_HOST"] == "0.0.0.0"
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert f"`worker:{port}/metrics`" in readme and f"port: {port}" in readme
+    assert f"worker:{port}/metrics" in (ROOT / "docker-compose.yml").read_text()
+
+
 def test_every_service_has_a_healthcheck(compose: dict[str, Any]) -> None:
     for name, service in compose["services"].items():
         assert service.get("healthcheck", {}).get("test"), f"{name} has no healthcheck"

@@ -6,18 +6,28 @@ from __future__ import annotations
 import io
 import json
 import logging
+import re
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from conftest import PARTS, fake_describe, make_settings, wait_for_status
 from fastapi.testclient import TestClient
 from prometheus_client.parser import text_string_to_metric_families
+from sqlalchemy.orm import Session, sessionmaker
 
 from app.api.main import create_app
 from app.auth.keys import create_key
 from app.db.session import make_session_factory
 from app.observability.logs import configure_logging
+from app.observability.metrics import (
+    IndexCollector,
+    QueueCollector,
+    metrics_registry,
+    observe_index,
+)
 
+ROOT = Path(__file__).parents[1]
 CUBE = (PARTS / "20mm-xyz-cube.stl").read_bytes()
 LOOPBACK = ("127.0.0.1", 50000)
 
@@ -143,3 +153,24 @@ def test_every_worker_line_carries_the_job_id(
     assert about_jobs, lines
     assert all("job_id" in line for line in about_jobs)
     assert all(line["message"].startswith(f"job {line['job_id']}") for line in about_jobs)
+
+
+def test_the_grafana_dashboard_asks_for_metrics_that_exist(
+    sessions: sessionmaker[Session],
+) -> None:
+    """Every series of docs/grafana-dashboard.json is one that /metrics or a worker exports
+    (a renamed metric would leave a panel silently empty)."""
+    dashboard = json.loads((ROOT / "docs" / "grafana-dashboard.json").read_text())
+    expressions = [
+        target["expr"] for panel in dashboard["panels"] for target in panel.get("targets", [])
+    ]
+    asked = {
+        re.sub(r"_(bucket|count|sum|total)$", "", name)
+        for expr in expressions
+        for name in re.findall(r"\bshapesearch_[a-z_]+", expr)
+    }
+    observe_index(0)  # the index gauge exists in API processes only
+    registry = metrics_registry(QueueCollector(sessions), IndexCollector(sessions))
+    exported = {family.name for family in registry.collect()}
+    assert asked and asked <= exported, asked - exported
+    assert len(dashboard["panels"]) == len({panel["id"] for panel in dashboard["panels"]})

@@ -16,7 +16,6 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi_offline import FastAPIOffline
-from prometheus_client import CollectorRegistry
 
 from app.api.deps import Services
 from app.api.examples import install_examples
@@ -31,7 +30,13 @@ from app.db.session import make_session_factory, migrated_engine, read_only
 from app.ingest.describing import pin_blas_threads
 from app.jobs.worker import JobHandler, WorkerPool, describe_handler, make_queue
 from app.observability.logs import RequestId
-from app.observability.metrics import HttpMetrics, StateCollector
+from app.observability.metrics import (
+    HttpMetrics,
+    IndexCollector,
+    QueueCollector,
+    metrics_registry,
+    observe_index,
+)
 from app.search.index import ShapeIndex
 from app.settings import Settings, engine_settings
 from app.viewer import install_viewer
@@ -45,10 +50,16 @@ log = logging.getLogger("shapesearch.api")
 _FORM_OVERHEAD_BYTES = 64 * 1024
 
 
+def _sync(index: ShapeIndex) -> None:
+    """Catch up with the change feed, and show the index's size in the metrics."""
+    index.sync()
+    observe_index(len(index))
+
+
 def _follow_feed(index: ShapeIndex, interval: float, stop: threading.Event) -> None:
     while not stop.wait(interval):
         try:
-            index.sync()
+            _sync(index)
         except Exception:
             log.exception("index sync failed; retrying")
 
@@ -76,8 +87,8 @@ def create_app(
             rerank_factor=settings.index_rerank_factor,
         )
         index.rebuild()
-        app.state.metrics_state = CollectorRegistry()
-        app.state.metrics_state.register(StateCollector(sessions, index))
+        observe_index(len(index))
+        app.state.metrics = metrics_registry(QueueCollector(sessions), IndexCollector(sessions))
         app.state.services = Services(
             settings=settings,
             engine_settings=engine_settings(settings),
@@ -104,7 +115,8 @@ def create_app(
                 job_handler or describe_handler(settings, sessions),
                 count=settings.worker_count,
                 poll_interval=settings.poll_interval,
-                on_done=index.sync,  # a finished job is searchable at once in this process
+                # A finished job is searchable at once in this process.
+                on_done=lambda: _sync(index),
             )
             pool.start()
             deliveries = start_delivery_thread(settings, sessions)  # webhooks, next to jobs

@@ -5,7 +5,7 @@ for the web stack, and ``serve`` does not pay for plotting.
 
     shapesearch describe FILE [--cutoff adaptive|fixed:N] [--json]
     shapesearch serve   [--host H] [--port P] [--no-worker]
-    shapesearch worker  [--concurrency N]
+    shapesearch worker  [--concurrency N] [--metrics-port P]
     shapesearch keys create --tenant NAME | list | revoke PREFIX
     shapesearch redescribe [--from-version V | --all] [--wait]
     shapesearch duplicates [--min-score 0.98] [--format csv|json] [--tenant T]
@@ -35,21 +35,23 @@ def _describe(args: argparse.Namespace) -> int:
 
 
 def _serve(args: argparse.Namespace) -> int:
-    from app.server import serve
     from app.startup import startup_ok
 
-    if not startup_ok():
+    if not startup_ok():  # before prometheus-client is imported (its directory is checked)
         return 2
+    from app.server import serve
+
     return serve(host=args.host, port=args.port, embedded_worker=not args.no_worker)
 
 
 def _worker(args: argparse.Namespace) -> int:
-    from app.jobs.worker import run_workers
     from app.startup import startup_ok
 
-    if not startup_ok():
+    if not startup_ok():  # before prometheus-client is imported (its directory is checked)
         return 2
-    return run_workers(concurrency=args.concurrency)
+    from app.jobs.worker import run_workers
+
+    return run_workers(concurrency=args.concurrency, metrics_port=args.metrics_port)
 
 
 def _keys(args: argparse.Namespace) -> int:
@@ -129,6 +131,17 @@ def _version() -> str:
         return "unknown"
 
 
+def _port(text: str) -> int:
+    """A TCP port number, 1-65535 (argparse refuses anything else with a clear message)."""
+    try:
+        port = int(text)
+    except ValueError:
+        port = 0
+    if not 1 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a port number (1-65535)")
+    return port
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="shapesearch", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"shapesearch {_version()}")
@@ -152,6 +165,11 @@ def build_parser() -> argparse.ArgumentParser:
     worker.add_argument(
         "--concurrency", type=int, default=None,
         help="default: SHAPESEARCH_WORKERS, or one per core",
+    )
+    worker.add_argument(
+        "--metrics-port", type=_port, default=None,
+        help="serve the Prometheus metrics of all the worker processes at "
+        "http://SHAPESEARCH_HOST:P/metrics (default: SHAPESEARCH_WORKER_METRICS_PORT, or none)",
     )
     worker.set_defaults(handler=_worker)
 

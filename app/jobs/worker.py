@@ -2,7 +2,9 @@
 
     Worker       one thread's loop: claim -> heartbeat while handling -> complete/fail/retry
     WorkerPool   N worker threads with a graceful stop (finish, or release after a grace time)
-    run_workers  ``shapesearch worker``: N processes sharing the database, signals handled
+    run_workers  ``shapesearch worker``: N processes sharing the database, signals handled,
+                 and with a metrics port their describe, cutoff, queue and webhook metrics
+                 on one HTTP endpoint (the N processes summed)
 
 A worker never dies on its input: every exception of a job ends that job (failed or
 retried) and is logged; a database outage is waited out.
@@ -16,12 +18,15 @@ import os
 import secrets
 import signal
 import socket
+import sys
 import threading
 import time
 from collections.abc import Callable
+from contextlib import nullcontext
 from types import FrameType
 from typing import Any
 
+from prometheus_client import start_http_server
 from sqlalchemy.exc import DBAPIError, OperationalError
 
 from app.db.session import migrated_engine, open_sessions
@@ -34,7 +39,14 @@ from app.ingest.describing import (
 from app.ingest.sandbox import sandbox_of
 from app.jobs.queue import Claim, JobQueue
 from app.observability.logs import configure_logging, job_context
-from app.observability.metrics import observe_description
+from app.observability.metrics import (
+    QueueCollector,
+    metrics_registry,
+    observe_description,
+    process_exited,
+    remove_stale_metrics,
+    shared_metrics_directory,
+)
 from app.problems import problem, reason_kind
 from app.settings import Settings, engine_settings
 from app.webhooks import start_delivery_thread
@@ -254,16 +266,26 @@ class WorkerPool:
                 log.info("job %s released on shutdown", claim.job_id)
 
 
-def run_workers(concurrency: int | None = None) -> int:
-    """``shapesearch worker``: run ``concurrency`` worker processes until signalled."""
+def run_workers(concurrency: int | None = None, metrics_port: int | None = None) -> int:
+    """``shapesearch worker``: run ``concurrency`` worker processes until signalled; with a
+    ``metrics_port`` (default ``SHAPESEARCH_WORKER_METRICS_PORT``) serve their metrics on
+    ``SHAPESEARCH_HOST`` at that port."""
     settings = Settings()
     count = concurrency if concurrency is not None else max(1, settings.worker_count)
+    port = metrics_port if metrics_port is not None else settings.worker_metrics_port
     configure_logging()
     migrated_engine(settings.resolved_database_url).dispose()
     if count == 1:
-        return _worker_process(threads=1)
+        remove_stale_metrics()  # only with a PROMETHEUS_MULTIPROC_DIR of the operator's
+        return _worker_process(threads=1, metrics_port=port)
 
-    # Processes, not threads: describing is CPU-bound Python and numpy.
+    # Processes, not threads: describing is CPU-bound Python and numpy. With a metrics port
+    # they share a metrics directory, set before they start, and this process serves it.
+    with shared_metrics_directory() if port is not None else nullcontext():
+        return _with_metrics(settings, port, lambda: _run_children(count))
+
+
+def _run_children(count: int) -> int:
     context = multiprocessing.get_context("spawn")
     children = [context.Process(target=_worker_process, args=(1,)) for _ in range(count)]
     for child in children:
@@ -278,15 +300,45 @@ def run_workers(concurrency: int | None = None) -> int:
     signal.signal(signal.SIGINT, forward)
     for child in children:
         child.join()
+        if child.pid is not None:
+            process_exited(child.pid)
     return 0
 
 
-def _worker_process(threads: int) -> int:
+def _with_metrics(settings: Settings, port: int | None, run: Callable[[], int]) -> int:
+    """``run()`` while the Prometheus metrics of this process (or, with
+    ``PROMETHEUS_MULTIPROC_DIR`` set, of every worker process sharing it) and the queue are
+    served at ``http://SHAPESEARCH_HOST:port/metrics`` (any path answers) from a daemon
+    thread; without a port just ``run()``. 1 if the port cannot be bound."""
+    if port is None:
+        return run()
+    registry = metrics_registry(QueueCollector(open_sessions(settings.resolved_database_url)))
+    try:
+        server, thread = start_http_server(port, addr=settings.host, registry=registry)
+    except OSError as error:
+        print(f"error: cannot serve metrics on {settings.host}:{port}: {error.strerror}",
+              file=sys.stderr)  # fmt: skip
+        return 1
+    log.info("metrics on http://%s:%d/metrics", settings.host, port)
+    try:
+        return run()
+    finally:
+        server.shutdown()
+        server.server_close()
+        thread.join()
+
+
+def _worker_process(threads: int, metrics_port: int | None = None) -> int:
     """One worker process: first SIGTERM/SIGINT finishes the running job (within the grace
-    time), a second one releases it at once."""
+    time), a second one releases it at once. With ``metrics_port`` it serves its metrics."""
     settings = Settings()
     configure_logging()
     pin_blas_threads()
+    return _with_metrics(settings, metrics_port, lambda: _work(settings, threads))
+
+
+def _work(settings: Settings, threads: int) -> int:
+    """Handle jobs and deliver webhooks until signalled."""
     sessions = open_sessions(settings.resolved_database_url)
     pool = WorkerPool(
         make_queue(settings, sessions),

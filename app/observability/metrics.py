@@ -1,4 +1,5 @@
-"""Prometheus metrics: what ``GET /metrics`` shows (prometheus-client, text format).
+"""Prometheus metrics: what ``GET /metrics`` and ``shapesearch worker --metrics-port`` show
+(prometheus-client, text format).
 
 Process metrics, counted as things happen (module-level, one set per process):
 
@@ -8,23 +9,43 @@ Process metrics, counted as things happen (module-level, one set per process):
     shapesearch_solver_calls_total                               eigen-solver calls
     shapesearch_cutoff_n                                         eigenpairs chosen per model
     shapesearch_webhook_delivery_attempts_total{outcome}         delivered / retry / failed
+    shapesearch_index_models                                     models in an API process's
+                                                                 index (the smallest of them)
 
-State metrics, read from the database when scraped (``StateCollector``, one per app):
+State metrics, read from the database when scraped (``QueueCollector``, ``IndexCollector``):
 
     shapesearch_jobs{status}                                     jobs by status
     shapesearch_queue_depth                                      jobs queued
     shapesearch_queue_oldest_age_seconds                         age of the oldest queued job
     shapesearch_index_partition_models{tenant,descriptor_version}  ready models per partition
-    shapesearch_index_models                                     models in this process's index
 
-Describe metrics are observed where the describe runs: the API process for searches and
-embedded workers; ``shapesearch worker`` processes keep their own (not exported).
+Describe metrics are observed where the describe runs: an API process for searches and its
+embedded workers, a ``shapesearch worker`` process for its jobs.
+
+Several processes, one scrape (prometheus-client's multiprocess mode). A command that starts
+several processes (``serve`` with ``SHAPESEARCH_API_PROCESSES`` > 1, ``shapesearch worker
+--concurrency N --metrics-port P``) gives them a shared directory in
+``PROMETHEUS_MULTIPROC_DIR`` (``shared_metrics_directory``) before it starts them; each
+process then keeps its values in memory-mapped files there, and a scrape sums the files
+(``MultiProcessCollector``). The variable must be set before prometheus-client is imported,
+which is why only freshly spawned processes use it; a single process keeps the plain
+in-memory registry, which also has the ``process_*`` and ``python_*`` metrics that
+multiprocess mode cannot give (and setting the variable for one process would take whoever
+starts it, for nothing to merge). Counters and histograms are summed over the processes; the
+one gauge, ``shapesearch_index_models``, takes the smallest live value (``_index_models``).
+State metrics are read from the database, the same in every process, so they need no sharing.
 """
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from functools import cache
+from pathlib import Path
 from typing import Any
 
 from prometheus_client import (
@@ -32,27 +53,38 @@ from prometheus_client import (
     REGISTRY,
     CollectorRegistry,
     Counter,
+    Gauge,
     Histogram,
     generate_latest,
 )
-from prometheus_client.core import GaugeMetricFamily
+from prometheus_client.core import GaugeMetricFamily, Metric
+from prometheus_client.multiprocess import MultiProcessCollector, mark_process_dead
 from prometheus_client.registry import Collector
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.db.models import Job, Model, utcnow
-from app.search.index import ShapeIndex
 from core.cutoff import CutoffRecord
 
 __all__ = [
     "CONTENT_TYPE_LATEST",
+    "MULTIPROCESS_VARIABLE",
     "WEBHOOK_ATTEMPTS",
     "HttpMetrics",
-    "StateCollector",
+    "IndexCollector",
+    "QueueCollector",
     "exposition",
+    "metrics_registry",
     "observe_description",
+    "observe_index",
+    "process_exited",
+    "remove_stale_metrics",
+    "shared_metrics_directory",
 ]
+
+#: Where processes keep their values when several are scraped as one (prometheus-client).
+MULTIPROCESS_VARIABLE = "PROMETHEUS_MULTIPROC_DIR"
 
 HTTP_REQUESTS = Counter(
     "shapesearch_http_requests", "HTTP requests by route template and status.",
@@ -76,6 +108,27 @@ CUTOFF_N = Histogram(
     "shapesearch_cutoff_n", "Eigenpairs the cutoff chose per described shape.",
     buckets=(10, 20, 30, 50, 75, 100, 150, 200, 300, 500),
 )
+
+
+@cache
+def _index_models() -> Gauge:
+    """Created on first use, so only processes that hold an index (API processes) have it:
+    created at import, every worker process would report an index of 0 models.
+
+    ``livemin``: the API processes each hold a copy of the same index, so their sum means
+    nothing; the smallest live one is the process furthest behind the change feed (compare
+    with ``shapesearch_index_partition_models``), and a stopped process drops out.
+    """
+    return Gauge(
+        "shapesearch_index_models", "Models in an API process's search index (several "
+        "processes: the smallest, the one furthest behind the change feed).",
+        multiprocess_mode="livemin",
+    )
+
+
+def observe_index(models: int) -> None:
+    """Record the size of this process's search index (after it changed)."""
+    _index_models().set(models)
 
 
 def observe_description(columns: dict[str, Any]) -> None:
@@ -124,12 +177,13 @@ class HttpMetrics:
             )
 
 
-class StateCollector(Collector):
-    """Queue, job and index state of one app, read from its database at scrape time."""
+class QueueCollector(Collector):
+    """Jobs by status and the queue, read from the database at scrape time: the same for every
+    process that reads them, so the API and each ``shapesearch worker`` export them alike
+    (a dashboard takes ``max``)."""
 
-    def __init__(self, sessions: sessionmaker[Session], index: ShapeIndex) -> None:
+    def __init__(self, sessions: sessionmaker[Session]) -> None:
         self.sessions = sessions
-        self.index = index
 
     def collect(self) -> Iterator[GaugeMetricFamily]:
         with self.sessions() as session:
@@ -139,11 +193,6 @@ class StateCollector(Collector):
             oldest = session.scalar(
                 select(func.min(Job.created_at)).where(Job.status == "queued")
             )
-            partitions = session.execute(
-                select(Model.tenant, Model.descriptor_version, func.count())
-                .where(Model.status == "ready")
-                .group_by(Model.tenant, Model.descriptor_version)
-            ).all()
         by_status = GaugeMetricFamily("shapesearch_jobs", "Jobs by status.", labels=["status"])
         for status in ("queued", "running", "done", "failed"):
             by_status.add_metric([status], jobs.get(status, 0))
@@ -153,6 +202,22 @@ class StateCollector(Collector):
         yield GaugeMetricFamily(
             "shapesearch_queue_oldest_age_seconds", "Age of the oldest queued job.", age
         )
+
+
+class IndexCollector(Collector):
+    """Ready models per search partition, read from the database at scrape time (what every
+    API process's index should hold)."""
+
+    def __init__(self, sessions: sessionmaker[Session]) -> None:
+        self.sessions = sessions
+
+    def collect(self) -> Iterator[GaugeMetricFamily]:
+        with self.sessions() as session:
+            partitions = session.execute(
+                select(Model.tenant, Model.descriptor_version, func.count())
+                .where(Model.status == "ready")
+                .group_by(Model.tenant, Model.descriptor_version)
+            ).all()
         sizes = GaugeMetricFamily(
             "shapesearch_index_partition_models",
             "Ready models per search partition (tenant, descriptor version).",
@@ -161,11 +226,78 @@ class StateCollector(Collector):
         for tenant, version, count in partitions:
             sizes.add_metric([tenant, version or ""], count)
         yield sizes
-        yield GaugeMetricFamily(
-            "shapesearch_index_models", "Models in this process's search index.", len(self.index)
-        )
 
 
-def exposition(state: CollectorRegistry) -> bytes:
-    """The text format of the process metrics followed by one app's state metrics."""
-    return generate_latest(REGISTRY) + generate_latest(state)
+class _ThisProcess(Collector):
+    """The plain in-memory registry of this process (its metrics and process_*, python_*)."""
+
+    def collect(self) -> Iterable[Metric]:
+        return REGISTRY.collect()
+
+
+def metrics_registry(*state: Collector) -> CollectorRegistry:
+    """What one scrape shows: the process metrics, of every process sharing
+    ``PROMETHEUS_MULTIPROC_DIR`` when it is set (else of this process), then ``state``.
+
+    The variable is read here, not only at import: the parent of several worker processes
+    sets it for its children and exports their files, having none of its own to show.
+    """
+    registry = CollectorRegistry()
+    directory = os.environ.get(MULTIPROCESS_VARIABLE)
+    if directory:
+        MultiProcessCollector(registry, path=directory)
+    else:
+        registry.register(_ThisProcess())
+    for collector in state:
+        registry.register(collector)
+    return registry
+
+
+def exposition(registry: CollectorRegistry) -> bytes:
+    """The text format of one scrape of ``registry`` (``metrics_registry``)."""
+    return generate_latest(registry)
+
+
+@contextmanager
+def shared_metrics_directory() -> Iterator[str]:
+    """``PROMETHEUS_MULTIPROC_DIR`` for the processes started inside the block.
+
+    A directory given in the variable is emptied of the files of earlier runs (a scrape
+    would add up their counters); unset, a new temporary directory is made and removed at
+    the end. Call ``process_exited`` for each process that ends.
+    """
+    given = os.environ.get(MULTIPROCESS_VARIABLE)
+    if given:
+        remove_stale_metrics()
+        yield given
+        return
+    made = tempfile.mkdtemp(prefix="shapesearch-metrics-")
+    os.environ[MULTIPROCESS_VARIABLE] = made
+    try:
+        yield made
+    finally:
+        del os.environ[MULTIPROCESS_VARIABLE]
+        shutil.rmtree(made, ignore_errors=True)
+
+
+def remove_stale_metrics() -> None:
+    """Delete the value files of other processes (earlier runs) from a
+    ``PROMETHEUS_MULTIPROC_DIR`` given by the operator; this process's own, made when it
+    imported prometheus-client with the variable set, are in use. Unset: nothing to do."""
+    given = os.environ.get(MULTIPROCESS_VARIABLE)
+    if not given:
+        return
+    directory = Path(given)
+    directory.mkdir(parents=True, exist_ok=True)
+    mine = f"_{os.getpid()}.db"
+    for stale in directory.glob("*.db"):
+        if not stale.name.endswith(mine):
+            stale.unlink(missing_ok=True)
+
+
+def process_exited(pid: int) -> None:
+    """A process sharing ``PROMETHEUS_MULTIPROC_DIR`` ended: its live gauges leave the sums
+    (its counters and histograms stay: what it counted happened)."""
+    directory = os.environ.get(MULTIPROCESS_VARIABLE)
+    if directory:
+        mark_process_dead(pid, directory)

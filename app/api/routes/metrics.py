@@ -1,4 +1,5 @@
-"""GET /metrics: Prometheus text format (see ``app.observability.metrics``).
+"""GET /metrics: Prometheus text format (see ``app.observability.metrics``); with several API
+processes one scrape sums all of them.
 
 Only loopback clients are answered unless SHAPESEARCH_METRICS_FROM_ANYWHERE is set: the
 metrics name tenants and sizes, which are not for every caller of a public API. (In open
@@ -35,4 +36,4 @@ def metrics(request: Request, services: ServicesDep) -> Response:
             "forbidden",
             "/metrics answers loopback clients only (SHAPESEARCH_METRICS_FROM_ANYWHERE).",
         )
-    return Response(exposition(request.app.state.metrics_state), media_type=CONTENT_TYPE_LATEST)
+    return Response(exposition(request.app.state.metrics), media_type=CONTENT_TYPE_LATEST)
