@@ -13,6 +13,7 @@ import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 
+import httpx
 import pytest
 import uvicorn
 from conftest import EDGE_CASES, PARTS, fake_describe, make_settings
@@ -86,8 +87,6 @@ def test_a_folder_is_imported_then_a_second_run_uploads_nothing(
     assert all(row["http_status"] == "422" and row["detail"] for row in refused)
     assert "18 ready" in capsys.readouterr().err
 
-    import httpx
-
     models = httpx.get(f"{service}/v1/models", params={"limit": 100}).json()["items"]
     assert len(models) == 18
     by_external_id = {m["external_id"]: m for m in models}
@@ -137,42 +136,181 @@ def test_an_unreachable_service_fails_with_a_clear_error(
     assert "error" in capsys.readouterr().err.lower()
 
 
-def test_the_client_retries_429_and_503_then_succeeds() -> None:
-    from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+def test_the_catalogue_is_pulled_only_as_uploads_finish() -> None:
+    """A catalogue of 1,000 files is not drained before the first upload: with every upload
+    held, exactly 2 x concurrency items have been pulled (each holds at most one file)."""
+    from app.cli.importer import Outcome, SourceItem, upload_all
 
-    from app.cli.importer import ImportOptions, _Client
+    pulled = 0
+    release = threading.Event()
 
-    answers = [(429, {"Retry-After": "0"}), (503, {}), (200, {})]
+    def catalogue() -> Iterator[SourceItem]:
+        nonlocal pulled
+        for i in range(1000):
+            pulled += 1
+            yield SourceItem(f"part-{i}.stl", 3, lambda: b"abc")
+
+    def upload(item: SourceItem) -> Outcome:
+        release.wait(30)
+        return Outcome(item.path, item.path, "", "accepted")
+
+    outcomes: list[Outcome] = []
     seen: list[str] = []
-
-    class Flaky(BaseHTTPRequestHandler):
-        def do_GET(self) -> None:  # noqa: N802 (http.server's naming)
-            seen.append(self.path)
-            status, headers = answers.pop(0) if answers else (200, {})
-            self.send_response(status)
-            for name, value in headers.items():
-                self.send_header(name, value)
-            self.send_header("content-length", "2")
-            self.end_headers()
-            self.wfile.write(b"{}")
-
-        def log_message(self, *args: object) -> None:
-            pass
-
-    server = ThreadingHTTPServer(("127.0.0.1", 0), Flaky)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
+    runner = threading.Thread(
+        target=upload_all, args=(catalogue(), upload, 3, lambda o: seen.append(o.path), outcomes)
+    )
+    runner.start()
     try:
-        url = f"http://127.0.0.1:{server.server_address[1]}"
-        client = _Client(ImportOptions(url=url, retries=3))
-        assert client.request("GET", "/v1/models").status_code == 200
-        assert len(seen) == 3
-        answers[:] = [(503, {}), (503, {})]
-        seen.clear()
-        client.retries = 1  # gives up: the last answer is returned
-        assert client.request("GET", "/v1/models").status_code == 503
-        assert len(seen) == 2
-        client.close()
+        deadline = time.monotonic() + 10
+        while pulled < 6 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(0.2)  # time for the producer to over-pull, if it would
+        assert pulled == 6
     finally:
-        server.shutdown()
-        server.server_close()
+        release.set()
+        runner.join(30)
+    assert pulled == 1000
+    assert sorted(o.path for o in outcomes) == sorted(f"part-{i}.stl" for i in range(1000))
+    assert len(seen) == 1000
+
+
+def test_the_default_file_limit_is_the_services_upload_limit() -> None:
+    from app.cli.importer import DEFAULT_MAX_FILE_BYTES
+    from app.settings import Settings
+
+    assert Settings.model_fields["max_upload_bytes"].default == DEFAULT_MAX_FILE_BYTES
+
+
+def test_archive_members_are_read_when_uploaded_and_unsafe_names_are_refused(
+    tmp_path: Path,
+) -> None:
+    """Zip members are read lazily (after the listing, from the archive that stays open);
+    names that climb out of the archive and members over the limit are refused unread."""
+    from app.cli.importer import open_sources
+
+    archive = tmp_path / "parts.zip"
+    with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as zipped:
+        zipped.writestr("a/good.stl", box_stl(1.0))
+        zipped.writestr("../escape.stl", box_stl(2.0))
+        zipped.writestr("/etc/absolute.stl", box_stl(3.0))
+        zipped.writestr("C:\\windows.stl", box_stl(4.0))
+        zipped.writestr("big.stl", b"x" * 5000)
+        zipped.writestr("notes.md", b"not a shape")
+    with open_sources(archive, max_bytes=4000) as sources:
+        items = list(sources)
+        by_path = {item.path: item for item in items}
+        assert by_path["a/good.stl"].read() == box_stl(1.0)  # read after the listing
+    assert sorted(by_path) == sorted(["a/good.stl", "../escape.stl", "/etc/absolute.stl",
+                                      "C:\\windows.stl", "big.stl"])
+    assert by_path["a/good.stl"].refusal is None
+    for name in ("../escape.stl", "/etc/absolute.stl", "C:\\windows.stl"):
+        assert "unsafe path" in (by_path[name].refusal or "")
+    assert "larger than the upload limit of 4000" in (by_path["big.stl"].refusal or "")
+
+
+def test_a_tar_archive_is_streamed_member_by_member(service: str, tmp_path: Path) -> None:
+    """A .tar.gz through the live service: its parts are imported, a traversal name and a
+    member over --max-file-bytes are refused with a reason (and never uploaded)."""
+    import io
+    import tarfile
+
+    archive = tmp_path / "parts.tar.gz"
+    members = {f"lib/part-{i}.stl": box_stl(1.0 + i) for i in range(4)}
+    members["../../outside.stl"] = box_stl(7.0)
+    members["lib/huge.stl"] = b"solid x\n" + b" " * 20_000
+    with tarfile.open(archive, "w:gz") as tarred:
+        for name, content in members.items():
+            info = tarfile.TarInfo(name)
+            info.size = len(content)
+            tarred.addfile(info, io.BytesIO(content))
+    report = tmp_path / "tar.csv"
+    code = main(["import", str(archive), "--url", service, "--max-file-bytes", "10000",
+                 "--concurrency", "2", "--report", str(report)])
+    assert code == 1  # two members refused
+    rows = {row["path"]: row for row in read_report(report)}
+    assert {p: r["outcome"] for p, r in rows.items()} == {
+        **{f"lib/part-{i}.stl": "accepted" for i in range(4)},
+        "../../outside.stl": "refused", "lib/huge.stl": "refused",
+    }
+    assert "unsafe path" in rows["../../outside.stl"]["detail"]
+    assert "larger than the upload limit" in rows["lib/huge.stl"]["detail"]
+    models = httpx.get(f"{service}/v1/models", params={"limit": 100}).json()["items"]
+    assert sorted(m["external_id"] for m in models) == [f"lib/part-{i}.stl" for i in range(4)]
+
+
+class Answers:
+    """A MockTransport handler that answers from a script and records every request."""
+
+    def __init__(self, *answers: tuple[int, dict[str, str]] | Exception) -> None:
+        self.answers = list(answers)
+        self.requests: list[tuple[str, bytes]] = []
+
+    def __call__(self, request: httpx.Request) -> httpx.Response:
+        self.requests.append((request.method, request.read()))
+        answer = self.answers.pop(0) if self.answers else (201, {})
+        if isinstance(answer, Exception):
+            raise answer
+        status, headers = answer
+        body = {"id": "m-1"} if status < 300 else {"title": "Refused", "detail": f"no {status}"}
+        return httpx.Response(status, headers=headers, json=body)
+
+
+def mock_client(handler: Answers, retries: int = 5) -> httpx.Client:
+    from app.cli.importer import ImportOptions, make_client
+
+    return make_client(ImportOptions(url="http://catalogue.test", retries=retries),
+                       transport=httpx.MockTransport(handler))
+
+
+@pytest.fixture
+def sleeps(monkeypatch: pytest.MonkeyPatch) -> list[float]:
+    """The retry layer's waits, recorded instead of slept."""
+    import httpx_retries.retry
+
+    waited: list[float] = []
+    monkeypatch.setattr(httpx_retries.retry.time, "sleep", waited.append)
+    return waited
+
+
+def test_an_upload_is_retried_after_retry_after_and_resent_whole(sleeps: list[float]) -> None:
+    from app.cli.importer import _upload
+
+    handler = Answers((503, {"Retry-After": "2"}), httpx.ConnectError("refused"),
+                      (429, {"Retry-After": "0"}), (201, {}))
+    client = mock_client(handler)
+    content = box_stl(2.0)
+    outcome = _upload(client, "a/b.stl", content, "sha", "a/b.stl", {"k": "v"})
+    assert (outcome.outcome, outcome.http_status, outcome.model_id) == ("accepted", 201, "m-1")
+    assert [method for method, _ in handler.requests] == ["PUT"] * 4
+    bodies = {body for _, body in handler.requests}
+    assert len(bodies) == 1 and content in bodies.pop()  # every retry sends the whole file
+    assert sleeps[0] == 2.0  # the service's Retry-After
+    assert 0.0 <= sleeps[1] <= 0.25 * 2**2 and 0.0 <= sleeps[2] <= 0.25 * 2**3  # backoff
+    client.close()
+
+
+def test_backoff_is_jittered_and_gives_up_with_the_last_answer(sleeps: list[float]) -> None:
+    from app.cli.importer import _upload
+
+    handler = Answers(*[(502, {}), (504, {}), (503, {})] * 2, (503, {}), (201, {}))
+    client = mock_client(handler, retries=6)
+    outcome = _upload(client, "p.stl", b"solid", "sha", "p.stl", None)
+    assert (outcome.outcome, outcome.http_status) == ("failed", 503)
+    assert len(handler.requests) == 7
+    assert len(sleeps) == 6
+    assert all(0.0 <= s <= 0.25 * 2 ** (i + 1) for i, s in enumerate(sleeps))
+    assert len(set(sleeps)) > 1  # jitter: the threads do not retry in step
+    client.close()
+
+
+@pytest.mark.parametrize("status", [400, 401, 413, 415, 422])
+def test_a_4xx_is_not_retried(sleeps: list[float], status: int) -> None:
+    from app.cli.importer import _upload
+
+    handler = Answers((status, {"Retry-After": "1"}))
+    client = mock_client(handler)
+    outcome = _upload(client, "p.stl", b"solid", "sha", "p.stl", None)
+    assert (outcome.outcome, outcome.http_status) == ("refused", status)
+    assert outcome.detail == f"no {status}"
+    assert len(handler.requests) == 1 and sleeps == []
+    client.close()

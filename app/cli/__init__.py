@@ -12,7 +12,8 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch --version
     shapesearch import PATH [--url URL] [--key KEY] [--external-id path|stem] [--metadata F]
                        [--units mm|cm|m|in]
-                       [--concurrency N] [--wait] [--report CSV]
+                       [--concurrency N] [--wait] [--report CSV] [--retries N]
+                       [--max-file-bytes B]
     shapesearch eval DATASET_DIR [--variants ...] [--out DIR]
     shapesearch eval-parts OUT_DIR [--per-family N] [--seed S]
 """
@@ -87,11 +88,13 @@ def _duplicates(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
+    import tarfile
+    import zipfile
     from pathlib import Path
 
     import httpx
 
-    from app.cli.importer import ImportOptions, run_import
+    from app.cli.importer import DEFAULT_MAX_FILE_BYTES, ImportOptions, run_import
 
     if not args.url:
         print("error: give the service's URL: --url or SHAPESEARCH_URL", file=sys.stderr)
@@ -101,10 +104,12 @@ def _import(args: argparse.Namespace) -> int:
         metadata=Path(args.metadata) if args.metadata else None,
         concurrency=args.concurrency, wait=args.wait, report=Path(args.report),
         retries=args.retries, units=args.units,
+        max_file_bytes=args.max_file_bytes or DEFAULT_MAX_FILE_BYTES,
     )
     try:
         code, _counts = run_import(Path(args.path), options)
-    except (OSError, ValueError, httpx.HTTPError) as error:
+    except (OSError, ValueError, httpx.HTTPError, tarfile.TarError,
+            zipfile.BadZipFile) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     return code
@@ -221,7 +226,11 @@ def build_parser() -> argparse.ArgumentParser:
     importer.add_argument("--wait", action="store_true", help="wait until described")
     importer.add_argument("--report", default="import-report.csv", help="CSV of every file")
     importer.add_argument("--retries", type=int, default=5,
-                          help="retries of a request on 429/503 or a connection error")
+                          help="retries of a request on 429/502/503/504 or a connection error "
+                          "(jittered backoff, or the service's Retry-After)")
+    importer.add_argument("--max-file-bytes", type=int, default=None,
+                          help="the service's SHAPESEARCH_MAX_UPLOAD_BYTES: larger files are "
+                          "refused without being read (default: 64 MiB, the service's default)")
     importer.set_defaults(handler=_import)
 
     evaluate = commands.add_parser("eval", help="score retrieval on a labelled CLASS/MODEL dataset")
