@@ -9,17 +9,40 @@
     triangles: 160 GB of records it does not have.
 ``ply_vertex_bomb()``
     A tiny binary PLY whose header declares 10^9 vertices.
+``pcd_lzf_bomb(points, extra)``
+    A PCD ``binary_compressed`` file of ``points`` records of x, y, z and ``extra`` float
+    padding values: 5 million records of 812 bytes declare 4 GB uncompressed, behind a
+    real 11 KB LZF block.
+``scan_variants()``
+    Truncated and lying E57, LAS, LAZ and PCD files made from a valid scan of a sphere.
 """
 
 from __future__ import annotations
 
 import json
 import struct
+from collections.abc import Callable
 
+import lzf
 import numpy as np
 import trimesh
+from scan_files import (
+    e57_file,
+    e57_with_record_count,
+    las_file,
+    las_with_point_count,
+    pcd_compressed_file,
+)
+from shapes import fibonacci_sphere_points
 
-__all__ = ["HOSTILE_FILES", "glb_instancing_bomb", "ply_vertex_bomb", "stl_triangle_bomb"]
+__all__ = [
+    "HOSTILE_FILES",
+    "glb_instancing_bomb",
+    "pcd_lzf_bomb",
+    "ply_vertex_bomb",
+    "scan_variants",
+    "stl_triangle_bomb",
+]
 
 
 def _pad(chunk: bytes, fill: bytes) -> bytes:
@@ -74,10 +97,73 @@ def ply_vertex_bomb(vertices: int = 10**9) -> bytes:
     return header + np.eye(3, dtype=np.float32).tobytes()
 
 
+def pcd_lzf_bomb(points: int = 5_000_000, extra: int = 200) -> bytes:
+    """A PCD whose LZF block declares ``points * (12 + 4 * extra)`` bytes uncompressed
+    (consistent with its header, so only the size gives it away)."""
+    header = (
+        "VERSION 0.7\nFIELDS x y z pad\nSIZE 4 4 4 4\nTYPE F F F F\n"
+        f"COUNT 1 1 1 {extra}\nWIDTH {points}\nHEIGHT 1\nPOINTS {points}\n"
+        "DATA binary_compressed\n"
+    ).encode()
+    block = lzf.compress(bytes(1024 * 1024))
+    return header + struct.pack("<II", len(block), points * (12 + 4 * extra)) + block
+
+
+def _scan_points() -> np.ndarray:
+    return fibonacci_sphere_points(2000) * 25.0
+
+
+def _e57() -> bytes:
+    return e57_file(_scan_points())
+
+
+def _las(compressed: bool) -> bytes:
+    return las_file(_scan_points(), compressed)
+
+
+def _pcd_ratio_lie() -> bytes:
+    """4 million x, y, z points (48 MB, as declared) from a 35 KB LZF block."""
+    data = pcd_compressed_file(_scan_points())
+    data = data.replace(b"WIDTH 2000", b"WIDTH 4000000").replace(b"POINTS 2000", b"POINTS 4000000")
+    start = data.index(b"binary_compressed\n") + len(b"binary_compressed\n")
+    compressed, _ = struct.unpack_from("<II", data, start)
+    return data[:start] + struct.pack("<II", compressed, 4_000_000 * 16) + data[start + 8 :]
+
+
+def scan_variants() -> dict[str, tuple[str, Callable[[], bytes], int, str]]:
+    """Hostile scanner files, as ``HOSTILE_FILES`` entries."""
+    return {
+        "e57-truncated": ("cut.e57", lambda: _e57()[:-3000], 422, "unparsable"),
+        "e57-4e9-points": (
+            "lying.e57", lambda: e57_with_record_count(_e57(), 4_000_000_000), 413, "too_large"
+        ),
+        "e57-4e6-points-2e3-held": (
+            "lying.e57", lambda: e57_with_record_count(_e57(), 4_000_000), 422, "unparsable"
+        ),
+        "las-truncated": ("cut.las", lambda: _las(False)[:-100], 422, "unparsable"),
+        "las-4e6-points-2e3-held": (
+            "lying.las", lambda: las_with_point_count(_las(False), 4_000_000), 422, "unparsable"
+        ),
+        "laz-truncated": ("cut.laz", lambda: _las(True)[:-2000], 422, "unparsable"),
+        "laz-4e9-points": (
+            "bomb.laz", lambda: las_with_point_count(_las(True), 4_000_000_000), 413, "too_large"
+        ),
+        "laz-4e6-points-2e3-held": (
+            "lying.laz", lambda: las_with_point_count(_las(True), 4_000_000), 422, "unparsable"
+        ),
+        "pcd-lzf-truncated": (
+            "cut.pcd", lambda: pcd_compressed_file(_scan_points())[:-500], 422, "unparsable"
+        ),
+        "pcd-lzf-4gb-declared": ("bomb.pcd", pcd_lzf_bomb, 413, "too_large"),
+        "pcd-lzf-beyond-88x": ("lying.pcd", _pcd_ratio_lie, 422, "unparsable"),
+    }
+
+
 #: name -> (file name, bytes maker, expected status, expected reason)
 HOSTILE_FILES = {
     "glb-20000-instances": ("bomb.glb", lambda: glb_instancing_bomb(20_000), 413, "too_large"),
     "glb-3000-instances": ("bomb.glb", lambda: glb_instancing_bomb(3_000), 413, "too_large"),
     "stl-3.2e9-triangles": ("bomb.stl", stl_triangle_bomb, 422, "unparsable"),
     "ply-1e9-vertices": ("bomb.ply", ply_vertex_bomb, 413, "too_large"),
+    **scan_variants(),
 }

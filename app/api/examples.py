@@ -19,6 +19,7 @@ from app.api.limits import too_large_problem
 from app.api.problems import PROBLEM_JSON, Problem, problem_response
 from app.problems import blank_problem, problem
 from core.cutoff import CutoffRecord
+from core.io import SUPPORTED_FORMATS
 
 __all__ = ["EXAMPLES", "install_examples"]
 
@@ -121,9 +122,9 @@ _TOO_LARGE = _raised(too_large_problem(67108864))
 # FastAPI's refusal of a body it cannot parse (app/api/problems.py turns it into problem+json).
 _MALFORMED = blank_problem(400, "There was an error parsing the body")
 _UNKNOWN_FORMAT = _problem("unknown-format",
-                           "could not tell the format of 'drawing.docx': upload one of .stl, "
-                           ".obj, .off, .ply, .glb, .xyz, .txt, .csv, .pts, .pcd, .npy, .step, "
-                           ".iges (the file name's extension tells the format)",
+                           "could not tell the format of 'drawing.docx': upload one of "
+                           f"{', '.join('.' + f for f in SUPPORTED_FORMATS)} (the file name's "
+                           "extension tells the format)",
                            reason="unknown_format")
 _TOO_FEW_POINTS = _problem("too-few-points",
                            "the shape has only 5 distinct points: upload a point cloud or mesh "

@@ -11,6 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from app.db.models import Job, Model
 from app.search.similarity import Candidate
 from core.cutoff import CutoffRecord
+from core.io import SUPPORTED_FORMATS
 
 __all__ = [
     "FileInfo",
@@ -51,7 +52,9 @@ class FileInfo(BaseModel):
     filename: str
     size: int = Field(description="Bytes.")
     sha256: str
-    format: str = Field(description="Detected file format, e.g. stl, ply, obj, off.")
+    format: str = Field(
+        description="Detected file format, one of " + ", ".join(SUPPORTED_FORMATS) + "."
+    )
 
 
 class Size(BaseModel):

@@ -23,9 +23,16 @@ from app.ingest.sandbox import sandbox_of
 from app.problems import reason_kind
 from app.settings import Settings
 from core.errors import InvalidShapeError
-from core.io import check_header, detect_format
+from core.io import EXPANDING_FORMATS, SUPPORTED_FORMATS, check_header, detect_format
 
-__all__ = ["CheckedUpload", "invalid_shape_problem", "read_checked_upload"]
+__all__ = ["UPLOAD_FILE_HELP", "CheckedUpload", "invalid_shape_problem", "read_checked_upload"]
+
+#: The OpenAPI description of every shape upload field.
+UPLOAD_FILE_HELP = (
+    "Mesh, point cloud, scanner or CAD file; its name's extension tells the format: "
+    + ", ".join(SUPPORTED_FORMATS)
+    + " (stp and igs too)."
+)
 
 log = logging.getLogger("shapesearch.api")
 
@@ -33,8 +40,9 @@ _CHUNK = 1024 * 1024
 # Above this size only the format is checked at upload: parsing a huge mesh in the request
 # would hold an API thread for seconds; the worker refuses it later with a reason.
 FULL_CHECK_MAX_BYTES = 16 * 1024 * 1024
-# Files up to this size (of formats without instancing) hold too little geometry to hurt, and
-# are parsed in-process; anything else is parsed in the sandbox, which costs a process start.
+# Files up to this size (of formats whose geometry grows with the file) hold too little
+# geometry to hurt, and are parsed in-process; anything else is parsed in the sandbox, which
+# costs a process start.
 IN_PROCESS_CHECK_MAX_BYTES = 256 * 1024
 
 
@@ -66,8 +74,9 @@ def _hash_limited(stream: BinaryIO, max_bytes: int) -> str:
 
 def _bounded_by_size(content: bytes, fmt: str) -> bool:
     """Whether parsing ``content`` in this process is safe: a small file of a format whose
-    geometry grows with its size (not GLB, whose scene can instance a mesh many times)."""
-    return len(content) <= IN_PROCESS_CHECK_MAX_BYTES and fmt != "glb"
+    geometry grows with its size (not GLB, whose scene can instance a mesh many times, nor
+    LAZ or E57, whose points can compress to almost nothing: ``EXPANDING_FORMATS``)."""
+    return len(content) <= IN_PROCESS_CHECK_MAX_BYTES and fmt not in EXPANDING_FORMATS
 
 
 def base_name(filename: str | None) -> str:

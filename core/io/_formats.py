@@ -14,8 +14,10 @@ from core.errors import InvalidShapeError
 
 __all__ = [
     "CAD_FORMATS",
+    "EXPANDING_FORMATS",
     "MESH_FORMATS",
     "POINT_FORMATS",
+    "SCAN_FORMATS",
     "SUPPORTED_FORMATS",
     "TEXT_POINT_FORMATS",
     "detect_format",
@@ -23,8 +25,10 @@ __all__ = [
 
 #: Formats read as plain text columns ``x y z [extra ...]``.
 TEXT_POINT_FORMATS: tuple[str, ...] = ("xyz", "txt", "csv", "pts")
+#: Binary formats of laser scanners: ASTM E57 (pye57), ASPRS LAS and its compressed LAZ (laspy).
+SCAN_FORMATS: tuple[str, ...] = ("e57", "las", "laz")
 #: Formats that hold points only.
-POINT_FORMATS: tuple[str, ...] = (*TEXT_POINT_FORMATS, "pcd", "npy")
+POINT_FORMATS: tuple[str, ...] = (*TEXT_POINT_FORMATS, "pcd", "npy", *SCAN_FORMATS)
 #: Formats read through trimesh. PLY is here although a PLY without faces is a point cloud.
 MESH_FORMATS: tuple[str, ...] = ("stl", "obj", "off", "ply", "glb")
 #: CAD formats, tessellated through OpenCascade (optional extra); stp/igs are aliases.
@@ -32,9 +36,18 @@ CAD_FORMATS: tuple[str, ...] = ("step", "iges")
 _CAD_ALIASES = {"stp": "step", "igs": "iges"}
 #: Every format ``load_points`` reads, named by its usual extension.
 SUPPORTED_FORMATS: tuple[str, ...] = (*MESH_FORMATS, *POINT_FORMATS, *CAD_FORMATS)
+#: Formats whose geometry can be far larger than the file: a GLB scene instances meshes, LAZ
+#: compresses points arithmetically and E57 bit-packs them (a constant field takes no bits).
+#: Their size says nothing about the memory parsing takes, so they are parsed in a sandbox.
+#: (LZF, in PCD files, expands at most 88-fold: a small PCD stays small.)
+EXPANDING_FORMATS: tuple[str, ...] = ("glb", "laz", "e57")
 
 _NPY_MAGIC = b"\x93NUMPY"
 _GLB_MAGIC = b"glTF"
+_E57_MAGIC = b"ASTM-E57"
+_LAS_MAGIC = b"LASF"
+# Byte of a LAS header holding the point format; LAZ sets bit 7 (or, in old files, bit 6).
+_LAS_POINT_FORMAT_BYTE = 104
 # Keywords that open a PCD header (a comment line, then VERSION, FIELDS, ... in this order).
 _PCD_HEADER = re.compile(rb"^\s*(#\s*\.PCD|VERSION\s|FIELDS\s)")
 # Three numbers at the start of a line, separated by whitespace, commas or semicolons.
@@ -63,6 +76,10 @@ def _sniff(head: bytes) -> str | None:
         return "npy"
     if head.startswith(_GLB_MAGIC):
         return "glb"
+    if head.startswith(_E57_MAGIC):
+        return "e57"
+    if head.startswith(_LAS_MAGIC) and len(head) > _LAS_POINT_FORMAT_BYTE:
+        return "laz" if head[_LAS_POINT_FORMAT_BYTE] & 0xC0 else "las"
     if head.lstrip().startswith(b"ISO-10303-21;"):
         return "step"
     stripped = head.lstrip()

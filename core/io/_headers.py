@@ -1,9 +1,10 @@
 """Cheap structural checks that run before any geometry is built, for files of every size.
 
 A file's header often says how big its geometry will be: a binary STL's triangle count, a
-PLY's vertex count, a GLB's node graph and accessor counts. Checking those numbers against
-the file size and the limits refuses a bomb in milliseconds, before a parser allocates
-anything in proportion to what the file *claims* (a 186 KB GLB can instance one mesh
+PLY's vertex count, a GLB's node graph and accessor counts, a PCD's point count and
+compressed sizes, a LAS/LAZ header's point count, an E57's record counts. Checking those
+numbers against the file size and the limits refuses a bomb in milliseconds, before a parser
+allocates anything in proportion to what the file *claims* (a 186 KB GLB can instance one mesh
 thousands of times; a 60 MB STL can declare 3.2 billion triangles).
 
     check_header(data, fmt)     raises InvalidShapeError (too_large, unparsable, empty_file)
@@ -17,7 +18,10 @@ import struct
 from typing import Any
 
 from core.errors import InvalidShapeError
+from core.io._e57 import check_e57_header
+from core.io._las import check_las_header
 from core.io._meshes import check_ply_header, check_stl_header
+from core.io._pcd import check_pcd_header
 from core.io._validate import MAX_PARSED_POINTS
 
 __all__ = ["MAX_SCENE_INSTANCES", "check_header", "glb_scene_size"]
@@ -172,3 +176,9 @@ def check_header(data: bytes, fmt: str) -> None:
         check_ply_header(data)
     elif fmt == "glb":
         _check_glb(data)
+    elif fmt == "pcd":
+        check_pcd_header(data)
+    elif fmt in ("las", "laz"):
+        check_las_header(data, fmt)
+    elif fmt == "e57":
+        check_e57_header(data)

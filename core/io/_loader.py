@@ -19,8 +19,10 @@ import numpy as np
 
 from core.errors import InvalidShapeError
 from core.io._cad import read_cad
+from core.io._e57 import read_e57
 from core.io._formats import CAD_FORMATS, TEXT_POINT_FORMATS, detect_format
 from core.io._headers import check_header
+from core.io._las import read_las
 from core.io._meshes import RawGeometry, read_mesh
 from core.io._outliers import OUTLIER_RATIO
 from core.io._pcd import read_pcd
@@ -44,7 +46,8 @@ class LoadedShape:
         Finite, distinct points, ``min_points <= n <= max_points``.
     format : str
         Detected format: ``"stl"``, ``"obj"``, ``"off"``, ``"ply"``, ``"glb"``, ``"xyz"``,
-        ``"txt"``, ``"csv"``, ``"pts"``, ``"pcd"``, ``"npy"`` (``"array"`` for in-memory points).
+        ``"txt"``, ``"csv"``, ``"pts"``, ``"pcd"``, ``"npy"``, ``"e57"``, ``"las"``,
+        ``"laz"``, ``"step"``, ``"iges"`` (``"array"`` for in-memory points).
     kind : str
         ``"mesh"`` (points sampled on triangles) or ``"points"`` (points from the file).
     n_input : int
@@ -78,6 +81,10 @@ def _parse(data: bytes, fmt: str) -> RawGeometry:
         return RawGeometry(read_pcd(data), no_faces)
     if fmt == "npy":
         return RawGeometry(read_npy(data), no_faces)
+    if fmt in ("las", "laz"):
+        return RawGeometry(read_las(data, fmt), no_faces)
+    if fmt == "e57":
+        return RawGeometry(read_e57(data), no_faces)
     if fmt in CAD_FORMATS:
         return read_cad(data, fmt)
     check_header(data, fmt)  # before trimesh expands anything the header promises

@@ -21,10 +21,14 @@ from core.errors import InvalidShapeError
 from core.io._outliers import OUTLIER_RATIO, spacing_inliers
 from core.io._sampling import voxel_downsample
 
-__all__ = ["MAX_PARSED_POINTS", "validate_points"]
+__all__ = ["MAX_PARSED_POINTS", "MAX_RECORD_BYTES", "validate_points"]
 
 #: Beyond this many points a file is not a reasonable upload (the API limits bytes first).
 MAX_PARSED_POINTS = 5_000_000
+#: Most bytes of point records a compressed file (LAZ, LZF-compressed PCD) may expand to:
+#: 5 million records of about 100 bytes. Compressed points are not bounded by the upload
+#: size, so this is checked against what the header declares, before decompressing.
+MAX_RECORD_BYTES = 512 * 1024 * 1024
 # Points closer than this fraction of the bounding-box diagonal count as one point: far below
 # any real feature, far above float64 round-off of coordinates written by different programs.
 _DUPLICATE_TOLERANCE = 1e-9

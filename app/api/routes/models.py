@@ -40,7 +40,7 @@ from app.api.search_params import (
     metadata_ranges,
     size_options,
 )
-from app.api.uploads import read_checked_upload
+from app.api.uploads import UPLOAD_FILE_HELP, read_checked_upload
 from app.auth.dependency import TenantDep
 from app.db.feed import record_event
 from app.db.models import Model, utcnow
@@ -76,9 +76,7 @@ def _duplicate(session: Session, tenant: str, external_id: str) -> Problem | Non
 def upload_model(
     request: Request,
     response: Response,
-    file: Annotated[
-        UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
-    ],
+    file: Annotated[UploadFile, File(description=UPLOAD_FILE_HELP)],
     tenant: TenantDep,
     services: ServicesDep,
     external_id: Annotated[str | None, Form(description="Your id; unique per tenant.")] = None,

@@ -26,7 +26,7 @@ from app.api.lookups import load_model, parse_model_id
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
 from app.api.search_params import UnitsField
-from app.api.uploads import CheckedUpload, read_checked_upload
+from app.api.uploads import UPLOAD_FILE_HELP, CheckedUpload, read_checked_upload
 from app.auth.dependency import TenantDep
 from app.db.models import Job, Model, ModelRevision, Upload, utcnow
 from app.ingest.revisions import (
@@ -100,7 +100,7 @@ def _revision_resource(revision: ModelRevision) -> RevisionResource:
 def upsert_model(
     external_id: str,
     response: Response,
-    file: Annotated[UploadFile, File(description="Mesh, point cloud or CAD file.")],
+    file: Annotated[UploadFile, File(description=UPLOAD_FILE_HELP)],
     tenant: TenantDep,
     services: ServicesDep,
     name: Annotated[str | None, Form()] = None,

@@ -28,7 +28,7 @@ from app.api.search_params import (
     query_column,
     size_options,
 )
-from app.api.uploads import invalid_shape_problem, read_checked_upload
+from app.api.uploads import UPLOAD_FILE_HELP, invalid_shape_problem, read_checked_upload
 from app.auth.dependency import TenantDep
 from app.ingest.sandbox import SandboxCrash
 from app.search.similarity import find_similar
@@ -54,9 +54,7 @@ router = APIRouter(prefix="/v1", tags=["search"])
 )
 def search_by_upload(
     request: Request,
-    file: Annotated[
-        UploadFile, File(description="Mesh or point cloud: stl, obj, off, ply, glb, xyz, ...")
-    ],
+    file: Annotated[UploadFile, File(description=UPLOAD_FILE_HELP)],
     filters: Annotated[dict[str, str], Depends(metadata_filters)],
     ranges: Annotated[dict[str, tuple[float | None, float | None]], Depends(metadata_ranges)],
     size: Annotated[SizeOptions, Depends(size_options)],

@@ -67,7 +67,8 @@ function uploadPanel(onUploaded) {
   const sendAll = (files) => [...files].forEach(send);
   input.addEventListener("change", () => { sendAll(input.files); input.value = ""; });
   const drop = el("div", { class: "drop", id: "drop-zone" },
-    "Drop meshes or point clouds here (stl, obj, off, ply, glb, xyz, pcd, npy, ...) or ", input);
+    "Drop meshes, point clouds or scans here (stl, obj, ply, glb, step, xyz, pcd, e57, las, "
+    + "laz, ...) or ", input);
   drop.addEventListener("dragover", (event) => { event.preventDefault(); drop.classList.add("over"); });
   drop.addEventListener("dragleave", () => drop.classList.remove("over"));
   drop.addEventListener("drop", (event) => {
