@@ -28,7 +28,13 @@ from app.api.routes import ROUTERS
 from app.api.search_describer import SearchAdmission, SearchDescriber
 from app.db.session import make_session_factory, migrated_engine, read_only
 from app.ingest.describing import pin_blas_threads
-from app.jobs.worker import JobHandler, WorkerPool, describe_handler, make_queue
+from app.jobs.worker import (
+    JobHandler,
+    WorkerPool,
+    describe_handler,
+    duplicates_handler,
+    make_queue,
+)
 from app.observability.logs import RequestId
 from app.observability.metrics import HttpMetrics, StateCollector
 from app.search.index import ShapeIndex
@@ -104,6 +110,7 @@ def create_app(
                 count=settings.worker_count,
                 poll_interval=settings.poll_interval,
                 on_done=index.sync,  # a finished job is searchable at once in this process
+                reports=duplicates_handler(settings, sessions),
             )
             pool.start()
             deliveries = start_delivery_thread(settings, sessions)  # webhooks, next to jobs
