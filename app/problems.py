@@ -50,6 +50,7 @@ CATALOGUE: dict[str, Kind] = {
     # What is asked about.
     "model-not-found": Kind(404, "Model not found"),
     "job-not-found": Kind(404, "Job not found"),
+    "duplicates-report-not-found": Kind(404, "Duplicates report not found"),
     "webhook-not-found": Kind(404, "Webhook not found"),
     "preview-not-available": Kind(404, "Preview not available"),
     "model-not-ready": Kind(409, "Model not ready"),

@@ -26,12 +26,23 @@ Phases (each prints its figures):
            generator is a second process on 127.0.0.1, bounded by ``--requests`` and
            ``--seconds`` per level); filtered similar (0.1%-selective metadata, and a
            1%-selective size range, issue 21); 1,000 deletes.
+``duplicates``  for each of ``--backends``: a fresh database of ``--models`` ready models of
+           which every 50th is a near copy of the one before (every 200th a second copy:
+           triples), so that at ``--duplicates-min-score`` (default 0.999: the synthetic
+           catalogue's unrelated nearest neighbours score up to ~0.997, the copies 0.9999+)
+           the report holds realistic small groups. The duplicates job as a worker runs it
+           (``compute_report`` + ``store_report``, one BLAS thread): seconds per step;
+           against, in the same run, the direct all-pairs computation the API ran on every
+           page request before (up to ``--duplicates-baseline-max`` models; the groups are
+           compared) and n single index searches (timed on a sample, scaled to n); then
+           ``GET /v1/duplicates`` p50/p99 over HTTP (c=1, pages anywhere in the report).
 
 Usage (run quietly for figures; the machine's load average is printed with them)::
 
     nice -n 10 .venv/bin/python bench/search_scale.py                       # everything
     nice -n 10 .venv/bin/python bench/search_scale.py --quick               # 10^4 / 10^5
     .venv/bin/python bench/search_scale.py --phases db --backends sqlite --models 20000
+    .venv/bin/python bench/search_scale.py --phases duplicates --backends sqlite --models 100000
 """
 
 from __future__ import annotations
@@ -298,8 +309,17 @@ def drop_database(backend: str, token: object) -> None:
     admin.dispose()
 
 
-def fill(url: str, real: np.ndarray, total: int, noise: float) -> tuple[list[str], str]:
-    """``total`` ready models (family f0..f999, each 0.1%); their public ids, an API key."""
+def planted_copy(i: int) -> bool:
+    """Whether model ``i`` of the duplicates phase is a near copy of model ``i - 1``."""
+    return i % 50 == 49 or i % 200 == 198
+
+
+def fill(
+    url: str, real: np.ndarray, total: int, noise: float, copies: bool = False
+) -> tuple[list[str], str]:
+    """``total`` ready models (family f0..f999, each 0.1%); with ``copies``, those that
+    ``planted_copy`` names are near copies of the model before. Their public ids, an API
+    key."""
     from sqlalchemy import insert
 
     from app.auth.keys import create_key
@@ -311,8 +331,15 @@ def fill(url: str, real: np.ndarray, total: int, noise: float) -> tuple[list[str
     upgrade(engine)
     ids: list[str] = []
     now = utcnow()
+    rng = np.random.default_rng(11)
     with engine.begin() as connection:
         for start, vectors in chunks(real, total, noise):
+            if copies:
+                for offset in range(1, len(vectors)):
+                    if planted_copy(start + offset):
+                        moved = vectors[offset - 1] + rng.normal(0, 0.01 / np.sqrt(real.shape[1]),
+                                                                 real.shape[1])
+                        vectors[offset] = moved / np.linalg.norm(moved)
             rows = []
             for offset, vector in enumerate(vectors):
                 model_id = uuid.uuid4()
@@ -475,15 +502,15 @@ def start_api(url: str, args: argparse.Namespace) -> tuple[subprocess.Popen[byte
         time.sleep(0.2)
 
 
-def server_time(offset: int) -> str:
-    """p50/p99 of the time the API spent in each similar request (its access lines'
+def server_time(offset: int, route: str = "/similar") -> str:
+    """p50/p99 of the time the API spent in each request to ``route`` (its access lines'
     ``duration_ms``, from the first ASGI call to the last byte handed to uvicorn) logged after
     byte ``offset`` of the API log: what is left of the client's latency is queueing in the
     kernel and the event loop, and the load generator's own scheduling."""
     with (OUT / "api.log").open("rb") as log:
         log.seek(offset)
         lines = [json.loads(line) for line in log if b'"shapesearch.access"' in line]
-    ms = [line["duration_ms"] for line in lines if line.get("route", "").endswith("/similar")]
+    ms = [line["duration_ms"] for line in lines if line.get("route", "").endswith(route)]
     if not ms:
         return "server time: no access lines"
     return f"server time p50 {np.percentile(ms, 50):.1f} ms, p99 {np.percentile(ms, 99):.1f} ms"
@@ -556,6 +583,139 @@ def phase_db(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
         drop_database(backend, token)
 
 
+# --- phase: the duplicates report ------------------------------------------------------------
+
+
+def direct_groups(sessions: object, min_score: float, k: int = 16) -> set[frozenset[str]]:
+    """The previous ``GET /v1/duplicates``, run on every page request: every ready
+    descriptor read from the database, an exact all-pairs kNN in one FAISS search, the
+    components of the edges at ``min_score``."""
+    import faiss
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from sqlalchemy import select
+
+    from app.db.models import Model
+
+    with sessions() as session:  # type: ignore[operator]
+        rows = session.execute(
+            select(Model.id, Model.descriptor)
+            .where(Model.tenant == "default", Model.status == "ready",
+                   Model.descriptor_version == "bench")
+            .order_by(Model.created_at, Model.id)
+        ).all()
+    vectors = np.stack([np.frombuffer(row.descriptor, dtype=np.float32) for row in rows])
+    index = faiss.IndexFlatIP(vectors.shape[1])
+    index.add(vectors)
+    cosines, ids = index.search(vectors, k + 1)  # the row itself included
+    first = np.repeat(np.arange(len(rows)), ids.shape[1])
+    keep = (ids.ravel() >= 0) & (ids.ravel() != first) & ((1 + cosines.ravel()) / 2 >= min_score)
+    graph = coo_matrix((np.ones(keep.sum()), (first[keep], ids.ravel()[keep])),
+                       shape=(len(rows), len(rows)))
+    count, labels = connected_components(graph, directed=False)
+    order = np.argsort(labels, kind="stable")
+    bounds = np.searchsorted(labels[order], np.arange(count + 1))
+    return {
+        frozenset(str(rows[i].id) for i in order[bounds[g] : bounds[g + 1]])
+        for g in range(count)
+        if bounds[g + 1] - bounds[g] >= 2
+    }
+
+
+def planted_groups(model_ids: list[str]) -> set[frozenset[str]]:
+    """The groups ``fill(copies=True)`` planted: each model with its near copies."""
+    groups: list[list[str]] = []
+    for i, model_id in enumerate(model_ids):
+        if i > 0 and planted_copy(i):
+            groups[-1].append(model_id)
+        else:
+            groups.append([model_id])
+    return {frozenset(group) for group in groups if len(group) >= 2}
+
+
+def single_searches(real: np.ndarray, args: argparse.Namespace, sample: int = 2000) -> float:
+    """Seconds n single index searches (k = 17) would take, one per model, as the graph
+    could also be asked for: timed on ``sample`` of them, scaled to n."""
+    index = ShapeIndexFromArgs(None, args)
+    key = ("default", "bench")
+    index.build_partition(key, chunks(real, args.models, args.noise), expected=args.models)
+    q = queries(real, min(sample, args.models), args.noise)
+    t0 = time.perf_counter()
+    for vector in q:
+        index.search(key, vector, 17)
+    return (time.perf_counter() - t0) * args.models / len(q)
+
+
+def phase_duplicates(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
+    from app.api.cursors import encode_group_cursor
+    from app.db.session import make_engine, make_session_factory
+    from app.search.duplicate_reports import store_report
+    from app.search.duplicates import DuplicatesQuery, compute_report
+
+    print(f"\n== duplicates, {backend}: {args.models} models (load {load_average()})")
+    url, token = new_database(backend)
+    process = None
+    try:
+        t0 = time.perf_counter()
+        model_ids, key = fill(url, real, args.models, args.noise, copies=True)
+        args.key = key
+        planted = planted_groups(model_ids)
+        print(f"filled in {time.perf_counter() - t0:.0f} s ({len(planted)} planted groups)")
+        engine = make_engine(url)
+        sessions = make_session_factory(engine)
+        query = DuplicatesQuery(descriptor_version="bench", min_score=args.duplicates_min_score)
+        t0 = time.perf_counter()  # the job, as a worker runs it
+        report = compute_report(
+            sessions, "default", query, exact_max=args.exact_max, compact_min=args.compact_min,
+            nprobe=args.nprobe,
+        )
+        t1 = time.perf_counter()
+        with sessions.begin() as session:
+            report_id = store_report(session, "default", report, job_id=None)
+        job = time.perf_counter() - t0
+        steps = " + ".join(f"{step} {seconds:.1f}" for step, seconds in report.timings.items())
+        sizes = [len(group.members) for group in report.groups]
+        print(
+            f"duplicates job {job:.1f} s = {steps} + store {time.perf_counter() - t1:.1f} s "
+            f"(load {load_average()}); min_score {query.min_score}: {len(sizes)} groups "
+            f"({sum(sizes)} models, largest {max(sizes, default=0)}), exact {report.exact}"
+        )
+        found = {frozenset(str(m) for m in group.members) for group in report.groups}
+        print(f"planted groups in the report: {len(planted & found)} of {len(planted)}")
+        if args.models <= args.duplicates_baseline_max:
+            t0 = time.perf_counter()
+            direct = direct_groups(sessions, query.min_score)
+            seconds = time.perf_counter() - t0
+            print(
+                f"direct all-pairs (the previous GET, on every page): {seconds:.1f} s, "
+                f"{seconds / job:.1f}x the job; groups {len(direct)}, the same in the report "
+                f"{len(direct & found)}, only in the report {len(found - direct)}"
+            )
+        estimate = single_searches(real, args)
+        print(f"n single index searches instead of the graph: ~{estimate:.0f} s "
+              f"(scaled from 2000), {estimate / report.timings['graph']:.1f}x the graph step")
+        engine.dispose()
+
+        process, base, _ = start_api(url, args)
+        rng = np.random.default_rng(4)
+        first = f"/v1/duplicates?descriptor_version=bench&min_score={query.min_score}"
+        pages = [first] + [
+            f"/v1/duplicates?cursor={encode_group_cursor(report_id, int(n))}"
+            for n in rng.integers(0, max(1, len(sizes)), size=999)
+        ]
+        r = load(base, args, 1, pages, "GET")
+        print(
+            f"HTTP GET /v1/duplicates (50 groups a page) c=1: p50 {r['p50']:.1f} ms, "
+            f"p99 {r['p99']:.1f} ms ({r['count']} requests, errors {r['errors']}); "
+            f"{server_time(0, '/duplicates')}"
+        )
+    finally:
+        if process is not None:
+            process.terminate()
+            process.wait(30)
+        drop_database(backend, token)
+
+
 # --- the load generator (a second process) --------------------------------------------------
 
 
@@ -592,7 +752,7 @@ async def _generate(base: str, paths: list[str], args: argparse.Namespace) -> di
                 latencies.append(time.perf_counter() - t0)
                 if status >= 400:
                     errors += 1
-                elif args.method == "GET":
+                elif args.method == "GET" and b'"results"' in body:
                     results.append(len(json.loads(body)["results"]))
         finally:
             writer.close()
@@ -648,7 +808,8 @@ def main() -> None:
         loadgen(sys.argv[2:])
         return
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--phases", nargs="*", default=["index", "db"], choices=["index", "db"])
+    phases = ["index", "db", "duplicates"]
+    parser.add_argument("--phases", nargs="*", default=phases, choices=phases)
     parser.add_argument("--backends", nargs="*", default=["sqlite", "postgresql"])
     parser.add_argument("--models", type=int, default=100_000, help="models in the database")
     parser.add_argument(
@@ -676,6 +837,9 @@ def main() -> None:
     parser.add_argument("--concurrency", type=int, nargs="*", default=[1, 16, 64])
     parser.add_argument("--requests", type=int, default=3000, help="HTTP requests per level")
     parser.add_argument("--seconds", type=float, default=20, help="time bound per level")
+    parser.add_argument("--duplicates-min-score", type=float, default=0.999)
+    parser.add_argument("--duplicates-baseline-max", type=int, default=20_000,
+                        help="largest catalogue the direct all-pairs baseline runs on")
     parser.add_argument("--quick", action="store_true", help="10^4 models, 10^5 descriptors")
     args = parser.parse_args()
     if args.quick:
@@ -688,6 +852,9 @@ def main() -> None:
     if "db" in args.phases:
         for backend in args.backends:
             phase_db(args, real, backend)
+    if "duplicates" in args.phases:
+        for backend in args.backends:
+            phase_duplicates(args, real, backend)
 
 
 if __name__ == "__main__":

@@ -184,6 +184,25 @@ def wait_for_status(
         time.sleep(0.05)
 
 
+def stored_duplicates(client: TestClient, limit: int = 50, **params: Any) -> dict[str, Any]:
+    """POST /v1/duplicates with ``params``, wait for its job, then GET the first page of
+    the stored report with the same parameters."""
+    posted = client.post("/v1/duplicates", json=params)
+    assert posted.status_code == 202, posted.text
+    job = posted.json()
+    assert job["kind"] == "duplicates" and job["model_id"] is None
+    assert posted.headers["Location"] == f"/v1/jobs/{job['id']}"
+    deadline = time.monotonic() + 120
+    while (job := client.get(f"/v1/jobs/{job['id']}").json())["status"] not in ("done", "failed"):
+        assert time.monotonic() < deadline, job
+        time.sleep(0.05)
+    assert job["status"] == "done", job
+    page = client.get("/v1/duplicates", params={**params, "limit": limit})
+    assert page.status_code == 200, page.text
+    assert page.json()["job_id"] == job["id"]
+    return dict(page.json())
+
+
 def upload(
     client: TestClient,
     path: Path,

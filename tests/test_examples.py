@@ -99,11 +99,13 @@ def test_error_examples_name_the_problem_types_the_service_answers(
     few = client.post("/v1/models", files={"file": ("points.ply", points)})
     missing = client.get(f"/v1/models/{model_id}")
     big_k = client.get(f"/v1/models/{model_id}/similar?k=1000")
+    no_report = client.get("/v1/duplicates", params={"size_tolerance": 0.02})
     for response, documented in (
         (unknown, example("post", "/v1/models", 415)),
         (few, example("post", "/v1/models", 422)),
         (missing, example("get", "/v1/models/{model_id}", 404)),
         (big_k, example("get", "/v1/models/{model_id}/similar", 422)),
+        (no_report, example("get", "/v1/duplicates", 404)),
     ):
         real = response.json()
         assert response.status_code == documented["status"]

@@ -48,14 +48,16 @@ def add_ready(
         )
         session.add(model)
         session.flush()
-        record_event(session, model.index_id, "ready")
+        record_event(session, model.index_id, "ready", tenant)
         return model.index_id
 
 
 def delete_model(sessions: sessionmaker[Session], index_id: int) -> None:
     with sessions.begin() as session:
-        session.execute(delete(Model).where(Model.index_id == index_id))
-        record_event(session, index_id, "deleted")
+        tenant = session.scalar(
+            delete(Model).where(Model.index_id == index_id).returning(Model.tenant)
+        )
+        record_event(session, index_id, "deleted", tenant or "default")
 
 
 def test_rebuild_loads_every_ready_descriptor(sessions: sessionmaker[Session]) -> None:

@@ -134,6 +134,7 @@ def test_readme_curl_session_runs_as_written(tmp_path: Path) -> None:
     duplicates = json_of(outputs, 'curl -s "$S/v1/duplicates?min_score=0.98"')
     assert duplicates["min_score"] == 0.98 and duplicates["groups"] == []
     assert duplicates["descriptor_version"] == stats["current_descriptor_version"]
+    assert duplicates["models"] == 2 and duplicates["stale"] is False
 
     viewer = output_of(outputs, "echo")
     assert viewer == f"{base_url}/#/models/{uuid.UUID(model['id'])}"

@@ -376,7 +376,7 @@ def test_a_redescribe_replaces_the_views_and_models_without_views_still_count(
             .where(Model.index_id == changed)
             .values(view_descriptors=one_view.tobytes())
         )
-        record_event(session, changed, "ready")
+        record_event(session, changed, "ready", KEY[0])
     other.sync()
     assert other.views_held(changed) == 1 and other.views_held(plain) == 0
     assert other.partition_size(views_key(KEY)) == 4 + 4 + 1

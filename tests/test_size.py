@@ -11,7 +11,14 @@ from typing import Any
 import numpy as np
 import pytest
 import trimesh
-from conftest import PARTS, _Postgres, _require, make_settings, wait_for_status
+from conftest import (
+    PARTS,
+    _Postgres,
+    _require,
+    make_settings,
+    stored_duplicates,
+    wait_for_status,
+)
 from fastapi.testclient import TestClient
 
 from app.api.main import create_app
@@ -156,11 +163,10 @@ def test_size_tolerance_weight_filters_and_duplicates(client: TestClient) -> Non
     bad = client.get(f"/v1/models/{ids['part']}/similar", params={"metadata.qty.gte": "x"})
     assert bad.status_code == 422 and bad.json()["pointer"] == "/query/metadata.qty.gte"
     # Duplicates: the same shape at the same size only.
-    report = client.get("/v1/duplicates",
-                        params={"min_score": 0.95, "size_tolerance": 0.02}).json()
+    report = stored_duplicates(client, min_score=0.95, size_tolerance=0.02)
     groups = [{m["external_id"] for m in group["members"]} for group in report["groups"]]
-    assert groups == [{"part", "turned"}]
-    families = client.get("/v1/duplicates", params={"min_score": 0.95}).json()
+    assert groups == [{"part", "turned"}] and report["size_tolerance"] == 0.02
+    families = stored_duplicates(client, min_score=0.95)
     assert [len(group["members"]) for group in families["groups"]] == [4]
 
 

@@ -27,6 +27,8 @@ _ID = "3f0c9a52-8d1e-4b7a-9c61-2f5e8b7d4a10"
 _ID2 = "b2d4e6f8-1a3c-4e5f-8a7b-9c0d1e2f3a4b"
 _JOB = "7e6d5c4b-3a29-4817-a6b5-c4d3e2f1a0b9"
 _JOB2 = "5a4b3c2d-1e0f-4a9b-8c7d-6e5f4a3b2c1d"
+_JOB3 = "2c3d4e5f-6a7b-4c8d-9e0f-1a2b3c4d5e6f"
+_REPORT = "8e9f0a1b-2c3d-4e5f-a6b7-c8d9e0f1a2b3"
 _HOOK = "c1d2e3f4-a5b6-4c7d-8e9f-0a1b2c3d4e5f"
 _DELIVERY = "0f1e2d3c-4b5a-4968-8776-a5b4c3d2e1f0"
 _REVISION = "9d8c7b6a-5f4e-4d3c-b2a1-0f9e8d7c6b5a"
@@ -139,13 +141,17 @@ _NEW_FILE = {
     "sha256": "e3b7a41c9d2f8065b1c4d7e0a9f3b6c8d2e5f1a4b7c0d3e6f9a2b5c8d1e4f7a0",
     "format": "stl",
 }
-_JOB_DONE = {"id": _JOB, "model_id": _ID, "status": "done", "attempts": 1,
+_JOB_DONE = {"id": _JOB, "kind": "describe", "model_id": _ID, "status": "done", "attempts": 1,
              "last_error": None, "leased_until": None,
              "created_at": "2026-11-22T04:24:35.955773Z",
              "updated_at": "2026-11-22T04:24:38.120417Z"}
-_JOB_QUEUED = {**_JOB_DONE, "id": _JOB2, "status": "queued", "attempts": 0,
-               "created_at": "2026-11-23T09:12:05.310442Z",
+_JOB_QUEUED = {**_JOB_DONE, "id": _JOB2, "kind": "redescribe", "status": "queued",
+               "attempts": 0, "created_at": "2026-11-23T09:12:05.310442Z",
                "updated_at": "2026-11-23T09:12:05.310442Z"}
+_JOB_DUPLICATES = {**_JOB_DONE, "id": _JOB3, "kind": "duplicates", "model_id": None,
+                   "status": "queued", "attempts": 0,
+                   "created_at": "2026-11-24T02:00:38.016921Z",
+                   "updated_at": "2026-11-24T02:00:38.016921Z"}
 
 
 def _job_summary(job: dict[str, Any]) -> dict[str, Any]:
@@ -328,13 +334,30 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
             401: _UNAUTHORIZED,
         },
     },
+    ("post", "/v1/duplicates"): {
+        "request": {"application/json": {"min_score": 0.98, "size_tolerance": 0.02}},
+        "responses": {
+            202: _JOB_DUPLICATES,
+            401: _UNAUTHORIZED,
+            422: _validation("body", "min_score", "Input should be less than or equal to 1",
+                             "less_than_equal"),
+        },
+    },
     ("get", "/v1/duplicates"): {
         "responses": {
             200: {
+                "id": _REPORT,
+                "job_id": _JOB3,
                 "descriptor_version": _VERSION,
                 "min_score": 0.98,
-                "size_tolerance": None,
+                "size_tolerance": 0.02,
+                "computed_at": "2026-11-24T02:00:41.207315Z",
+                "models": 2,
+                "group_count": 1,
+                "exact": True,
+                "stale": False,
                 "groups": [{
+                    "number": 1,
                     "size": 2,
                     "members": [
                         {"id": _ID, "external_id": "PN-1001", "name": "Angle block"},
@@ -345,6 +368,12 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
                 "next_cursor": None,
             },
             401: _UNAUTHORIZED,
+            404: _problem(
+                "duplicates-report-not-found",
+                f"There is no duplicates report with min_score=0.98, size_tolerance=0.02 and "
+                f"descriptor_version={_VERSION} yet: POST /v1/duplicates with these "
+                "parameters, then GET again once its job is done.",
+            ),
             422: _validation("query", "min_score", "Input should be less than or equal to 1",
                              "less_than_equal"),
         },

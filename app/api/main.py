@@ -28,7 +28,13 @@ from app.api.routes import ROUTERS
 from app.api.search_describer import SearchAdmission, SearchDescriber
 from app.db.session import make_session_factory, migrated_engine, read_only
 from app.ingest.describing import pin_blas_threads
-from app.jobs.worker import JobHandler, WorkerPool, describe_handler, make_queue
+from app.jobs.worker import (
+    JobHandler,
+    WorkerPool,
+    describe_handler,
+    duplicates_handler,
+    make_queue,
+)
 from app.observability.logs import RequestId
 from app.observability.metrics import (
     HttpMetrics,
@@ -117,6 +123,7 @@ def create_app(
                 poll_interval=settings.poll_interval,
                 # A finished job is searchable at once in this process.
                 on_done=lambda: _sync(index),
+                reports=duplicates_handler(settings, sessions),
             )
             pool.start()
             deliveries = start_delivery_thread(settings, sessions)  # webhooks, next to jobs

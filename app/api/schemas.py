@@ -157,7 +157,12 @@ class SearchResponse(BaseModel):
 
 class JobResource(BaseModel):
     id: uuid.UUID
-    model_id: uuid.UUID
+    kind: Literal["describe", "redescribe", "duplicates"] = Field(
+        description="describe: a new model's file; redescribe: a model's stored or new file "
+        "again; duplicates: the tenant's duplicates report (GET /v1/duplicates once done)."
+    )
+    model_id: uuid.UUID | None = Field(description="The model described; null for a "
+                                       "duplicates job.")
     status: Literal["queued", "running", "done", "failed"]
     attempts: int
     last_error: ModelError | None
@@ -234,6 +239,7 @@ def size_of(
 def job_resource(job: Job) -> JobResource:
     return JobResource(
         id=job.id,
+        kind=job.kind,  # type: ignore[arg-type]
         model_id=job.model_id,
         status=job.status,  # type: ignore[arg-type]
         attempts=job.attempts,

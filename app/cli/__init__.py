@@ -8,7 +8,7 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch worker  [--concurrency N] [--metrics-port P]
     shapesearch keys create --tenant NAME | list | revoke PREFIX
     shapesearch redescribe [--from-version V | --all] [--wait]
-    shapesearch duplicates [--min-score 0.98] [--format csv|json] [--tenant T]
+    shapesearch duplicates [--min-score 0.98] [--size-tolerance T] [--format csv|json] [--tenant T]
     shapesearch --version
     shapesearch import PATH [--url URL] [--key KEY] [--external-id path|stem] [--metadata F]
                        [--units mm|cm|m|in]
@@ -199,7 +199,10 @@ def build_parser() -> argparse.ArgumentParser:
     redescribe.add_argument("--wait", action="store_true", help="show progress until done")
     redescribe.set_defaults(handler=_redescribe)
 
-    duplicates = commands.add_parser("duplicates", help="groups of near-identical parts")
+    duplicates = commands.add_parser(
+        "duplicates", help="compute and store the duplicates report (groups of near-identical "
+        "parts), and print it"
+    )
     duplicates.add_argument("--min-score", type=float, default=0.98)
     duplicates.add_argument("--format", choices=("csv", "json"), default="csv")
     duplicates.add_argument("--tenant", default="default")

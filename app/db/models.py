@@ -10,6 +10,7 @@
     idempotency_keys  the first answer to a POST /v1/models with an Idempotency-Key
     index_events  the change feed the search index of every API process follows
     feed_state    one row holding the last revision handed out to the change feed
+    duplicate_reports, duplicate_groups  stored duplicate reports (app.search.duplicate_reports)
 
 ``index_id`` is the models' integer primary key because FAISS keys its vectors by int64;
 the public identifier is the UUID ``id``.
@@ -24,6 +25,7 @@ from typing import Any
 from sqlalchemy import (
     JSON,
     BigInteger,
+    Boolean,
     DateTime,
     Dialect,
     Float,
@@ -43,6 +45,8 @@ from core.descriptor import VERSION_LENGTH
 __all__ = [
     "ApiKey",
     "Base",
+    "DuplicateGroup",
+    "DuplicateReport",
     "FeedState",
     "IndexEvent",
     "Job",
@@ -164,12 +168,15 @@ class Job(Base):
 
     id: Mapped[uuid.UUID] = mapped_column(Uuid, primary_key=True, default=uuid.uuid4)
     # Several per model since revision 0002: the first describe, re-describes, new revisions.
-    model_id: Mapped[uuid.UUID] = mapped_column(
+    # None for a job about no one model (a duplicates report, revision 0010).
+    model_id: Mapped[uuid.UUID | None] = mapped_column(
         Uuid, ForeignKey("models.id", ondelete="CASCADE"), index=True
     )
     tenant: Mapped[str] = mapped_column(String(200))
-    # describe (first description) | redescribe (stored upload or a new revision)
+    # describe (first description) | redescribe (stored upload or a new revision) |
+    # duplicates (a duplicates report of the tenant, with its parameters in ``params``)
     kind: Mapped[str] = mapped_column(String(20), default="describe")
+    params: Mapped[dict[str, Any] | None] = mapped_column(JSON)
     # The revision whose file this job describes; None: the model's current upload.
     revision_id: Mapped[uuid.UUID | None] = mapped_column(Uuid)
     # queued | running | done | failed
@@ -200,9 +207,14 @@ class IndexEvent(Base):
     __tablename__ = "index_events"
 
     # Taken from feed_state under its row lock, so revisions commit in order.
+    __table_args__ = (Index("ix_index_events_tenant", "tenant", "revision"),)
+
     revision: Mapped[int] = mapped_column(BigInteger, primary_key=True, autoincrement=False)
     index_id: Mapped[int] = mapped_column(BigInteger)
     kind: Mapped[str] = mapped_column(String(20))
+    # The model's tenant (revision 0010; NULL in older events): a stored duplicates report
+    # is stale once an event of its tenant is newer than the revision it was computed at.
+    tenant: Mapped[str | None] = mapped_column(String(200))
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
 
 
@@ -293,3 +305,45 @@ class IdempotencyKey(Base):
     status_code: Mapped[int] = mapped_column(Integer)
     response: Mapped[dict[str, Any]] = mapped_column(JSON)
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class DuplicateReport(Base):
+    """One computed duplicates report of a tenant (``app.search.duplicate_reports``)."""
+
+    __tablename__ = "duplicate_reports"
+    __table_args__ = (
+        Index("ix_duplicate_reports_lookup", "tenant", "descriptor_version", "computed_at"),
+    )
+
+    id: Mapped[uuid.UUID] = mapped_column(Uuid, primary_key=True, default=uuid.uuid4)
+    tenant: Mapped[str] = mapped_column(String(200))
+    # The job that computed it; None when ``shapesearch duplicates`` did.
+    job_id: Mapped[uuid.UUID | None] = mapped_column(Uuid)
+    # The parameters (app.search.duplicates.DuplicatesQuery).
+    descriptor_version: Mapped[str] = mapped_column(String(VERSION_LENGTH))
+    min_score: Mapped[float] = mapped_column(Float)
+    size_tolerance: Mapped[float | None] = mapped_column(Float)
+    neighbours: Mapped[int] = mapped_column(Integer)
+    # The change-feed revision (index_events) whose searchable set the report describes.
+    revision: Mapped[int] = mapped_column(BigInteger)
+    models: Mapped[int] = mapped_column(Integer)  # ready models compared
+    group_count: Mapped[int] = mapped_column(Integer)
+    # Every pair compared (a flat index partition), or only pairs within nearby lists (IVF).
+    exact: Mapped[bool] = mapped_column(Boolean)
+    seconds: Mapped[float] = mapped_column(Float)  # the computation, loading included
+    computed_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+
+class DuplicateGroup(Base):
+    """One group of a stored report; ``number`` 1, 2, ... is its place, largest first."""
+
+    __tablename__ = "duplicate_groups"
+
+    report_id: Mapped[uuid.UUID] = mapped_column(
+        Uuid, ForeignKey("duplicate_reports.id", ondelete="CASCADE"), primary_key=True
+    )
+    number: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
+    # The members' public ids (strings), oldest model first, and the edges that joined
+    # them: [i, j, score] with i < j indexes of ``members``, best first.
+    members: Mapped[list[str]] = mapped_column(JSON)
+    pairs: Mapped[list[list[float]]] = mapped_column(JSON)

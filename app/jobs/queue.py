@@ -14,6 +14,10 @@ OOM-killed) while describing it, perhaps *because* of it. Before claiming, the s
 transaction fails every expired job whose attempts are spent, with the reason "the worker
 died N times while describing this file", so a poison file cannot loop forever.
 
+A job is of a ``kind``: ``describe`` and ``redescribe`` describe one model's file (and
+complete with ``complete``); ``duplicates`` computes a tenant's duplicates report from its
+``params`` (no model; it completes with ``complete_report``). The worker dispatches on it.
+
 Times come from the workers' clocks (UTC); hosts are expected to run NTP, and the lease is
 long compared with any plausible skew.
 """
@@ -21,6 +25,7 @@ long compared with any plausible skew.
 from __future__ import annotations
 
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 from typing import Any
@@ -35,7 +40,9 @@ from app.jobs.lease import backoff_seconds, claim_next
 from app.problems import problem
 from app.webhooks import record_model_event
 
-__all__ = ["Claim", "JobQueue", "worker_died_error"]
+__all__ = ["DUPLICATES", "Claim", "JobQueue", "worker_died_error"]
+
+DUPLICATES = "duplicates"  # the kind of a duplicates report job
 
 
 @dataclass(frozen=True)
@@ -43,15 +50,19 @@ class Claim:
     """One worker's hold on one job."""
 
     job_id: uuid.UUID
-    model_id: uuid.UUID
+    model_id: uuid.UUID | None  # None: a job about no one model (a duplicates report)
     worker_id: str
     attempts: int
+    kind: str = "describe"
+    tenant: str = ""
+    params: dict[str, Any] | None = None
 
 
-def worker_died_error(attempts: int) -> dict[str, str]:
+def worker_died_error(attempts: int, kind: str = "describe") -> dict[str, str]:
     """The failure recorded for a job whose workers died on every attempt."""
     times = "once" if attempts == 1 else f"{attempts} times"
-    return problem("worker-died", f"the worker died {times} while describing this file")
+    doing = "computing the duplicates report" if kind == DUPLICATES else "describing this file"
+    return problem("worker-died", f"the worker died {times} while {doing}")
 
 
 class JobQueue:
@@ -81,17 +92,20 @@ class JobQueue:
             self._fail_poison_jobs(session, now)
             row = claim_next(
                 session, Job, waiting="queued", held="running", worker_id=worker_id, now=now,
-                lease=self.lease, returning=(Job.id, Job.model_id, Job.attempts),
+                lease=self.lease,
+                returning=(Job.id, Job.model_id, Job.attempts, Job.kind, Job.tenant, Job.params),
             )
             if row is None:
                 return None
-            session.execute(
-                update(Model)
-                .where(Model.id == row.model_id, Model.status != "ready")  # keeps serving
-                .values(status="processing", updated_at=now)
-            )
+            if row.model_id is not None:
+                session.execute(
+                    update(Model)
+                    .where(Model.id == row.model_id, Model.status != "ready")  # keeps serving
+                    .values(status="processing", updated_at=now)
+                )
         return Claim(
-            job_id=row.id, model_id=row.model_id, worker_id=worker_id, attempts=row.attempts
+            job_id=row.id, model_id=row.model_id, worker_id=worker_id, attempts=row.attempts,
+            kind=row.kind, tenant=row.tenant, params=row.params,
         )
 
     def _fail_poison_jobs(self, session: Session, now: datetime) -> None:
@@ -104,11 +118,13 @@ class JobQueue:
                 Job.attempts >= self.max_attempts,
             )
             .values(status="failed", leased_until=None, updated_at=now)
-            .returning(Job.id, Job.model_id, Job.attempts)
+            .returning(Job.id, Job.model_id, Job.attempts, Job.kind)
         ).all()
-        for job_id, model_id, attempts in dead:
-            error = worker_died_error(attempts)
+        for job_id, model_id, attempts, kind in dead:
+            error = worker_died_error(attempts, kind)
             session.execute(update(Job).where(Job.id == job_id).values(last_error=error))
+            if model_id is None:
+                continue
             session.execute(
                 update(Model)
                 .where(Model.id == model_id)
@@ -151,14 +167,29 @@ class JobQueue:
             if done.rowcount != 1:
                 return False
             promote(session, claim.job_id, claim.model_id)  # a new revision's file, if any
-            index_id = session.execute(
+            index_id, tenant = session.execute(
                 update(Model)
                 .where(Model.id == claim.model_id)
                 .values(status="ready", error=None, updated_at=now, **result)
-                .returning(Model.index_id)
-            ).scalar_one()
-            record_event(session, index_id, "ready")
+                .returning(Model.index_id, Model.tenant)
+            ).one()
+            record_event(session, index_id, "ready", tenant)
             record_model_event(session, claim.model_id, "model.ready", claim.job_id)
+        return True
+
+    def complete_report(self, claim: Claim, store: Callable[[Session], object]) -> bool:
+        """Mark a job about no one model done and ``store`` its result, in one transaction;
+        False, storing nothing, when the claim no longer holds the job."""
+        now = utcnow()
+        with self.sessions.begin() as session:
+            done = session.execute(
+                update(Job)
+                .where(self._held(claim))
+                .values(status="done", leased_until=None, last_error=None, updated_at=now)
+            )
+            if done.rowcount != 1:
+                return False
+            store(session)
         return True
 
     def fail(self, claim: Claim, error: dict[str, Any]) -> bool:
@@ -172,6 +203,8 @@ class JobQueue:
             )
             if failed.rowcount != 1:
                 return False
+            if claim.model_id is None:
+                return True
             # A ready model whose re-describe failed keeps its descriptor and stays ready.
             session.execute(
                 update(Model)
@@ -210,11 +243,12 @@ class JobQueue:
             )
             if queued.rowcount != 1:
                 return False
-            session.execute(
-                update(Model)
-                .where(Model.id == claim.model_id, Model.status != "ready")
-                .values(status="queued", updated_at=now)
-            )
+            if claim.model_id is not None:
+                session.execute(
+                    update(Model)
+                    .where(Model.id == claim.model_id, Model.status != "ready")
+                    .values(status="queued", updated_at=now)
+                )
         return True
 
     # --- reading ----------------------------------------------------------------------

@@ -1,4 +1,8 @@
-"""Workers: claim a job, describe the upload under a renewed lease, store the result.
+"""Workers: claim a job, do it under a renewed lease, store the result.
+
+A job's kind says what it is: ``describe`` and ``redescribe`` describe an upload
+(``JobHandler``), ``duplicates`` computes and stores a tenant's duplicates report
+(``ReportHandler``, ``app.search.duplicates``).
 
     Worker       one thread's loop: claim -> heartbeat while handling -> complete/fail/retry
     WorkerPool   N worker threads with a graceful stop (finish, or release after a grace time)
@@ -28,6 +32,7 @@ from typing import Any
 
 from prometheus_client import start_http_server
 from sqlalchemy.exc import DBAPIError, OperationalError
+from sqlalchemy.orm import Session
 
 from app.db.session import migrated_engine, open_sessions
 from app.ingest.describing import (
@@ -37,7 +42,7 @@ from app.ingest.describing import (
     pin_blas_threads,
 )
 from app.ingest.sandbox import sandbox_of
-from app.jobs.queue import Claim, JobQueue
+from app.jobs.queue import DUPLICATES, Claim, JobQueue
 from app.observability.logs import configure_logging, job_context
 from app.observability.metrics import (
     QueueCollector,
@@ -48,16 +53,29 @@ from app.observability.metrics import (
     shared_metrics_directory,
 )
 from app.problems import problem, reason_kind
+from app.search.duplicate_reports import store_report
+from app.search.duplicates import DuplicatesQuery, compute_report
 from app.settings import Settings, engine_settings
 from app.webhooks import start_delivery_thread
 from core.errors import InvalidShapeError, SolverError
 
-__all__ = ["JobHandler", "Worker", "WorkerPool", "describe_handler", "make_queue", "run_workers"]
+__all__ = [
+    "JobHandler",
+    "ReportHandler",
+    "Worker",
+    "WorkerPool",
+    "describe_handler",
+    "duplicates_handler",
+    "make_queue",
+    "run_workers",
+]
 
 log = logging.getLogger("shapesearch.worker")
 
 # content, file name -> the Model columns to store
 JobHandler = Callable[[bytes, str], dict[str, Any]]
+# a duplicates job's claim -> what stores its report, given the session of the completion
+ReportHandler = Callable[[Claim], Callable[[Session], object]]
 
 # Worth another attempt later: the numerics, the database or the machine had a bad moment.
 TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
@@ -90,6 +108,27 @@ def describe_handler(settings: Settings, sessions: Any = None) -> JobHandler:
     return handle
 
 
+def duplicates_handler(settings: Settings, sessions: Any) -> ReportHandler:
+    """The production report handler: compute the report of the job's tenant and
+    parameters with the service's index settings (``app.search.duplicates``)."""
+
+    def handle(claim: Claim) -> Callable[[Session], object]:
+        report = compute_report(
+            sessions,
+            claim.tenant,
+            DuplicatesQuery.from_params(claim.params or {}),
+            exact_max=settings.index_exact_max,
+            compact_min=settings.index_compact_min,
+            nprobe=settings.index_nprobe,
+        )
+        steps = ", ".join(f"{step} {seconds:.1f}s" for step, seconds in report.timings.items())
+        log.info("job %s: %d group(s) among %d models (%s)", claim.job_id,
+                 len(report.groups), report.models, steps)
+        return lambda session: store_report(session, claim.tenant, report, claim.job_id)
+
+    return handle
+
+
 def make_queue(settings: Settings, sessions: Any) -> JobQueue:
     return JobQueue(
         sessions,
@@ -117,9 +156,11 @@ class Worker:
         poll_interval: float,
         stop: threading.Event,
         on_done: Callable[[], None] | None = None,
+        reports: ReportHandler | None = None,
     ) -> None:
         self.queue = queue
         self.handler = handler
+        self.reports = reports
         self.worker_id = worker_id
         self.poll_interval = poll_interval
         self.stop = stop
@@ -152,6 +193,9 @@ class Worker:
         return True
 
     def _handle(self, claim: Claim) -> None:
+        if claim.kind == DUPLICATES:
+            self._report(claim)
+            return
         upload = self.queue.upload_of(claim)
         if upload is None:  # deleted since it was queued; its job went with it
             return
@@ -181,6 +225,27 @@ class Worker:
                 self.on_done()
         else:
             log.warning("job %s: lease lost, result discarded", claim.job_id)
+
+    def _report(self, claim: Claim) -> None:
+        """A duplicates job: compute, then store with the job's completion."""
+        if self.reports is None:
+            self.queue.fail(claim, problem("internal-error", "this worker computes no reports"))
+            return
+        with _Heartbeat(self.queue, claim):
+            try:
+                store = self.reports(claim)
+            except TRANSIENT_ERRORS as error:
+                log.warning("job %s attempt %d: %r", claim.job_id, claim.attempts, error)
+                self.queue.retry(claim, _error_record(error))
+                return
+            except Exception as error:  # a bug: retry, capped
+                log.exception("job %s attempt %d failed", claim.job_id, claim.attempts)
+                self.queue.retry(claim, _error_record(error))
+                return
+        if not self.queue.complete_report(claim, store):
+            log.warning("job %s: lease lost, report discarded", claim.job_id)
+        elif self.on_done is not None:
+            self.on_done()
 
 
 def _error_record(error: BaseException) -> dict[str, str]:
@@ -227,6 +292,7 @@ class WorkerPool:
         count: int,
         poll_interval: float,
         on_done: Callable[[], None] | None = None,
+        reports: ReportHandler | None = None,
     ) -> None:
         self.queue = queue
         self.stop_event = threading.Event()
@@ -238,6 +304,7 @@ class WorkerPool:
                 poll_interval=poll_interval,
                 stop=self.stop_event,
                 on_done=on_done,
+                reports=reports,
             )
             for index in range(count)
         ]
@@ -345,6 +412,7 @@ def _work(settings: Settings, threads: int) -> int:
         describe_handler(settings, sessions),
         count=threads,
         poll_interval=settings.poll_interval,
+        reports=duplicates_handler(settings, sessions),
     )
     requested = threading.Event()
     abort = threading.Event()

@@ -249,7 +249,7 @@ def delete_model(
         )
         if index_id is None:
             raise model_not_found(model_id)
-        record_event(session, index_id, "deleted")  # other processes follow the feed
+        record_event(session, index_id, "deleted", tenant)  # other processes follow the feed
     services.index.remove(index_id)  # this process: at once
     return Response(status_code=204)
 

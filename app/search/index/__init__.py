@@ -30,6 +30,10 @@ The index also knows each model's public id (``locate``) and gives back the vect
 holds, exactly as added (``vector``, ``exact_vectors``), so a similar query by model id reads
 no descriptor from the database.
 
+``neighbour_graph`` gives every vector of a partition its k most alike others at once (the
+duplicates report, ``app.search.duplicates``); an index built with ``only`` holds one
+partition and no views, which is what a duplicates job loads.
+
 Searches hold a partition's read lock and run side by side (FAISS releases the GIL);
 writes (batched per sync) take the write lock briefly. A rebuild builds new partitions
 aside and swaps them in, so searches never wait for it.
@@ -43,11 +47,12 @@ from collections import defaultdict
 from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
-from sqlalchemy import func, select
+from sqlalchemy import ColumnElement, func, null, select, true
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import FeedState, IndexEvent, Model
 from app.search.index._builder import Builder
+from app.search.index._neighbours import NeighbourGraph, neighbour_graph
 from app.search.index._partition import Partition
 from app.search.index._view_ids import (
     VIEW_ID_BASE,
@@ -61,7 +66,15 @@ from app.search.index._view_ids import (
 )
 from core.settings import MAX_VIEWS
 
-__all__ = ["VIEW_ID_BASE", "PartitionKey", "ShapeIndex", "view_id", "view_of", "views_key"]
+__all__ = [
+    "VIEW_ID_BASE",
+    "NeighbourGraph",
+    "PartitionKey",
+    "ShapeIndex",
+    "view_id",
+    "view_of",
+    "views_key",
+]
 
 # One model added: (index_id, partition, (d,) descriptor, (v, d) views or None, its public
 # id or None).
@@ -96,6 +109,9 @@ class ShapeIndex:
         Inverted lists searched per query in an IVF partition.
     rerank_factor : int
         Candidates per wanted result fetched from an IVF partition for exact re-ranking.
+    only : PartitionKey, optional
+        Hold this partition alone, without its views: one tenant's descriptors of one
+        version, read once (a duplicates job). None: every partition.
     """
 
     def __init__(
@@ -106,8 +122,10 @@ class ShapeIndex:
         compact_min: int = 500_000,
         nprobe: int = 8,
         rerank_factor: int = 2,
+        only: PartitionKey | None = None,
     ) -> None:
         self.sessions = sessions
+        self.only = only
         self.exact_max = exact_max
         self.compact_min = compact_min
         self.nprobe = nprobe
@@ -189,6 +207,15 @@ class ShapeIndex:
     def is_approximate(self, key: PartitionKey) -> bool:
         partition = self._partitions.get(key)
         return partition is not None and partition.approximate
+
+    def neighbour_graph(self, key: PartitionKey, k: int) -> NeighbourGraph:
+        """The ``k`` most alike others of every vector of partition ``key`` (see
+        ``app.search.index._neighbours``); empty without such a partition."""
+        partition = self._partitions.get(key)
+        if partition is None:
+            return NeighbourGraph.empty(k)
+        with partition.lock.reading():
+            return neighbour_graph(partition, k)
 
     def rerank_candidates(self, k: int) -> int:
         """How many candidates to fetch from an approximate partition for ``k`` results."""
@@ -359,15 +386,22 @@ class ShapeIndex:
                     select(FeedState.revision).where(FeedState.id == 1)
                 ).scalar_one()
                 sizes: dict[PartitionKey, int] = {}
+                view_bytes_of = (
+                    null() if self.only else func.sum(func.length(Model.view_descriptors))
+                )
                 for tenant, version, count, view_bytes, vector_bytes in session.execute(
                     select(
                         Model.tenant,
                         Model.descriptor_version,
                         func.count(),
-                        func.sum(func.length(Model.view_descriptors)),
+                        view_bytes_of,
                         func.max(func.length(Model.descriptor)),
                     )
-                    .where(Model.status == "ready", Model.descriptor_version.is_not(None))
+                    .where(
+                        Model.status == "ready",
+                        Model.descriptor_version.is_not(None),
+                        self._in_scope(),
+                    )
                     .group_by(Model.tenant, Model.descriptor_version)
                 ):
                     sizes[(tenant, version)] = int(count)
@@ -405,6 +439,20 @@ class ShapeIndex:
             self.changes += 1
         self.sync()
 
+    def _in_scope(self) -> ColumnElement[bool]:
+        """The models this index holds: all, or those of partition ``only``."""
+        if self.only is None:
+            return true()
+        tenant, version = self.only
+        return (Model.tenant == tenant) & (Model.descriptor_version == version)
+
+    def _indexed(self) -> tuple[object, ...]:
+        """The columns read of each model: with ``only``, no views (never used there, and
+        up to 16 times the descriptor's bytes)."""
+        if self.only is None:
+            return _INDEXED
+        return tuple(null() if column is Model.view_descriptors else column for column in _INDEXED)
+
     def _ready_rows(self) -> Iterator[tuple[int, str, str, bytes, bytes | None, uuid.UUID]]:
         """Every ready descriptor with its views, ``_ROW_CHUNK`` rows per query (keyset on
         index_id)."""
@@ -413,12 +461,13 @@ class ShapeIndex:
         while True:
             with self.sessions() as session:
                 rows = session.execute(
-                    select(*_INDEXED)
+                    select(*self._indexed())
                     .where(
                         Model.index_id > last,
                         Model.status == "ready",
                         Model.descriptor.is_not(None),
                         Model.descriptor_version.is_not(None),
+                        self._in_scope(),
                     )
                     .order_by(Model.index_id)
                     .limit(_ROW_CHUNK)
@@ -447,8 +496,10 @@ class ShapeIndex:
                     wanted = [i for i, kind in latest.items() if kind == "ready"]
                     rows = (
                         session.execute(
-                            select(*_INDEXED).where(
-                                Model.index_id.in_(wanted), Model.status == "ready"
+                            select(*self._indexed()).where(
+                                Model.index_id.in_(wanted),
+                                Model.status == "ready",
+                                self._in_scope(),
                             )
                         ).all()
                         if wanted
