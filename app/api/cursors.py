@@ -1,21 +1,50 @@
-"""Keyset cursors of the newest-first listings (``GET /v1/models``, ``GET /v1/jobs``).
+"""Cursors of the paged listings (``GET /v1/models``, ``/v1/jobs``, ``/v1/duplicates``): one
+rule for every one of them.
 
-A cursor is the (created_at, id) of the last row of a page, as url-safe base64 of a JSON
-pair: opaque to clients, stable while rows are added, and checked when read back.
+* An absent or empty ``cursor`` is the first page; any other is the ``next_cursor`` of the
+  previous page, passed unchanged. ``next_cursor`` is null on the last page.
+* A keyset cursor (the newest-first listings) is the position after the last row of a page:
+  its ``created_at`` in microseconds since the epoch and its id, ``<micros>-<32 hex>``;
+  stable while rows come and go. An offset cursor (duplicate groups, a list computed per
+  request) is the index of the next item.
+* Each kind is declared with a pattern in the OpenAPI document, and every string that
+  matches it is a position the listing can continue from (past the end: an empty page), so
+  the document says exactly what is accepted: anything else is 422 ``invalid-cursor``.
 """
 
 from __future__ import annotations
 
-import base64
-import binascii
-import json
+import re
 import uuid
-from datetime import datetime
-from typing import Protocol
+from datetime import UTC, datetime, timedelta
+from typing import Annotated, Protocol
+
+from fastapi import Query
 
 from app.api.problems import Problem
 
-__all__ = ["decode_cursor", "encode_cursor"]
+__all__ = [
+    "KeysetCursor",
+    "OffsetCursor",
+    "encode_keyset",
+    "encode_offset",
+    "keyset_after",
+    "offset_of",
+]
+
+_EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+_MICROSECOND = timedelta(microseconds=1)
+# 17 digits of microseconds reach the year 5138, inside what datetime can hold.
+_KEYSET = r"^([0-9]{1,17}-[0-9a-f]{32})?$"
+_OFFSET = r"^[0-9]{0,9}$"
+_HELP = "The previous page's next_cursor, unchanged; empty or absent: the first page."
+
+KeysetCursor = Annotated[
+    str, Query(description=_HELP, json_schema_extra={"pattern": _KEYSET, "maxLength": 50})
+]
+OffsetCursor = Annotated[
+    str, Query(description=_HELP, json_schema_extra={"pattern": _OFFSET, "maxLength": 9})
+]
 
 
 class _Keyed(Protocol):
@@ -23,19 +52,34 @@ class _Keyed(Protocol):
     id: uuid.UUID
 
 
-def encode_cursor(row: _Keyed) -> str:
-    """The cursor that continues after ``row``."""
-    raw = json.dumps([row.created_at.isoformat(), str(row.id)]).encode()
-    return base64.urlsafe_b64encode(raw).decode().rstrip("=")
+def _checked(cursor: str, pattern: str) -> str:
+    if re.fullmatch(pattern, cursor) is None:
+        raise Problem("invalid-cursor", "cursor is not valid; pass next_cursor unchanged.")
+    return cursor
 
 
-def decode_cursor(cursor: str) -> tuple[datetime, uuid.UUID]:
-    """(created_at, id) of a cursor; 422 ``invalid-cursor`` if it is not one of ours."""
-    try:
-        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4))
-        created_at, row_id = json.loads(raw)
-        return datetime.fromisoformat(created_at), uuid.UUID(row_id)
-    except (ValueError, TypeError, binascii.Error) as error:
-        raise Problem(
-            "invalid-cursor", "cursor is not valid; pass next_cursor unchanged."
-        ) from error
+def encode_keyset(row: _Keyed) -> str:
+    """The cursor that continues after ``row`` (``created_at`` aware, as the database
+    columns give it)."""
+    micros = (row.created_at - _EPOCH) // _MICROSECOND
+    return f"{micros}-{row.id.hex}"
+
+
+def keyset_after(cursor: str) -> tuple[datetime, uuid.UUID] | None:
+    """(created_at, id) that the page continues after; None for the first page; 422
+    ``invalid-cursor`` if ``cursor`` does not match the keyset pattern."""
+    if not _checked(cursor, _KEYSET):
+        return None
+    micros, _, hex_id = cursor.partition("-")
+    return _EPOCH + int(micros) * _MICROSECOND, uuid.UUID(hex=hex_id)
+
+
+def encode_offset(offset: int) -> str:
+    """The cursor of the page that starts at item ``offset``."""
+    return str(offset)
+
+
+def offset_of(cursor: str) -> int:
+    """The index of the page's first item: 0 for the first page; 422 ``invalid-cursor`` if
+    ``cursor`` does not match the offset pattern."""
+    return int(_checked(cursor, _OFFSET) or 0)

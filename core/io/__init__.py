@@ -13,13 +13,14 @@ can act on.
 """
 
 from core.io._denoise import denoise_points
-from core.io._formats import SUPPORTED_FORMATS, detect_format
+from core.io._formats import FILE_EXTENSIONS, SUPPORTED_FORMATS, detect_format
 from core.io._headers import check_header
 from core.io._loader import LoadedShape, load_points
 from core.io._outliers import OUTLIER_RATIO, spacing_inliers
 from core.io._validate import MAX_PARSED_POINTS, validate_points
 
 __all__ = [
+    "FILE_EXTENSIONS",
     "MAX_PARSED_POINTS",
     "OUTLIER_RATIO",
     "SUPPORTED_FORMATS",

@@ -14,6 +14,7 @@ from core.errors import InvalidShapeError
 
 __all__ = [
     "CAD_FORMATS",
+    "FILE_EXTENSIONS",
     "MESH_FORMATS",
     "POINT_FORMATS",
     "SUPPORTED_FORMATS",
@@ -32,6 +33,8 @@ CAD_FORMATS: tuple[str, ...] = ("step", "iges")
 _CAD_ALIASES = {"stp": "step", "igs": "iges"}
 #: Every format ``load_points`` reads, named by its usual extension.
 SUPPORTED_FORMATS: tuple[str, ...] = (*MESH_FORMATS, *POINT_FORMATS, *CAD_FORMATS)
+#: Every file name extension that names a format (compared case-insensitively).
+FILE_EXTENSIONS: tuple[str, ...] = (*SUPPORTED_FORMATS, *_CAD_ALIASES)
 
 _NPY_MAGIC = b"\x93NUMPY"
 _GLB_MAGIC = b"glTF"

@@ -8,8 +8,9 @@ from typing import Annotated
 from fastapi import APIRouter, Query
 from pydantic import BaseModel, Field
 
+from app.api.cursors import OffsetCursor, encode_offset, offset_of
 from app.api.deps import ServicesDep, SessionDep
-from app.api.problems import Problem, problem_responses
+from app.api.problems import problem_responses
 from app.auth.dependency import TenantDep
 from app.search.duplicates import find_groups
 
@@ -64,7 +65,7 @@ def get_duplicates(
     session: SessionDep,
     min_score: Annotated[float, Query(ge=0.5, le=1)] = 0.98,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    cursor: Annotated[str | None, Query(description="next_cursor of the previous page")] = None,
+    cursor: OffsetCursor = "",
     descriptor_version: str | None = None,
     size_tolerance: Annotated[
         float | None,
@@ -72,14 +73,7 @@ def get_duplicates(
               "tolerance (models without a size then group with none)."),
     ] = None,
 ) -> DuplicateReport:
-    try:
-        offset = int(cursor) if cursor is not None else 0
-        if offset < 0:
-            raise ValueError(cursor)
-    except ValueError as error:
-        raise Problem(
-            "invalid-cursor", "cursor is not valid; pass next_cursor unchanged."
-        ) from error
+    offset = offset_of(cursor)
     version = descriptor_version or services.descriptor_version
     groups = find_groups(session, tenant, version, min_score, size_tolerance=size_tolerance)
     page = groups[offset : offset + limit]
@@ -98,5 +92,5 @@ def get_duplicates(
             )
             for group in page
         ],
-        next_cursor=str(offset + limit) if offset + limit < len(groups) else None,
+        next_cursor=encode_offset(offset + limit) if offset + limit < len(groups) else None,
     )
