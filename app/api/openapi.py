@@ -84,7 +84,11 @@ def _without_null(schema: dict[str, Any]) -> dict[str, Any]:
 def _file_part(schema: dict[str, Any]) -> dict[str, Any]:
     """A file part: ``format: binary`` (the spelling generators read), at least one byte,
     and the name that tells the format."""
-    extensions = "|".join(FILE_EXTENSIONS)
+    # JSON Schema patterns have no case-insensitive flag: [sS][tT][lL].
+    extensions = "|".join(
+        "".join(f"[{c}{c.upper()}]" if c.isalpha() else c for c in extension)
+        for extension in FILE_EXTENSIONS
+    )
     disposition = {
         "description": "The file name's extension tells the format (case-insensitive): "
         + ", ".join(f".{e}" for e in FILE_EXTENSIONS) + ".",
