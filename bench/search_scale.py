@@ -647,7 +647,7 @@ def single_searches(real: np.ndarray, args: argparse.Namespace, sample: int = 20
 
 
 def phase_duplicates(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
-    from app.api.cursors import encode_group_cursor
+    from app.api.cursors import encode_group
     from app.db.session import make_engine, make_session_factory
     from app.search.duplicate_reports import store_report
     from app.search.duplicates import DuplicatesQuery, compute_report
@@ -700,7 +700,7 @@ def phase_duplicates(args: argparse.Namespace, real: np.ndarray, backend: str) -
         rng = np.random.default_rng(4)
         first = f"/v1/duplicates?descriptor_version=bench&min_score={query.min_score}"
         pages = [first] + [
-            f"/v1/duplicates?cursor={encode_group_cursor(report_id, int(n))}"
+            f"/v1/duplicates?cursor={encode_group(report_id, int(n))}"
             for n in rng.integers(0, max(1, len(sizes)), size=999)
         ]
         r = load(base, args, 1, pages, "GET")

@@ -25,7 +25,7 @@ from scipy.sparse.csgraph import connected_components
 from sqlalchemy import inspect, select
 from sqlalchemy.orm import Session, sessionmaker
 
-from app.api.cursors import encode_group_cursor
+from app.api.cursors import encode_group
 from app.api.main import create_app
 from app.cli import main
 from app.db.feed import record_event
@@ -218,7 +218,7 @@ def test_reports_are_kept_per_parameters_and_cursors_are_checked(client: TestCli
     other = client.get("/v1/duplicates", params={"descriptor_version": FAKE, "min_score": 0.9})
     assert other.status_code == 404  # a report of other parameters is not answered
     assert client.get("/v1/duplicates", params={"cursor": "x"}).status_code == 422
-    cursor_of = {"cursor": encode_group_cursor(uuid.UUID(strict["id"]), 0)}
+    cursor_of = {"cursor": encode_group(uuid.UUID(strict["id"]), 0)}
     assert client.get("/v1/duplicates", params=cursor_of).json()["id"] == strict["id"]
     # Two newer reports of the same parameters: the first one is pruned, its cursor is 404.
     report(client, min_score=0.99)

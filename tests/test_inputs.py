@@ -5,6 +5,7 @@ backends; problem details are consistent (one type per kind, one title per statu
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterator
 from typing import Any
 
@@ -138,11 +139,35 @@ def test_bad_query_parameters_are_422_with_a_pointer(
     assert_invalid(client.get(path), pointer)
 
 
-def test_an_empty_cursor_is_the_first_page(client: TestClient) -> None:
+@pytest.mark.parametrize(
+    ("path", "items", "past_the_end"),
+    [
+        ("/v1/models", "items", "1-" + "0" * 32),  # 1 µs after the epoch: nothing older
+        ("/v1/jobs", "items", "1-" + "f" * 32),
+        ("/v1/duplicates", "groups", "999999999"),
+    ],
+)
+def test_one_cursor_rule_on_every_paged_route(
+    client: TestClient, path: str, items: str, past_the_end: str
+) -> None:
+    """Empty is the first page; every cursor the documented pattern admits is a page;
+    anything else is 422 invalid-cursor."""
     post_model(client)
-    response = client.get("/v1/models", params={"cursor": ""})
-    assert response.status_code == 200, response.text
-    assert len(response.json()["items"]) == 1
+    document = client.get("/openapi.json").json()
+    (cursor,) = [p for p in document["paths"][path]["get"]["parameters"] if p["name"] == "cursor"]
+    first = client.get(path, params={"cursor": ""})
+    assert first.status_code == 200, first.text
+    unpaged = client.get(path).json()[items]
+    assert len(first.json()[items]) == len(unpaged) and (path == "/v1/duplicates" or unpaged)
+    assert re.fullmatch(cursor["schema"]["pattern"], past_the_end)
+    past = client.get(path, params={"cursor": past_the_end})
+    assert past.status_code == 200, past.text
+    assert past.json()[items] == [] and past.json()["next_cursor"] is None
+    for garbage in ("garbage!", "-1", "1-" + "0" * 31, "1-" + "0" * 32 + "\n"):
+        assert not re.fullmatch(cursor["schema"]["pattern"], garbage)
+        refused = client.get(path, params={"cursor": garbage})
+        assert refused.status_code == 422, (garbage, refused.text)
+        assert refused.json()["type"] == "urn:shapesearch:problem:invalid-cursor"
 
 
 def test_the_title_describes_the_type_and_413_names_the_setting(database_url: str) -> None:

@@ -171,9 +171,9 @@ _WEBHOOK = {"id": _HOOK, "url": "https://plm.example.com/hooks/shapesearch",
             "events": ["model.failed", "model.ready"],
             "created_at": "2026-11-22T04:20:11.402918Z"}
 _UPSERT_FORM = {"file": "(the bytes of angle_block_rev_b.STL)", "name": "Angle block, rev B",
-                "metadata": '{"material": "steel"}'}
+                "metadata": {"material": "steel"}}
 _UPLOAD_FORM = {"file": "(the bytes of angle_block.STL)", "external_id": "PN-1001",
-                "name": "Angle block", "metadata": '{"material": "steel"}'}
+                "name": "Angle block", "metadata": {"material": "steel"}}
 
 # (method, path) -> {"request": {media type: value}, "responses": {status: value}}
 EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {

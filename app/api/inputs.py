@@ -27,11 +27,34 @@ from starlette.types import ASGIApp, Receive, Scope, Send
 from app.api.problems import Problem, problem_response
 from app.settings import Settings
 
-__all__ = ["InputLimits", "QueryGuard", "invalid_input"]
+__all__ = [
+    "JSON_OBJECT_FIELD",
+    "METADATA_HELP",
+    "METADATA_SCHEMA",
+    "InputLimits",
+    "QueryGuard",
+    "invalid_input",
+]
 
 # Compact JSON may be this many times shorter than what the client sent (indentation);
 # beyond it the text is refused before it is parsed at all.
 _WHITESPACE_ALLOWANCE = 4
+
+#: What JSON Schema states of a metadata object: its keys hold no NUL. Its nested keys and
+#: strings, its depth and its size are checked too (``InputLimits.metadata``), but a
+#: schema that says so recurses, which client generators cannot read: METADATA_HELP
+#: says it in words.
+METADATA_SCHEMA: dict[str, Any] = {"type": "object", "propertyNames": {"pattern": r"^[^\x00]*$"}}
+#: ``json_schema_extra`` of a form field that holds a JSON object (``metadata``): the
+#: OpenAPI document declares it as an application/json part (``app.api.openapi``).
+JSON_OBJECT_FIELD: dict[str, Any] = {
+    "contentMediaType": "application/json", "contentSchema": METADATA_SCHEMA,
+}
+METADATA_HELP = (
+    "A JSON object, nested at most SHAPESEARCH_MAX_METADATA_DEPTH levels (default 8), at "
+    "most SHAPESEARCH_MAX_METADATA_BYTES (default 16384) as compact JSON, its keys and "
+    "strings without NUL at every level (else 422 validation-error pointing into it)."
+)
 
 
 def invalid_input(pointer: str, detail: str) -> Problem:

@@ -183,6 +183,6 @@ def create_app(
     for router in ROUTERS:
         app.include_router(router)
     install_viewer(app)
-    install_openapi(app)
+    install_openapi(app, InputLimits.from_settings(settings))
     install_examples(app)
     return app

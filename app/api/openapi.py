@@ -1,6 +1,6 @@
 """The OpenAPI document, made to say exactly what the service does.
 
-FastAPI derives most of the schema from the routes; three facts it cannot know are added
+FastAPI derives most of the schema from the routes; the facts it cannot know are added
 here, once, for every operation:
 
 * the API key is optional in the document (``security: [{HTTPBearer: []}, {}]``): an open
@@ -8,21 +8,43 @@ here, once, for every operation:
 * a malformed multipart form or JSON body is answered 400 (problem+json);
 * an operation with a body may answer 413 when it is larger than the upload limit (the
   limit is enforced before routing);
+* the text rule of ``app.api.inputs`` (at most ``max_text_length`` characters, no NUL) on
+  every string a client sends that has no pattern, format or enum of its own: query and
+  path parameters, form fields, JSON body fields;
+* parameters and form fields are never null (leaving one out is); a file part is
+  binary, non-empty and named with an extension the service reads (the extension tells
+  the format), and a JSON form field (``contentMediaType: application/json``, e.g.
+  ``metadata``) is an object part sent as application/json;
+* the shared components: ``Problem`` and the metadata filters (``app.api.search_params``);
 * links from the model a POST /v1/models creates to the operations on it (its ``id``), so
   that clients and schema-driven tools can follow them.
+
+What JSON Schema cannot say (whether a file's content is a readable shape, whether a
+webhook host resolves to a public address) is said per operation, in its 415/422 entries.
 """
 
 from __future__ import annotations
 
+import copy
 import json
 from typing import Any
 
 from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 
+from app.api.inputs import InputLimits
 from app.api.problems import PROBLEM_SCHEMA, problem_responses
+from app.api.search_params import FILTER_SCHEMAS
+from core.io import FILE_EXTENSIONS
 
 __all__ = ["install_openapi"]
+
+_NO_NUL = r"^[^\x00]*$"
+_JSON = "application/json"
+_BINARY = "application/octet-stream"
+# An example file name for tools that need one (schemathesis sends it); any name with one of
+# FILE_EXTENSIONS is read, its extension compared case-insensitively.
+_EXAMPLE_FILE_NAME = "part.stl"
 
 
 def _complete(operation: dict[str, Any]) -> None:
@@ -34,8 +56,102 @@ def _complete(operation: dict[str, Any]) -> None:
             responses.setdefault(str(status), response)
     # FastAPI documents its parameter validation as application/json; the service answers
     # every refusal as problem+json (app/api/problems.py).
-    if "application/json" in responses.get("422", {}).get("content", {}):
+    if _JSON in responses.get("422", {}).get("content", {}):
         responses["422"] = problem_responses(422)[422]
+
+
+def _text(schema: dict[str, Any], limits: InputLimits) -> None:
+    """Add the text rule to a string schema (in place) unless it has its own constraint
+    (a format, enum or pattern: those are stricter, and the server checks them)."""
+    if schema.get("type") == "string" and not {"format", "enum", "pattern", "const",
+                                               "contentMediaType"} & schema.keys():
+        schema["pattern"] = _NO_NUL
+        schema.setdefault("maxLength", limits.max_text_length)
+    for branch in schema.get("anyOf", []):
+        _text(branch, limits)
+
+
+def _without_null(schema: dict[str, Any]) -> dict[str, Any]:
+    """A parameter's or a form field's schema without its null alternative: neither can be
+    null on the wire (leaving it out is)."""
+    branches = [b for b in schema.get("anyOf", []) if b.get("type") != "null"]
+    if len(branches) != 1 or len(schema["anyOf"]) == 1:
+        return schema
+    rest = {key: value for key, value in schema.items() if key != "anyOf"}
+    return {**branches[0], **rest}
+
+
+def _file_part(schema: dict[str, Any]) -> dict[str, Any]:
+    """A file part: ``format: binary`` (the spelling generators read), at least one byte,
+    and the name that tells the format."""
+    # JSON Schema patterns have no case-insensitive flag: [sS][tT][lL].
+    extensions = "|".join(
+        "".join(f"[{c}{c.upper()}]" if c.isalpha() else c for c in extension)
+        for extension in FILE_EXTENSIONS
+    )
+    disposition = {
+        "description": "The file name's extension tells the format (case-insensitive): "
+        + ", ".join(f".{e}" for e in FILE_EXTENSIONS) + ".",
+        "schema": {"type": "string", "pattern": rf'filename="[^"]*\.({extensions})"'},
+        "example": f'form-data; name="file"; filename="{_EXAMPLE_FILE_NAME}"',
+    }
+    schema.update({"format": "binary", "minLength": 1})
+    return {"headers": {"Content-Disposition": disposition}}
+
+
+def _complete_form(body: dict[str, Any], schemas: dict[str, Any], limits: InputLimits) -> None:
+    """State the form fields of a multipart body as they travel (module docstring)."""
+    media = body.get("content", {}).get("multipart/form-data")
+    if media is None:
+        return
+    ref = media["schema"].get("$ref", "")
+    form = schemas[ref.rsplit("/", 1)[-1]] if ref else media["schema"]
+    encoding = media.setdefault("encoding", {})
+    for name, field in list(form.get("properties", {}).items()):
+        field = form["properties"][name] = _without_null(field)
+        if field.get("contentMediaType") == _BINARY:
+            encoding[name] = _file_part(field)
+        elif field.get("contentMediaType") == _JSON:
+            content = field.pop("contentSchema", {})
+            del field["contentMediaType"]
+            field.update({**content, "additionalProperties": True})
+            encoding[name] = {"contentType": _JSON}
+        else:
+            _text(field, limits)
+    if not encoding:
+        del media["encoding"]
+
+
+def _complete_inputs(
+    operation: dict[str, Any], schemas: dict[str, Any], limits: InputLimits
+) -> None:
+    for parameter in operation.get("parameters", []):
+        parameter["schema"] = _without_null(parameter["schema"])
+        if parameter["in"] in ("query", "path"):
+            _text(parameter["schema"], limits)
+    body = operation.get("requestBody")
+    if body is not None:
+        _complete_form(body, schemas, limits)
+
+
+def _complete_json_bodies(paths: dict[str, Any], schemas: dict[str, Any],
+                          limits: InputLimits) -> None:
+    """The text rule on the string fields of every JSON request body."""
+    for operations in paths.values():
+        for operation in operations.values():
+            content = operation.get("requestBody", {}).get("content", {})
+            ref = content.get(_JSON, {}).get("schema", {}).get("$ref")
+            if ref is None:
+                continue
+            for field in schemas[ref.rsplit("/", 1)[-1]].get("properties", {}).values():
+                _text(field, limits)
+
+
+def _complete_filters(schemas: dict[str, Any], limits: InputLimits) -> None:
+    """The filter objects' keys and values are query parameter names and values."""
+    for name in FILTER_SCHEMAS:
+        schemas[name]["propertyNames"].setdefault("maxLength", limits.max_text_length)
+        _text(schemas[name]["additionalProperties"], limits)
 
 
 def _link_created_models(paths: dict[str, Any]) -> None:
@@ -53,8 +169,9 @@ def _link_created_models(paths: dict[str, Any]) -> None:
             }
 
 
-def install_openapi(app: FastAPI) -> None:
-    """Replace ``app.openapi`` with the completed document (built once, then cached)."""
+def install_openapi(app: FastAPI, limits: InputLimits) -> None:
+    """Replace ``app.openapi`` with the completed document (built once, then cached);
+    ``limits`` are the service's input limits, stated in the document."""
 
     def openapi() -> dict[str, Any]:
         if app.openapi_schema is None:
@@ -65,12 +182,19 @@ def install_openapi(app: FastAPI) -> None:
                 description=app.description,
                 routes=app.routes,
             )
-            for path in schema.get("paths", {}).values():
+            paths = schema.get("paths", {})
+            schemas = schema.setdefault("components", {}).setdefault("schemas", {})
+            # Copies: the document is completed in place, the shared definitions stay as
+            # they are.
+            schemas["Problem"] = copy.deepcopy(PROBLEM_SCHEMA)
+            schemas.update(copy.deepcopy(FILTER_SCHEMAS))
+            for path in paths.values():
                 for operation in path.values():
                     _complete(operation)
-            _link_created_models(schema.get("paths", {}))
-            schemas = schema.setdefault("components", {}).setdefault("schemas", {})
-            schemas["Problem"] = PROBLEM_SCHEMA
+                    _complete_inputs(operation, schemas, limits)
+            _complete_json_bodies(paths, schemas, limits)
+            _complete_filters(schemas, limits)
+            _link_created_models(paths)
             # FastAPI's own 422 body is never answered (every 422 is a Problem): drop it.
             for unused in ("HTTPValidationError", "ValidationError"):
                 if f"#/components/schemas/{unused}" not in json.dumps(

@@ -8,6 +8,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from app.api.inputs import METADATA_HELP, METADATA_SCHEMA
 from app.db.models import Job, Model
 from app.search.similarity import Candidate
 from core.cutoff import CutoffRecord
@@ -112,7 +113,9 @@ class ModelPatch(BaseModel):
     name: str | None = Field(default=None, description="null clears the name.")
     # Not nullable, in the schema as in behaviour: send {} to clear the metadata.
     metadata: dict[str, Any] = Field(
-        default_factory=dict, description="Replaces the metadata; {} clears it."
+        default_factory=dict,
+        description="Replaces the metadata; {} clears it. " + METADATA_HELP,
+        json_schema_extra=METADATA_SCHEMA,
     )
 
 

@@ -1,11 +1,20 @@
 """Query parameters shared by the similar and search routes: the search mode and the
-metadata filters."""
+metadata and size filters.
+
+The filters are read from the raw query string (``metadata.KEY=VALUE``,
+``metadata.KEY.gte=N``, ``size.length.lte=N``): their names are data, which FastAPI cannot
+declare. ``FILTER_PARAMETERS`` declares them in the OpenAPI document as they travel, so
+that generated clients can send them: the metadata filters as two free-form objects
+serialized ``style: form, explode: true`` (each property is one query parameter, named by
+its key: ``{"metadata.material": "steel"}`` is ``metadata.material=steel``), the size
+ranges as the ten fixed parameters they are.
+"""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from fastapi import Form, Query, Request
 
@@ -14,6 +23,8 @@ from app.search.similarity import SearchMode
 from app.search.sizing import SIZE_FILTER_FIELDS, SizeQuery
 
 __all__ = [
+    "FILTER_PARAMETERS",
+    "FILTER_SCHEMAS",
     "SCAN_MODE_HELP",
     "SIZE_HELP",
     "ModeQuery",
@@ -45,6 +56,53 @@ def query_column(mode: SearchMode) -> str:
 
 
 _BOUNDS = (".gte", ".lte")
+
+#: The filter objects of the OpenAPI document (``components/schemas``), one class each in a
+#: generated client. A key ending in .gte or .lte is a range; every other is an equality.
+FILTER_SCHEMAS: dict[str, dict[str, Any]] = {
+    "MetadataFilter": {
+        "title": "MetadataFilter",
+        "description": "Keep models whose metadata KEY equals the value: one query "
+        "parameter metadata.KEY=VALUE per property (string values compare as text, others "
+        "by their JSON form, e.g. metadata.qty=3).",
+        "type": "object",
+        "propertyNames": {"pattern": r"^metadata\.(?!.*\.(gte|lte)$)[^\x00]+$"},
+        "additionalProperties": {"type": "string"},
+        "examples": [{"metadata.material": "steel"}],
+    },
+    "MetadataRanges": {
+        "title": "MetadataRanges",
+        "description": "Keep models whose metadata KEY holds a number in the range: one "
+        "query parameter metadata.KEY.gte=N or metadata.KEY.lte=N per property.",
+        "type": "object",
+        "propertyNames": {"pattern": r"^metadata\.[^\x00]+\.(gte|lte)$"},
+        "additionalProperties": {"type": "number"},
+        "examples": [{"metadata.qty.gte": 2, "metadata.qty.lte": 10}],
+    },
+}
+
+
+def _filter_parameters() -> list[dict[str, Any]]:
+    objects = [
+        {"name": name, "in": "query", "required": False, "style": "form", "explode": True,
+         "schema": {"$ref": f"#/components/schemas/{schema}"},
+         "description": FILTER_SCHEMAS[schema]["description"]}
+        for name, schema in (("metadata", "MetadataFilter"), ("metadata_ranges", "MetadataRanges"))
+    ]
+    sizes = [
+        {"name": f"size.{field}.{bound}", "in": "query", "required": False,
+         "schema": {"type": "number"},
+         "description": f"Keep models whose {field} is {words} this (in mm, mm2 or mm3 where "
+         "units are known, as given otherwise)."}
+        for field in SIZE_FILTER_FIELDS
+        for bound, words in (("gte", "at least"), ("lte", "at most"))
+    ]
+    return objects + sizes
+
+
+#: ``openapi_extra`` of the similar and search routes: the filters that
+#: ``metadata_filters``, ``metadata_ranges`` and ``size_options`` read.
+FILTER_PARAMETERS: dict[str, Any] = {"parameters": _filter_parameters()}
 
 
 async def metadata_filters(request: Request) -> dict[str, str]:

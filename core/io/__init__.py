@@ -14,7 +14,12 @@ can act on.
 """
 
 from core.io._denoise import denoise_points
-from core.io._formats import EXPANDING_FORMATS, SUPPORTED_FORMATS, detect_format
+from core.io._formats import (
+    EXPANDING_FORMATS,
+    FILE_EXTENSIONS,
+    SUPPORTED_FORMATS,
+    detect_format,
+)
 from core.io._headers import check_header
 from core.io._loader import LoadedShape, load_points
 from core.io._outliers import OUTLIER_RATIO, spacing_inliers
@@ -22,6 +27,7 @@ from core.io._validate import MAX_PARSED_POINTS, validate_points
 
 __all__ = [
     "EXPANDING_FORMATS",
+    "FILE_EXTENSIONS",
     "MAX_PARSED_POINTS",
     "OUTLIER_RATIO",
     "SUPPORTED_FORMATS",

@@ -15,6 +15,7 @@ from core.errors import InvalidShapeError
 __all__ = [
     "CAD_FORMATS",
     "EXPANDING_FORMATS",
+    "FILE_EXTENSIONS",
     "MESH_FORMATS",
     "POINT_FORMATS",
     "SCAN_FORMATS",
@@ -41,6 +42,8 @@ SUPPORTED_FORMATS: tuple[str, ...] = (*MESH_FORMATS, *POINT_FORMATS, *CAD_FORMAT
 #: Their size says nothing about the memory parsing takes, so they are parsed in a sandbox.
 #: (LZF, in PCD files, expands at most 88-fold: a small PCD stays small.)
 EXPANDING_FORMATS: tuple[str, ...] = ("glb", "laz", "e57")
+#: Every file name extension that names a format (compared case-insensitively).
+FILE_EXTENSIONS: tuple[str, ...] = (*SUPPORTED_FORMATS, *_CAD_ALIASES)
 
 _NPY_MAGIC = b"\x93NUMPY"
 _GLB_MAGIC = b"glTF"

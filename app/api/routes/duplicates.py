@@ -18,7 +18,7 @@ from pydantic import BaseModel, Field
 from sqlalchemy import Row
 from sqlalchemy.orm import Session
 
-from app.api.cursors import decode_group_cursor, encode_group_cursor
+from app.api.cursors import GroupCursor, encode_group, group_after
 from app.api.deps import ServicesDep, SessionDep
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import JobResource, job_resource
@@ -164,10 +164,11 @@ def get_duplicates(
         str | None, Query(max_length=255, description="Default: the service's current one.")
     ] = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    cursor: Annotated[str | None, Query(description="next_cursor of the previous page")] = None,
+    cursor: GroupCursor = "",
 ) -> DuplicateReportResource:
-    if cursor is not None:
-        report, after = _cursor_report(session, tenant, cursor)
+    position = group_after(cursor)
+    if position is not None:
+        report, after = _cursor_report(session, tenant, *position)
     else:
         query = DuplicatesQuery(
             descriptor_version=descriptor_version or services.descriptor_version,
@@ -178,9 +179,10 @@ def get_duplicates(
     return _report_page(session, report, group_page(session, report.id, after, limit))
 
 
-def _cursor_report(session: Session, tenant: str, cursor: str) -> tuple[DuplicateReport, int]:
+def _cursor_report(
+    session: Session, tenant: str, report_id: uuid.UUID, after: int
+) -> tuple[DuplicateReport, int]:
     """The report a cursor pages and the group number it continues after."""
-    report_id, after = decode_group_cursor(cursor)
     report = report_of(session, tenant, report_id)
     if report is None:
         raise Problem(
@@ -221,7 +223,7 @@ def _report_page(
         exact=report.exact,
         stale=is_stale(session, report),
         groups=[_group(group, names) for group in page],
-        next_cursor=encode_group_cursor(report.id, last) if last < report.group_count else None,
+        next_cursor=encode_group(report.id, last) if last < report.group_count else None,
     )
 
 

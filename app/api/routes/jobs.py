@@ -9,7 +9,7 @@ from fastapi import APIRouter, Query
 from pydantic import BaseModel, Field
 from sqlalchemy import and_, or_, select
 
-from app.api.cursors import decode_cursor, encode_cursor
+from app.api.cursors import KeysetCursor, encode_keyset, keyset_after
 from app.api.deps import SessionDep
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import JobResource, job_resource
@@ -37,13 +37,13 @@ def list_jobs(
     session: SessionDep,
     status: Literal["queued", "running", "done", "failed"] | None = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    cursor: Annotated[str | None, Query(description="next_cursor of the previous page")] = None,
+    cursor: KeysetCursor = "",
 ) -> JobList:
     query = select(Job).where(Job.tenant == tenant)
     if status is not None:
         query = query.where(Job.status == status)
-    if cursor is not None:
-        created_at, job_id = decode_cursor(cursor)
+    if (after := keyset_after(cursor)) is not None:
+        created_at, job_id = after
         query = query.where(
             or_(Job.created_at < created_at, and_(Job.created_at == created_at, Job.id < job_id))
         )
@@ -51,7 +51,7 @@ def list_jobs(
         query.order_by(Job.created_at.desc(), Job.id.desc()).limit(limit + 1)
     ).all()
     page = rows[:limit]
-    next_cursor = encode_cursor(page[-1]) if len(rows) > limit else None
+    next_cursor = encode_keyset(page[-1]) if len(rows) > limit else None
     return JobList(items=[job_resource(job) for job in page], next_cursor=next_cursor)
 
 

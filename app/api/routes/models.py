@@ -13,10 +13,10 @@ from sqlalchemy import Connection, Row, and_, delete, or_, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from app.api.cursors import decode_cursor, encode_cursor
+from app.api.cursors import KeysetCursor, encode_keyset, keyset_after
 from app.api.deps import Services, ServicesDep, SessionDep
 from app.api.idempotency import remember, replay_or_refuse, request_sha256
-from app.api.inputs import InputLimits
+from app.api.inputs import JSON_OBJECT_FIELD, METADATA_HELP, InputLimits
 from app.api.lookups import load_model, model_not_found, parse_model_id
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import (
@@ -31,6 +31,7 @@ from app.api.schemas import (
     model_summary,
 )
 from app.api.search_params import (
+    FILTER_PARAMETERS,
     SCAN_MODE_HELP,
     SIZE_HELP,
     ModeQuery,
@@ -81,7 +82,9 @@ def upload_model(
     services: ServicesDep,
     external_id: Annotated[str | None, Form(description="Your id; unique per tenant.")] = None,
     name: Annotated[str | None, Form()] = None,
-    metadata: Annotated[str | None, Form(description="A JSON object, as a string.")] = None,
+    metadata: Annotated[
+        str | None, Form(description=METADATA_HELP, json_schema_extra=JSON_OBJECT_FIELD)
+    ] = None,
     units: UnitsField = None,
     idempotency_key: Annotated[
         str | None,
@@ -152,15 +155,15 @@ def list_models(
     status: ModelStatus | None = None,
     external_id: str | None = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    cursor: Annotated[str | None, Query(description="next_cursor of the previous page")] = None,
+    cursor: KeysetCursor = "",
 ) -> ModelList:
     query = select(Model).where(Model.tenant == tenant)
     if status is not None:
         query = query.where(Model.status == status)
     if external_id is not None:
         query = query.where(Model.external_id == external_id)
-    if cursor:  # an empty cursor is the first page
-        created_at, model_id = decode_cursor(cursor)
+    if (after := keyset_after(cursor)) is not None:
+        created_at, model_id = after
         # Keyset pagination on (created_at, id): stable while models come and go.
         query = query.where(
             or_(
@@ -172,7 +175,7 @@ def list_models(
         query.order_by(Model.created_at.desc(), Model.id.desc()).limit(limit + 1)
     ).all()
     page = rows[:limit]
-    next_cursor = encode_cursor(page[-1]) if len(rows) > limit else None
+    next_cursor = encode_keyset(page[-1]) if len(rows) > limit else None
     jobs = latest_jobs(session, [m.id for m in page])
     return ModelList(
         items=[model_resource(m, jobs.get(m.id)) for m in page], next_cursor=next_cursor
@@ -259,6 +262,7 @@ def delete_model(
     response_model=SimilarResponse,
     responses=problem_responses(401, 404, 409, 422),
     summary="The models most similar to a ready model",
+    openapi_extra=FILTER_PARAMETERS,
     description="Best first, the model itself left out. Filter on metadata with query "
     "parameters `metadata.KEY=VALUE` (string values compare as text, others by their JSON "
     "form, e.g. `metadata.qty=3`); filters apply before the top-k cut. "

@@ -14,14 +14,15 @@ import uuid
 from datetime import datetime
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, File, Form, Response, UploadFile
+from fastapi import APIRouter, File, Form, Path, Response, UploadFile
 from pydantic import BaseModel, Field
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
+from starlette.convertors import Convertor, register_url_convertor
 
 from app.api.deps import ServicesDep, SessionDep
-from app.api.inputs import InputLimits, invalid_input
+from app.api.inputs import JSON_OBJECT_FIELD, METADATA_HELP, InputLimits, invalid_input
 from app.api.lookups import load_model, parse_model_id
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
@@ -40,6 +41,22 @@ from app.ingest.revisions import (
 __all__ = ["RevisionList", "RevisionResource", "router"]
 
 router = APIRouter(prefix="/v1", tags=["models"])
+
+
+class _AnyText(Convertor[str]):
+    """A path parameter that is any text, slashes and line feeds included: an external id
+    is the client's own text, and Starlette's ``path`` convertor stops at a line feed."""
+
+    regex = r"[\s\S]*"
+
+    def convert(self, value: str) -> str:
+        return value
+
+    def to_string(self, value: str) -> str:
+        return value
+
+
+register_url_convertor("anytext", _AnyText())
 
 _MEDIA_TYPES = {
     "stl": "model/stl",
@@ -83,7 +100,7 @@ def _revision_resource(revision: ModelRevision) -> RevisionResource:
 
 
 @router.put(
-    "/models/by-external-id/{external_id:path}",
+    "/models/by-external-id/{external_id:anytext}",
     response_model=ModelResource,
     status_code=200,
     responses={
@@ -98,13 +115,18 @@ def _revision_resource(revision: ModelRevision) -> RevisionResource:
     "the job completes the new descriptor replaces it atomically.",
 )
 def upsert_model(
-    external_id: str,
+    external_id: Annotated[str, Path(description="Your id; unique per tenant.",
+                                     json_schema_extra={"minLength": 1})],
     response: Response,
     file: Annotated[UploadFile, File(description=UPLOAD_FILE_HELP)],
     tenant: TenantDep,
     services: ServicesDep,
     name: Annotated[str | None, Form()] = None,
-    metadata: Annotated[str | None, Form(description="A JSON object, as a string.")] = None,
+    metadata: Annotated[
+        str | None,
+        Form(description=METADATA_HELP + " Absent: the metadata stay as they are.",
+             json_schema_extra=JSON_OBJECT_FIELD),
+    ] = None,
     units: UnitsField = None,
 ) -> ModelResource:
     limits = InputLimits.from_settings(services.settings)

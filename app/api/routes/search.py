@@ -18,6 +18,7 @@ from app.api.schemas import (
     size_of,
 )
 from app.api.search_params import (
+    FILTER_PARAMETERS,
     SCAN_MODE_HELP,
     SIZE_HELP,
     ModeQuery,
@@ -46,6 +47,7 @@ router = APIRouter(prefix="/v1", tags=["search"])
     response_model=SearchResponse,
     responses=problem_responses(401, 413, 415, 422, 503),
     summary="Find the models most similar to an uploaded scan (nothing is stored)",
+    openapi_extra=FILTER_PARAMETERS,
     description="The scan is described synchronously, which takes seconds; at most "
     "SHAPESEARCH_SEARCH_MAX_CONCURRENT at a time (beyond: 503 with Retry-After). A file "
     "seen before (same bytes, same mode) is answered without describing it again. Same "

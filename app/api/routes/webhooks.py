@@ -24,14 +24,31 @@ router = APIRouter(prefix="/v1", tags=["webhooks"])
 EventType = Literal["model.ready", "model.failed", "model.deleted"]
 
 
+# What the service checks, stated in the document (app/webhooks checks it, with its own
+# problem types): http(s), a host, no credentials; whsec_ and base64 of >= 16 bytes. Whether
+# the host resolves, and to a public address, JSON Schema cannot say: that 422 is
+# webhook-url-refused.
+_URL_PATTERN = r"^https?://[^/?#@\s]+([/?#][^\x00]*)?$"
+_SECRET_PATTERN = (
+    r"^(whsec_)?(?=[A-Za-z0-9+/]{22})([A-Za-z0-9+/]{4})*([A-Za-z0-9+/]{2}(==)?|[A-Za-z0-9+/]{3}=?)?$"
+)
+
+
 class WebhookCreate(BaseModel):
-    url: str = Field(max_length=2000, description="http(s) URL that receives the POSTs.")
+    url: str = Field(
+        max_length=2000,
+        description="http(s) URL that receives the POSTs, without credentials. Its host must "
+        "resolve, and to public addresses unless SHAPESEARCH_WEBHOOK_ALLOW_PRIVATE=true "
+        "(else 422 webhook-url-refused).",
+        json_schema_extra={"format": "uri", "pattern": _URL_PATTERN},
+    )
     events: list[EventType] = Field(min_length=1)
     secret: str | None = Field(
         default=None,
         max_length=200,
         description="Standard Webhooks secret (whsec_ + base64, >= 16 bytes); generated "
         "and shown once when absent.",
+        json_schema_extra={"pattern": _SECRET_PATTERN},
     )
 
 

@@ -1,0 +1,176 @@
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, TypeVar, BinaryIO, TextIO, TYPE_CHECKING, Generator
+
+from attrs import define as _attrs_define
+from attrs import field as _attrs_field
+import json
+from .. import types
+
+from ..types import UNSET, Unset
+
+from ..models.body_upsert_model_units import BodyUpsertModelUnits
+from ..types import File, FileTypes
+from ..types import UNSET, Unset
+from io import BytesIO
+from typing import cast
+
+if TYPE_CHECKING:
+  from ..models.body_upsert_model_metadata import BodyUpsertModelMetadata
+
+
+
+
+
+T = TypeVar("T", bound="BodyUpsertModel")
+
+
+
+@_attrs_define
+class BodyUpsertModel:
+    """ 
+        Attributes:
+            file (File): Mesh, point cloud, scanner or CAD file; its name's extension tells the format: stl, obj, off, ply,
+                glb, xyz, txt, csv, pts, pcd, npy, e57, las, laz, step, iges (stp and igs too).
+            metadata (BodyUpsertModelMetadata | Unset): A JSON object, nested at most SHAPESEARCH_MAX_METADATA_DEPTH levels
+                (default 8), at most SHAPESEARCH_MAX_METADATA_BYTES (default 16384) as compact JSON, its keys and strings
+                without NUL at every level (else 422 validation-error pointing into it). Absent: the metadata stay as they are.
+            name (str | Unset):
+            units (BodyUpsertModelUnits | Unset): Units of the file's coordinates: mm, cm, m or in. Sizes compare in
+                millimetres where units are known; without, the numbers are compared as given.
+     """
+
+    file: File
+    metadata: BodyUpsertModelMetadata | Unset = UNSET
+    name: str | Unset = UNSET
+    units: BodyUpsertModelUnits | Unset = UNSET
+    additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
+
+
+
+
+
+    def to_dict(self) -> dict[str, Any]:
+        from ..models.body_upsert_model_metadata import BodyUpsertModelMetadata # noqa: PLC0415
+        file = self.file.to_tuple()
+
+
+        metadata: dict[str, Any] | Unset = UNSET
+        if not isinstance(self.metadata, Unset):
+            metadata = self.metadata.to_dict()
+
+        name = self.name
+
+        units: str | Unset = UNSET
+        if not isinstance(self.units, Unset):
+            units = self.units.value
+
+
+
+        field_dict: dict[str, Any] = {}
+        field_dict.update(self.additional_properties)
+        field_dict.update({
+            "file": file,
+        })
+        if metadata is not UNSET:
+            field_dict["metadata"] = metadata
+        if name is not UNSET:
+            field_dict["name"] = name
+        if units is not UNSET:
+            field_dict["units"] = units
+
+        return field_dict
+
+
+    def to_multipart(self) -> types.RequestFiles:
+        from ..models.body_upsert_model_metadata import BodyUpsertModelMetadata # noqa: PLC0415
+        files: types.RequestFiles = []
+
+        files.append(("file", self.file.to_tuple()))
+
+
+
+        if not isinstance(self.metadata, Unset):
+            files.append(("metadata", (None, json.dumps( self.metadata.to_dict()).encode(), "application/json")))
+
+
+
+        if not isinstance(self.name, Unset):
+            files.append(("name", (None, str(self.name).encode(), "text/plain")))
+
+
+
+        if not isinstance(self.units, Unset):
+            files.append(("units",  (None, str(self.units.value).encode(), "text/plain")))
+
+
+
+
+        for prop_name, prop in self.additional_properties.items():
+            files.append((prop_name, (None, str(prop).encode(), "text/plain")))
+
+
+
+        return files
+
+
+    @classmethod
+    def from_dict(cls: type[T], src_dict: Mapping[str, Any]) -> T:
+        from ..models.body_upsert_model_metadata import BodyUpsertModelMetadata # noqa: PLC0415
+        d = dict(src_dict)
+        file = File(
+             payload = BytesIO(d.pop("file"))
+        )
+
+
+
+
+        _metadata = d.pop("metadata", UNSET)
+        metadata: BodyUpsertModelMetadata | Unset
+        if isinstance(_metadata,  Unset):
+            metadata = UNSET
+        else:
+            metadata = BodyUpsertModelMetadata.from_dict(_metadata)
+
+
+
+
+        name = d.pop("name", UNSET)
+
+        _units = d.pop("units", UNSET)
+        units: BodyUpsertModelUnits | Unset
+        if isinstance(_units,  Unset):
+            units = UNSET
+        else:
+            units = BodyUpsertModelUnits(_units)
+
+
+
+
+        body_upsert_model = cls(
+            file=file,
+            metadata=metadata,
+            name=name,
+            units=units,
+        )
+
+
+        body_upsert_model.additional_properties = d
+        return body_upsert_model
+
+    @property
+    def additional_keys(self) -> list[str]:
+        return list(self.additional_properties.keys())
+
+    def __getitem__(self, key: str) -> Any:
+        return self.additional_properties[key]
+
+    def __setitem__(self, key: str, value: Any) -> None:
+        self.additional_properties[key] = value
+
+    def __delitem__(self, key: str) -> None:
+        del self.additional_properties[key]
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.additional_properties

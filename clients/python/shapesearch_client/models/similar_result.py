@@ -1,0 +1,100 @@
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, TypeVar, BinaryIO, TextIO, TYPE_CHECKING, Generator
+
+from attrs import define as _attrs_define
+from attrs import field as _attrs_field
+
+from ..types import UNSET, Unset
+
+from typing import cast
+
+if TYPE_CHECKING:
+  from ..models.model_summary import ModelSummary
+
+
+
+
+
+T = TypeVar("T", bound="SimilarResult")
+
+
+
+@_attrs_define
+class SimilarResult:
+    """ 
+        Attributes:
+            distance (float): L2 distance between the unit descriptors, in [0, 2].
+            model (ModelSummary):
+            score (float): 1 - distance^2 / 4, in [0, 1]; 1 for identical descriptors.
+     """
+
+    distance: float
+    model: ModelSummary
+    score: float
+    additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
+
+
+
+
+
+    def to_dict(self) -> dict[str, Any]:
+        from ..models.model_summary import ModelSummary # noqa: PLC0415
+        distance = self.distance
+
+        model = self.model.to_dict()
+
+        score = self.score
+
+
+        field_dict: dict[str, Any] = {}
+        field_dict.update(self.additional_properties)
+        field_dict.update({
+            "distance": distance,
+            "model": model,
+            "score": score,
+        })
+
+        return field_dict
+
+
+
+    @classmethod
+    def from_dict(cls: type[T], src_dict: Mapping[str, Any]) -> T:
+        from ..models.model_summary import ModelSummary # noqa: PLC0415
+        d = dict(src_dict)
+        distance = d.pop("distance")
+
+        model = ModelSummary.from_dict(d.pop("model"))
+
+
+
+
+        score = d.pop("score")
+
+        similar_result = cls(
+            distance=distance,
+            model=model,
+            score=score,
+        )
+
+
+        similar_result.additional_properties = d
+        return similar_result
+
+    @property
+    def additional_keys(self) -> list[str]:
+        return list(self.additional_properties.keys())
+
+    def __getitem__(self, key: str) -> Any:
+        return self.additional_properties[key]
+
+    def __setitem__(self, key: str, value: Any) -> None:
+        self.additional_properties[key] = value
+
+    def __delitem__(self, key: str) -> None:
+        del self.additional_properties[key]
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.additional_properties
