@@ -275,7 +275,9 @@ def test_framework_errors_are_problem_json(client: TestClient) -> None:
 
 
 def test_keys_separate_tenants(make_client: ClientFactory, database_url: str) -> None:
-    client = make_client()
+    # No lookup cached: the keys made behind the app's back are seen at once
+    # (test_auth_cache.py covers the cached default).
+    client = make_client(auth_cache_seconds=0)
     open_model = upload(client, CUBE).json()  # before any key: the open "default" tenant
     engine = create_engine(database_url)
     with make_session_factory(engine).begin() as session:
@@ -346,7 +348,8 @@ def test_similar_by_id_answers_from_the_database_when_the_index_lags(
     """The query vector comes from the index, but the database decides: a model changed
     behind the index's back (no change-feed event, so the index still holds it) is 409
     while it is being described and 404 once gone, not answered from the stale copy."""
-    client = make_client(index_sync_interval=3600)
+    # No answer kept (response_cache_seconds=0): this is about the path that computes one.
+    client = make_client(index_sync_interval=3600, response_cache_seconds=0)
     models = [upload(client, path).json() for path in (CUBE, PARTS / "cylinder.stl")]
     for model in models:
         wait_for_status(client, model["id"])

@@ -14,7 +14,7 @@ from datetime import datetime
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Response
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, ConfigDict, Field
 from sqlalchemy import Row
 from sqlalchemy.orm import Session
 
@@ -55,6 +55,9 @@ SizeTolerance = Annotated[
 
 
 class DuplicatesRequest(BaseModel):
+    # Strict: `false` is not a tolerance of 0 (the schema says number).
+    model_config = ConfigDict(strict=True, extra="forbid")
+
     min_score: MinScore = DEFAULT_MIN_SCORE
     size_tolerance: SizeTolerance = None
     descriptor_version: str | None = Field(

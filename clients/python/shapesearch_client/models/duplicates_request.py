@@ -33,7 +33,6 @@ class DuplicatesRequest:
     descriptor_version: None | str | Unset = UNSET
     min_score: float | Unset = 0.98
     size_tolerance: float | None | Unset = UNSET
-    additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
 
 
 
@@ -56,7 +55,7 @@ class DuplicatesRequest:
 
 
         field_dict: dict[str, Any] = {}
-        field_dict.update(self.additional_properties)
+
         field_dict.update({
         })
         if descriptor_version is not UNSET:
@@ -101,22 +100,5 @@ class DuplicatesRequest:
             size_tolerance=size_tolerance,
         )
 
-
-        duplicates_request.additional_properties = d
         return duplicates_request
 
-    @property
-    def additional_keys(self) -> list[str]:
-        return list(self.additional_properties.keys())
-
-    def __getitem__(self, key: str) -> Any:
-        return self.additional_properties[key]
-
-    def __setitem__(self, key: str, value: Any) -> None:
-        self.additional_properties[key] = value
-
-    def __delitem__(self, key: str) -> None:
-        del self.additional_properties[key]
-
-    def __contains__(self, key: str) -> bool:
-        return key in self.additional_properties
