@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import uuid
+from collections.abc import Iterable
 from datetime import datetime
 from typing import Any, Literal
 
@@ -13,6 +14,7 @@ from app.db.models import Job, Model
 from app.search.similarity import Candidate
 from core.cutoff import CutoffRecord
 from core.io import SUPPORTED_FORMATS
+from core.score_calibration import calibration_for
 
 __all__ = [
     "FileInfo",
@@ -131,6 +133,27 @@ class SimilarResult(BaseModel):
     model: ModelSummary
     distance: float = Field(description="L2 distance between the unit descriptors, in [0, 2].")
     score: float = Field(description="1 - distance^2 / 4, in [0, 1]; 1 for identical descriptors.")
+    calibrated_score: float | None = Field(
+        default=None,
+        description="The share of pairs of different kinds of part (measured on the tuning "
+        "sources) that score lower than this one: 0.99 means 1 % of different-kind pairs "
+        "score as high. A threshold on it is a false-match rate (README, What a score "
+        "means). Null for a descriptor layout without a calibration.",
+    )
+
+
+def similar_results(matches: Iterable[Any], descriptor_version: str) -> list[SimilarResult]:
+    """The answer's results from ``app.search.similarity.Match``es of one descriptor_version."""
+    calibration = calibration_for(descriptor_version)
+    return [
+        SimilarResult(
+            model=model_summary(m.model),
+            distance=m.distance,
+            score=m.score,
+            calibrated_score=None if calibration is None else calibration(m.score),
+        )
+        for m in matches
+    ]
 
 
 class SimilarQuery(BaseModel):

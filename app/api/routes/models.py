@@ -9,7 +9,7 @@ from typing import Annotated, Any
 import numpy as np
 from fastapi import APIRouter, Depends, File, Form, Header, Query, Request, Response, UploadFile
 from fastapi.responses import JSONResponse
-from sqlalchemy import Connection, Row, and_, delete, or_, select, update
+from sqlalchemy import Connection, Row, Select, and_, delete, or_, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -26,9 +26,8 @@ from app.api.schemas import (
     ModelStatus,
     SimilarQuery,
     SimilarResponse,
-    SimilarResult,
     model_resource,
-    model_summary,
+    similar_results,
 )
 from app.api.search_params import (
     FILTER_PARAMETERS,
@@ -149,14 +148,17 @@ def upload_model(
     responses=problem_responses(401, 422),
     summary="List models, newest first",
 )
-def list_models(
+async def list_models(
     tenant: TenantDep,
-    session: SessionDep,
+    services: ServicesDep,
     status: ModelStatus | None = None,
     external_id: str | None = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     cursor: KeysetCursor = "",
 ) -> ModelList:
+    # Like similar: one hop to the query pool for the whole page (a sync route and its
+    # session dependency took three hops of the framework's 40-thread pool, whose threads
+    # then contend for the GIL under load).
     query = select(Model).where(Model.tenant == tenant)
     if status is not None:
         query = query.where(Model.status == status)
@@ -171,15 +173,21 @@ def list_models(
                 and_(Model.created_at == created_at, Model.id < model_id),
             )
         )
-    rows = session.scalars(
-        query.order_by(Model.created_at.desc(), Model.id.desc()).limit(limit + 1)
-    ).all()
-    page = rows[:limit]
-    next_cursor = encode_keyset(page[-1]) if len(rows) > limit else None
-    jobs = latest_jobs(session, [m.id for m in page])
-    return ModelList(
-        items=[model_resource(m, jobs.get(m.id)) for m in page], next_cursor=next_cursor
+    query = query.order_by(Model.created_at.desc(), Model.id.desc()).limit(limit + 1)
+    return await asyncio.get_running_loop().run_in_executor(
+        services.queries, _model_page, services, query, limit
     )
+
+
+def _model_page(services: Services, query: Select[tuple[Model]], limit: int) -> ModelList:
+    with services.sessions() as session:
+        rows = session.scalars(query).all()
+        page = rows[:limit]
+        next_cursor = encode_keyset(page[-1]) if len(rows) > limit else None
+        jobs = latest_jobs(session, [m.id for m in page])
+        return ModelList(
+            items=[model_resource(m, jobs.get(m.id)) for m in page], next_cursor=next_cursor
+        )
 
 
 @router.get(
@@ -361,7 +369,7 @@ def _similar_models(
         matches = find_similar(
             services.index, connection, key, vector, exclude=model.index_id, **options
         )
-        return _similar_response(model.id, matches)
+        return _similar_response(model.id, matches, model.descriptor_version)
 
 
 
@@ -397,14 +405,13 @@ def _similar_by_index(
         )
     except QueryChanged:
         return None
-    return _similar_response(parsed, matches)
+    return _similar_response(parsed, matches, key[1])
 
 
-def _similar_response(model_id: uuid.UUID, matches: list[Match]) -> SimilarResponse:
+def _similar_response(
+    model_id: uuid.UUID, matches: list[Match], descriptor_version: str
+) -> SimilarResponse:
     return SimilarResponse(
         query=SimilarQuery(model_id=model_id),
-        results=[
-            SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
-            for m in matches
-        ],
+        results=similar_results(matches, descriptor_version),
     )

@@ -12,9 +12,8 @@ from app.api.problems import problem_responses
 from app.api.schemas import (
     SearchQuery,
     SearchResponse,
-    SimilarResult,
     cutoff_record,
-    model_summary,
+    similar_results,
     size_of,
 )
 from app.api.search_params import (
@@ -103,8 +102,5 @@ def search_by_upload(
             format=upload.format,
             size=size_of(*(described[f"size_{name}"] for name in SIZE_FIELDS), units),
         ),
-        results=[
-            SimilarResult(model=model_summary(m.model), distance=m.distance, score=m.score)
-            for m in matches
-        ],
+        results=similar_results(matches, described["descriptor_version"]),
     )

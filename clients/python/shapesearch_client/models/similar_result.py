@@ -8,6 +8,7 @@ from attrs import field as _attrs_field
 
 from ..types import UNSET, Unset
 
+from ..types import UNSET, Unset
 from typing import cast
 
 if TYPE_CHECKING:
@@ -28,11 +29,15 @@ class SimilarResult:
             distance (float): L2 distance between the unit descriptors, in [0, 2].
             model (ModelSummary):
             score (float): 1 - distance^2 / 4, in [0, 1]; 1 for identical descriptors.
+            calibrated_score (float | None | Unset): The share of pairs of different kinds of part (measured on the tuning
+                sources) that score lower than this one: 0.99 means 1 % of different-kind pairs score as high. A threshold on it
+                is a false-match rate (README, What a score means). Null for a descriptor layout without a calibration.
      """
 
     distance: float
     model: ModelSummary
     score: float
+    calibrated_score: float | None | Unset = UNSET
     additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
 
 
@@ -47,6 +52,12 @@ class SimilarResult:
 
         score = self.score
 
+        calibrated_score: float | None | Unset
+        if isinstance(self.calibrated_score, Unset):
+            calibrated_score = UNSET
+        else:
+            calibrated_score = self.calibrated_score
+
 
         field_dict: dict[str, Any] = {}
         field_dict.update(self.additional_properties)
@@ -55,6 +66,8 @@ class SimilarResult:
             "model": model,
             "score": score,
         })
+        if calibrated_score is not UNSET:
+            field_dict["calibrated_score"] = calibrated_score
 
         return field_dict
 
@@ -73,10 +86,21 @@ class SimilarResult:
 
         score = d.pop("score")
 
+        def _parse_calibrated_score(data: object) -> float | None | Unset:
+            if data is None:
+                return data
+            if isinstance(data, Unset):
+                return data
+            return cast(float | None | Unset, data)
+
+        calibrated_score = _parse_calibrated_score(d.pop("calibrated_score", UNSET))
+
+
         similar_result = cls(
             distance=distance,
             model=model,
             score=score,
+            calibrated_score=calibrated_score,
         )
 
 
