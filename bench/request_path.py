@@ -25,16 +25,15 @@ import argparse
 import os
 import re
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import httpx
 import numpy as np
 import trimesh
+from search_latency import free_port, healthy, wait_until  # bench/ is the script's path
 
 # wrk runs one Lua script per connection: each request takes the next id of the list.
 CYCLE_IDS = """
@@ -45,27 +44,6 @@ request = function()
   return wrk.format("GET", ids[(i %% #ids) + 1])
 end
 """
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
-
-
-def healthy(base: str) -> bool:
-    try:
-        return httpx.get(f"{base}/healthz").status_code == 200
-    except httpx.HTTPError:
-        return False
-
-
-def wait_until(check, timeout: float) -> None:  # type: ignore[no-untyped-def]
-    deadline = time.monotonic() + timeout
-    while not check():
-        if time.monotonic() > deadline:
-            raise TimeoutError("the service did not get there in time")
-        time.sleep(0.2)
 
 
 def part(seed: int) -> bytes:

@@ -159,12 +159,7 @@ class JobQueue:
         """
         now = utcnow()
         with self.sessions.begin() as session:
-            done = session.execute(
-                update(Job)
-                .where(self._held(claim))
-                .values(status="done", leased_until=None, last_error=None, updated_at=now)
-            )
-            if done.rowcount != 1:
+            if not self._mark_done(session, claim, now):
                 return False
             promote(session, claim.job_id, claim.model_id)  # a new revision's file, if any
             index_id, tenant = session.execute(
@@ -180,17 +175,20 @@ class JobQueue:
     def complete_report(self, claim: Claim, store: Callable[[Session], object]) -> bool:
         """Mark a job about no one model done and ``store`` its result, in one transaction;
         False, storing nothing, when the claim no longer holds the job."""
-        now = utcnow()
         with self.sessions.begin() as session:
-            done = session.execute(
-                update(Job)
-                .where(self._held(claim))
-                .values(status="done", leased_until=None, last_error=None, updated_at=now)
-            )
-            if done.rowcount != 1:
+            if not self._mark_done(session, claim, utcnow()):
                 return False
             store(session)
         return True
+
+    def _mark_done(self, session: Session, claim: Claim, now: datetime) -> bool:
+        """Mark the claimed job done in ``session``; False when the claim no longer holds it."""
+        done = session.execute(
+            update(Job)
+            .where(self._held(claim))
+            .values(status="done", leased_until=None, last_error=None, updated_at=now)
+        )
+        return bool(done.rowcount == 1)
 
     def fail(self, claim: Claim, error: dict[str, Any]) -> bool:
         """Give up on the job: the model is failed with ``error`` ({type, title, detail})."""
