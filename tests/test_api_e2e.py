@@ -121,9 +121,9 @@ def test_a_rotated_resampled_copy_finds_its_part_first(library: Library) -> None
     assert moved["status"] == "ready" and moved["file"]["format"] == "ply"
     results = similar(client, moved["id"], k=3)
     assert results[0]["model"]["external_id"] == part, results
-    # The calibrated score follows the score, and a moved copy clears the documented bar.
-    calibrated = [r["calibrated_score"] for r in results]
-    assert calibrated == sorted(calibrated, reverse=True) and calibrated[0] >= 0.99
+    # The tests' small engine is a layout without a calibration (test_score_calibration.py
+    # covers the default's).
+    assert all(r["calibrated_score"] is None for r in results)
     assert client.delete(f"/v1/models/{moved['id']}").status_code == 204
 
     # The same through the synchronous search, from an OBJ export.

@@ -5,10 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import fake_describe, make_settings, upload, wait_for_status
+from fastapi.testclient import TestClient
 
+from app.api.main import create_app
 from app.ingest.describing import descriptor_version
 from core.score_calibration import ScoreCalibration, calibration_for, layout_of
 from core.settings import EngineSettings
+from tests.conftest import PARTS
 
 
 def test_it_is_the_empirical_share_below_and_never_decreases() -> None:
@@ -32,3 +36,23 @@ def test_the_default_descriptor_is_calibrated_whatever_its_library_digest() -> N
 
 def test_another_layout_has_no_calibration() -> None:
     assert calibration_for("fake-1") is None
+
+
+def test_results_of_the_default_layout_carry_it(database_url: str) -> None:
+    default = descriptor_version(EngineSettings())
+
+    def describe_as_default(content: bytes, filename: str) -> dict[str, object]:
+        return {**fake_describe(content, filename), "descriptor_version": default}
+
+    app = create_app(make_settings(database_url), embedded_worker=True,
+                     job_handler=describe_as_default)
+    with TestClient(app) as client:
+        ids = [upload(client, PARTS / name).json()["id"]
+               for name in ("20mm-xyz-cube.stl", "round.stl", "cylinder.stl")]
+        for model_id in ids:
+            wait_for_status(client, model_id)
+        results = client.get(f"/v1/models/{ids[0]}/similar").json()["results"]
+    calibration = calibration_for(default)
+    assert calibration is not None and len(results) == 2
+    for result in results:
+        assert result["calibrated_score"] == pytest.approx(calibration(result["score"]))
