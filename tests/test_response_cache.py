@@ -94,3 +94,16 @@ def test_a_hit_is_counted_under_its_route(client: TestClient) -> None:
     for _ in range(5):
         client.get("/v1/models")
     assert listed() - before == 5
+
+
+def test_a_hit_carries_its_own_request_headers(database_url: str) -> None:
+    # Outer middleware add headers in place: a kept answer must not gather them.
+    settings = make_settings(database_url, response_cache_seconds=SECONDS,
+                             cors_origins="https://plm.example")
+    with TestClient(create_app(settings, job_handler=fake_describe)) as client:
+        for number in range(3):
+            answer = client.get("/v1/models", headers={"Origin": "https://plm.example",
+                                                       "X-Request-ID": f"req-{number}"})
+            assert answer.headers["x-request-id"] == f"req-{number}"
+            assert answer.headers.get_list("vary") == ["Origin"]
+            assert answer.headers["access-control-allow-origin"] == "https://plm.example"

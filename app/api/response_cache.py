@@ -107,7 +107,7 @@ class ResponseCache:
         ):
             self._entries.move_to_end(key)
             scope["route"] = entry.route
-            await send(entry.start)
+            await send(_copy(entry.start))
             await send({"type": "http.response.body", "body": entry.body})
             return
         await self._answer_and_keep(scope, receive, send, key, generation)
@@ -126,7 +126,7 @@ class ResponseCache:
         async def send_and_collect(message: Message) -> None:
             nonlocal start
             if message["type"] == "http.response.start":
-                start = message
+                start = _copy(message)  # before outer middleware add per-request headers
             elif message["type"] == "http.response.body":
                 chunks.append(message.get("body", b""))
             await send(message)
@@ -157,6 +157,12 @@ class ResponseCache:
         """Drop every kept answer."""
         self._entries.clear()
         self._bytes = 0
+
+
+def _copy(start: Message) -> Message:
+    """A response start whose header list is its own: outer middleware (request id, CORS)
+    change the list they are sent in place."""
+    return {**start, "headers": list(start.get("headers", []))}
 
 
 def _authorization(scope: Scope) -> bytes:
