@@ -55,7 +55,7 @@ Cost: median milliseconds per query to compute ``d_fine`` for ``K`` candidates f
 subsamples (one thread), and the bytes per model to store them (``POINTS`` x columns float16,
 plus the areas).
 
-    cd /work/wt-rerank && /work/main/.venv/bin/python bench/rerank_select.py /work/study \\
+    .venv/bin/python bench/rerank_select.py /work/study \\
         --selection /work/study/sel.json --json /work/study/rerank.json
 """
 

@@ -221,7 +221,7 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
         f"full-vector file {index.file_bytes() / 1e6:.0f} MB"
     )
 
-    rerank = index.rerank_candidates(K) if index.is_approximate(key) else K
+    rerank = index.rerank_candidates(key, K)
     found, reranked = [], []
     # Three passes of different queries: the first ones after the build (the kernel may
     # still be writing the full-vector file out, and every page is mapped afresh), then

@@ -1,4 +1,4 @@
-"""The index at scale, in miniature: compressed (IVF-SQ8, IVF-SQ6) partitions re-ranked exactly,
+"""The index at scale, in miniature: compressed (IVF-SQ8, IVF-SQ4) partitions re-ranked exactly,
 batched removals, growth past the exact limit, and metadata filters pushed down to SQL."""
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ def exact_order(vectors: dict[int, np.ndarray], query: np.ndarray) -> list[int]:
     return sorted(vectors, key=lambda i: (float(np.linalg.norm(vectors[i] - query)), i))
 
 
-@pytest.mark.parametrize(("compact_min", "kind"), [(10**6, "ivf-sq8"), (200, "ivf-sq6")])
+@pytest.mark.parametrize(("compact_min", "kind"), [(10**6, "ivf-sq8"), (200, "ivf-sq4")])
 def test_a_compressed_partition_answers_exactly_after_re_ranking(
     sessions: sessionmaker[Session], compact_min: int, kind: str
 ) -> None:
@@ -50,7 +50,7 @@ def test_a_compressed_partition_answers_exactly_after_re_ranking(
                 assert m.distance == pytest.approx(exact, abs=1e-5)
 
 
-def test_six_bit_codes_take_three_quarters_of_the_eight_bit_ones(
+def test_four_bit_codes_take_half_of_the_eight_bit_ones(
     sessions: sessionmaker[Session],
 ) -> None:
     for i in range(300):
@@ -60,9 +60,24 @@ def test_six_bit_codes_take_three_quarters_of_the_eight_bit_ones(
         index = ShapeIndex(sessions, exact_max=100, compact_min=compact_min, nprobe=4)
         index.rebuild()
         sizes[index.describe(KEY)] = index.nbytes()
-    # Same lists and ids; each of the 300 codes of 48 padded dims shrinks from 48 to 36 bytes.
-    assert sizes["ivf-sq8"] - sizes["ivf-sq6"] == 300 * (48 - 36)
+    # Same lists and ids; each of the 300 codes of 48 padded dims shrinks from 48 to 24 bytes.
+    assert sizes["ivf-sq8"] - sizes["ivf-sq4"] == 300 * (48 - 24)
 
+
+
+def test_coarser_codes_fetch_a_wider_margin_for_the_exact_re_rank(
+    sessions: sessionmaker[Session],
+) -> None:
+    for i in range(300):
+        add_ready(sessions, unit(i, D))
+    fetched = {}
+    for exact_max, compact_min in ((10**6, 10**6), (100, 10**6), (100, 200)):
+        index = ShapeIndex(sessions, exact_max=exact_max, compact_min=compact_min, nprobe=4)
+        index.rebuild()
+        fetched[index.describe(KEY)] = index.rerank_candidates(KEY, 10)
+    # Exact: what is asked; 8-bit: max(2k, k + 10); 4-bit estimates err more: twice that.
+    assert fetched == {"flat": 10, "ivf-sq8": 20, "ivf-sq4": 40}
+    assert index.rerank_candidates(("t", "no such version"), 10) == 10
 
 def test_removals_are_batched_and_growth_past_the_limit_compresses(
     sessions: sessionmaker[Session],

@@ -301,7 +301,7 @@ def find_similar(
         )
     approximate = index.is_approximate(key)
     wanted = k + 1 if exclude is not None else k
-    fetch = index.rerank_candidates(wanted) if approximate else wanted
+    fetch = index.rerank_candidates(key, wanted)
     if filtered and allowed is None:
         fetch *= 4
     matches: list[Match] = []
@@ -441,8 +441,8 @@ def _best_entries(
     per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
     filtered = bool(filters) or bool(ranges) or size.filters
     fetch = (k + 1 if exclude is not None else k) * (4 if filtered and allowed is None else 1)
-    if index.is_approximate(key) or index.is_approximate(views_key(key)):
-        fetch = index.rerank_candidates(fetch)  # estimated distances: a margin of candidates
+    # Estimated distances in either partition: a margin of candidates.
+    fetch = max(index.rerank_candidates(key, fetch), index.rerank_candidates(views_key(key), fetch))
     matches: dict[int, Match] = {}
     seen: set[int] = set()
     while True:

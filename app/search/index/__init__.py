@@ -18,13 +18,14 @@ the model's integer ``index_id``. A partition is
   vectors (4 d bytes each: ~680 MB for 10^5 vectors of 1686 dims, hence the limit);
 * ``ivf-sq8``: above that, ``IndexIVFScalarQuantizer`` with 8-bit codes (d bytes per vector,
   4x smaller) in ``sqrt(n)`` inverted lists, ``nprobe`` of them searched per query. Its
-  distances are approximate: callers fetch ``rerank_candidates(k)`` and re-rank them
+  distances are approximate: callers fetch ``rerank_candidates(key, k)`` and re-rank them
   exactly (``app.search.similarity``) against the full vectors, which the partition keeps in a
   memory-mapped file (``app.search.full_vectors``: page cache, not the process's own memory);
-* ``ivf-sq6``: the same with 6-bit codes (0.75 d bytes per vector: 1.3 GB at 10^6 models
-  instead of 1.7) for a partition built with more than ``compact_min`` vectors. Its scan
-  has no SIMD kernel in FAISS and costs about 3x the 8-bit one per code, which the
-  benchmark shows is affordable at that size (bench/search_scale.py, README).
+* ``ivf-sq4``: the same with 4-bit codes (0.5 d bytes per vector: 1.4 GB at 10^6 models of
+  the 2787-dim default instead of 2.8 GB) for a partition built with more than
+  ``compact_min`` vectors. Its estimates err more, so it returns twice the candidates for
+  the exact re-rank (``rerank_candidates``); its scan costs about what the 8-bit one does
+  (bench/search_scale.py, README).
 
 The index also knows each model's public id (``locate``) and gives back the vectors it
 holds, exactly as added (``vector``, ``exact_vectors``), so a similar query by model id reads
@@ -104,7 +105,7 @@ class ShapeIndex:
     exact_max : int
         Largest partition searched exactly; larger ones are IVF-SQ8.
     compact_min : int
-        Partitions built with more vectors than this are IVF-SQ6 instead of IVF-SQ8.
+        Partitions built with more vectors than this are IVF-SQ4 instead of IVF-SQ8.
     nprobe : int
         Inverted lists searched per query in an IVF partition.
     rerank_factor : int
@@ -200,7 +201,7 @@ class ShapeIndex:
         )
 
     def describe(self, key: PartitionKey) -> str:
-        """The kind of a partition: "flat", "ivf-sq8", "ivf-sq6" or "empty"."""
+        """The kind of a partition: "flat", "ivf-sq8", "ivf-sq4" or "empty"."""
         partition = self._partitions.get(key)
         return "empty" if partition is None else partition.kind
 
@@ -217,9 +218,12 @@ class ShapeIndex:
         with partition.lock.reading():
             return neighbour_graph(partition, k)
 
-    def rerank_candidates(self, k: int) -> int:
-        """How many candidates to fetch from an approximate partition for ``k`` results."""
-        return max(self.rerank_factor * k, k + 10)
+    def rerank_candidates(self, key: PartitionKey, k: int) -> int:
+        """How many candidates to fetch from partition ``key`` for ``k`` exact results:
+        ``k`` from an exact one, a margin for re-ranking from an approximate one."""
+        partition = self._partitions.get(key)
+        scale = 0 if partition is None else partition.rerank_scale
+        return k if scale == 0 else scale * max(self.rerank_factor * k, k + 10)
 
     def search(
         self,

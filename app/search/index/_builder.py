@@ -13,7 +13,7 @@ __all__ = ["Builder"]
 
 class Builder:
     """Fills one new partition from a stream of rows: flat, or IVF trained on the first
-    ``TRAIN_PER_LIST * nlist`` vectors when ``expected`` exceeds ``exact_max`` (6-bit codes
+    ``TRAIN_PER_LIST * nlist`` vectors when ``expected`` exceeds ``exact_max`` (4-bit codes
     when it exceeds ``compact_min``)."""
 
     def __init__(
@@ -64,7 +64,7 @@ class Builder:
         self._pending, self._pending_count = [], 0
         self.partition = Partition(vectors.shape[1], self.nprobe)
         if self.expected > self.exact_max:
-            bits = 6 if self.expected > self.compact_min else 8
+            bits = 4 if self.expected > self.compact_min else 8
             self.partition.compress(vectors, self.expected, bits)
         self.partition.add(ids, vectors)
 
