@@ -78,15 +78,22 @@ K = 10
 # --- descriptors ---------------------------------------------------------------------------
 
 
-def real_descriptors(count: int, points: int) -> np.ndarray:
+def real_descriptors(count: int, points: int, variant: str | None = None) -> np.ndarray:
     """``(count, d) float32`` unit descriptors of real models, described once and cached
-    (per descriptor version: a new default layout is described afresh)."""
+    (per descriptor version: a new default layout is described afresh). ``variant``: an
+    evaluation variant's descriptor (``core.evaluation.variants``, e.g. ``ss4``, the
+    previous default's width, as a baseline in the same run) instead of the default."""
+    from dataclasses import replace
+
     from app.ingest.describing import pin_blas_threads
     from core.descriptor import DescriptorSpec
+    from core.evaluation.variants import VARIANTS
     from core.pipeline import describe
     from core.settings import EngineSettings
 
     settings = EngineSettings(max_points=points)
+    if variant is not None:
+        settings = replace(settings, descriptor=VARIANTS[variant].descriptor)
     version = DescriptorSpec.from_settings(settings.descriptor).version(settings)
     cache = OUT / f"real_{count}_{points}_{version.rsplit(';', 1)[-1]}.npy"
     if cache.exists():
@@ -832,6 +839,8 @@ def main() -> None:
     )
     parser.add_argument("--real", type=int, default=40, help="real models to describe")
     parser.add_argument("--points", type=int, default=3000, help="points per real model")
+    parser.add_argument("--variant", help="real descriptors of this evaluation variant "
+                        "(e.g. ss4: the previous default's width) instead of the default")
     parser.add_argument("--noise", type=float, default=0.08, help="norm of the synthetic noise")
     parser.add_argument("--queries", type=int, default=200, help="queries per in-process figure")
     parser.add_argument("--concurrency", type=int, nargs="*", default=[1, 16, 64])
@@ -845,7 +854,7 @@ def main() -> None:
     if args.quick:
         args.models, args.descriptors, args.requests = 10_000, 100_000, 1000
     print(f"search_scale: {vars(args)}; cores {os.cpu_count()}; load {load_average()}")
-    real = real_descriptors(args.real, args.points)
+    real = real_descriptors(args.real, args.points, args.variant)
     print(f"real descriptors {real.shape}")
     if "index" in args.phases:
         phase_index(args, real)
