@@ -320,6 +320,26 @@ def _bootstrap(per_query_a: dict[str, np.ndarray], per_query_b: dict[str, np.nda
     return point, float(low), float(high)
 
 
+
+def _print_loso(
+    choices: dict[str, str],
+    table: dict[str, dict[str, dict[str, float]]],
+    mean: dict[str, float],
+    references: tuple[str, ...],
+) -> float:
+    """Print a leave-one-source-out table (per source left out: the candidate chosen without
+    it, its mAP / NN there, the references' mAP; then the means); return the chosen mean."""
+    print("\n| source left out | choice without it | its mAP / NN | " + " | ".join(references)
+          + " |\n|" + "---|" * (3 + len(references)))
+    for s, c in choices.items():
+        cells = " | ".join(f"{table[r][s]['map']:.3f}" for r in references)
+        print(f"| {s} | {c} | {table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f} | {cells} |")
+    chosen_mean = float(np.mean([table[c][s]["map"] for s, c in choices.items()]))
+    print(f"| **mean** | | **{chosen_mean:.3f}** | "
+          + " | ".join(f"{mean[r]:.3f}" for r in references) + " |")
+    return chosen_mean
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path)
@@ -429,13 +449,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nrule's choice: {chosen} (mean {mean[chosen]:.3f}; ss5 {mean['ss5']:.3f}, "
           f"ss4 {mean['ss4']:.3f})")
     print("spread of the best five means:", [round(mean[c], 4) for c in ranked[:5]])
-    print("\n| source left out | choice without it | its mAP / NN | ss5 | ss4 |")
-    print("|---|---|---|---|---|")
-    for s, c in loso.items():
-        print(f"| {s} | {c} | {table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f} | "
-              f"{table['ss5'][s]['map']:.3f} | {table['ss4'][s]['map']:.3f} |")
-    loso_mean = float(np.mean([maps[c][s] for s, c in loso.items()]))
-    print(f"| **mean** | | **{loso_mean:.3f}** | {mean['ss5']:.3f} | {mean['ss4']:.3f} |")
+    loso_mean = _print_loso(loso, table, mean, ("ss5", "ss4"))
     loso_per_query = {s: per_query[c][s] for s, c in loso.items()}
     for ref in ("ss5", "ss4"):
         point, low, high = _bootstrap(loso_per_query, per_query[ref], rule_sources)
@@ -448,12 +462,7 @@ def main(argv: list[str] | None = None) -> int:
     forced = {s: choose(maps, forced_pool, [o for o in rule_sources if o != s])
               for s in rule_sources}
     print("\ndiagnostic (re-rank forced, w > 0 only; not the rule):")
-    print("| source left out | choice without it | its mAP / NN | ss5 |\n|---|---|---|---|")
-    for s, c in forced.items():
-        print(f"| {s} | {c} | {table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f} | "
-              f"{table['ss5'][s]['map']:.3f} |")
-    forced_mean = float(np.mean([maps[c][s] for s, c in forced.items()]))
-    print(f"| **mean** | | **{forced_mean:.3f}** | {mean['ss5']:.3f} |")
+    forced_mean = _print_loso(forced, table, mean, ("ss5",))
     point, low, high = _bootstrap({s: per_query[c][s] for s, c in forced.items()},
                                   per_query["ss5"], rule_sources)
     print(f"forced LOSO - ss5: {point:+.4f} (95% bootstrap {low:+.4f} .. {high:+.4f})")
