@@ -64,8 +64,8 @@ from the stored points (one thread; the extra cost of ``sv4`` is its time less t
 medians over models. Per-model columns and encoded blocks are cached under
 ``OUT/positional_cache``.
 
-    cd /work/wt-pos && nice -n 10 /work/main/.venv/bin/python \\
-        bench/positional_features_select.py /work/study --json /work/study/positional.json
+    nice -n 10 .venv/bin/python bench/positional_features_select.py /work/study \\
+        --json /work/study/positional.json
 """
 
 from __future__ import annotations
