@@ -108,6 +108,12 @@ def _unit_rows(rows: np.ndarray) -> np.ndarray:
     return rows / np.maximum(np.linalg.norm(rows, axis=1, keepdims=True), 1e-300)
 
 
+def joined(base: np.ndarray, block: np.ndarray | None, weight: float) -> np.ndarray:
+    """A candidate's unit rows: the base's weighted blocks ``(m, d)``, then the local block
+    ``(m, b)`` times ``weight`` (none: the base alone), as ``DescriptorSpec`` joins them."""
+    return _unit_rows(base if block is None else np.hstack([base, weight * block]))
+
+
 def load_source(folder: Path) -> Source:
     labels, names, areas = [], [], []
     base_rows: dict[str, list[np.ndarray]] = {name: [] for name in BASES}
@@ -226,11 +232,9 @@ def main(argv: list[str] | None = None) -> int:
     for name, spec in candidates.items():
         table[name] = {}
         for source in scored:
-            vectors = source.bases[str(spec["base"])]
-            if spec["local"] is not None:
-                block = local_blocks[spec["local"]][source.name]  # type: ignore[index]
-                vectors = np.hstack([vectors, float(spec["weight"]) * block])
-            vectors = _unit_rows(vectors)
+            block = (None if spec["local"] is None
+                     else local_blocks[spec["local"]][source.name])  # type: ignore[index]
+            vectors = joined(source.bases[str(spec["base"])], block, float(spec["weight"]))
             widths[name] = vectors.shape[1]
             table[name][source.name] = score(vectors, source.labels)
 

@@ -89,7 +89,7 @@ from local_features_select import (  # noqa: E402
     NEIGHBOURS,
     NON_RIGID_CAPOD,
     Source,
-    _unit_rows,
+    joined,
     load_source,
     score,
     split_capod,
@@ -313,11 +313,9 @@ def main(argv: list[str] | None = None) -> int:
     for name, spec in candidates.items():
         table[name] = {}
         for source in scored:
-            vectors = source.bases[str(spec["base"])]
-            if spec["local"] is not None:
-                block = blocks[spec["local"]][source.name]  # type: ignore[index]
-                vectors = np.hstack([vectors, float(spec["weight"]) * block])
-            vectors = _unit_rows(vectors)
+            block = (None if spec["local"] is None
+                     else blocks[spec["local"]][source.name])  # type: ignore[index]
+            vectors = joined(source.bases[str(spec["base"])], block, float(spec["weight"]))
             widths[name] = int(vectors.shape[1])
             table[name][source.name] = score(vectors, source.labels)
             queries.setdefault(name, {})[source.name] = per_query_ap(vectors, source.labels)

@@ -80,6 +80,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import (  # noqa: E402
     NON_RIGID_CAPOD,
     Source,
+    _unit_rows,
+    joined,
     load_source,
     split_capod,
 )
@@ -104,10 +106,6 @@ _CANDIDATE = re.compile(
     r"^(?P<base>.+)\+(?P<encoding>bof|vlad)-(?P<features>sig\+sv|hks\+sv|sig|hks)"
     r"-(?P<words>\d+)w(?P<weight>[0-9.]+)$"
 )
-
-
-def _unit_rows(rows: np.ndarray) -> np.ndarray:
-    return rows / np.maximum(np.linalg.norm(rows, axis=1, keepdims=True), 1e-300)
 
 
 def _fitting_key(source: str) -> str:
@@ -252,7 +250,7 @@ def _first_stage(sources: list[Source], base: str, features: str, words: int, en
         encode = encode_vlad if encoding == "vlad" else encode_bof
         block = np.array([encode(f, a, vocabulary) for f, a in
                           zip(source.local[features], source.areas, strict=True)])
-        vectors[source.name] = _unit_rows(np.hstack([source.bases[base], weight * block]))
+        vectors[source.name] = joined(source.bases[base], block, weight)
         vocabularies[source.name] = vocabulary
     return vectors, vocabularies
 

@@ -50,34 +50,35 @@ def test_a_compressed_partition_answers_exactly_after_re_ranking(
                 assert m.distance == pytest.approx(exact, abs=1e-5)
 
 
+def built_by_kind(sessions: sessionmaker[Session]) -> dict[str, ShapeIndex]:
+    """300 ready vectors, rebuilt as each kind of partition: flat, 8-bit and 4-bit codes."""
+    for i in range(300):
+        add_ready(sessions, unit(i, D))
+    indexes = {}
+    for exact_max, compact_min in ((10**6, 10**6), (100, 10**6), (100, 200)):
+        index = ShapeIndex(sessions, exact_max=exact_max, compact_min=compact_min, nprobe=4)
+        index.rebuild()
+        indexes[index.describe(KEY)] = index
+    return indexes
+
+
 def test_four_bit_codes_take_half_of_the_eight_bit_ones(
     sessions: sessionmaker[Session],
 ) -> None:
-    for i in range(300):
-        add_ready(sessions, unit(i, D))
-    sizes = {}
-    for compact_min in (10**6, 200):
-        index = ShapeIndex(sessions, exact_max=100, compact_min=compact_min, nprobe=4)
-        index.rebuild()
-        sizes[index.describe(KEY)] = index.nbytes()
+    sizes = {kind: index.nbytes() for kind, index in built_by_kind(sessions).items()}
     # Same lists and ids; each of the 300 codes of 48 padded dims shrinks from 48 to 24 bytes.
     assert sizes["ivf-sq8"] - sizes["ivf-sq4"] == 300 * (48 - 24)
-
 
 
 def test_coarser_codes_fetch_a_wider_margin_for_the_exact_re_rank(
     sessions: sessionmaker[Session],
 ) -> None:
-    for i in range(300):
-        add_ready(sessions, unit(i, D))
-    fetched = {}
-    for exact_max, compact_min in ((10**6, 10**6), (100, 10**6), (100, 200)):
-        index = ShapeIndex(sessions, exact_max=exact_max, compact_min=compact_min, nprobe=4)
-        index.rebuild()
-        fetched[index.describe(KEY)] = index.rerank_candidates(KEY, 10)
+    indexes = built_by_kind(sessions)
+    fetched = {kind: index.rerank_candidates(KEY, 10) for kind, index in indexes.items()}
     # Exact: what is asked; 8-bit: max(2k, k + 10); 4-bit estimates err more: twice that.
     assert fetched == {"flat": 10, "ivf-sq8": 20, "ivf-sq4": 40}
-    assert index.rerank_candidates(("t", "no such version"), 10) == 10
+    assert indexes["ivf-sq4"].rerank_candidates(("t", "no such version"), 10) == 10
+
 
 def test_removals_are_batched_and_growth_past_the_limit_compresses(
     sessions: sessionmaker[Session],
