@@ -308,7 +308,7 @@ class Settings(BaseSettings):
         ge=1,
         description="An index partition built (at start-up) with more models than this "
         "stores 4-bit codes instead of 8-bit ones: half a byte per dimension, 1.4 GB at 10^6 "
-        "models of the 2787-dim default instead of 2.8 GB, with twice the candidates "
+        "models of the 2817-dim default instead of 2.8 GB, with twice the candidates "
         "re-ranked exactly (recall@10 0.994 at 10^6; bench/search_scale.py).",
     )
     index_nprobe: int = Field(

@@ -98,6 +98,7 @@ from positional_features_select import (  # noqa: E402
 )
 from rerank_select import _bootstrap  # noqa: E402
 
+from core.extrinsic import angular_spectrum  # noqa: E402
 from core.local_features import Vocabulary, encode_vlad  # noqa: E402
 
 NORMALISATIONS = ("rms", "own")
@@ -105,7 +106,6 @@ BINS = (6, 8, 12)
 WEIGHTS = (0.25, 0.5, 1.0, 2.0)
 RANGE = 2.5
 SS5 = "ss5"
-RING_BANDS = ((1, 3), (3, 6), (6, 12), (12, 24), (24, 48))
 RING_WEIGHTS = (0.25, 0.5, 1.0, 2.0)
 RING_WEIGHTS_SECOND = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
 PAIR_BINS = 8
@@ -161,38 +161,10 @@ def profile_block(points: np.ndarray, areas: np.ndarray, bins: int, normalisatio
 
 
 def ring_block(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
-    """Band energies of the angular Fourier spectrum about the first and third axes.
-
-    Parameters
-    ----------
-    points : (n, 3) float
-    areas : (n,) float
-
-    Returns
-    -------
-    block : (30,) float
-        Per axis, per shell of ``r`` (tertiles, inner first), per band of ``k``: the root mean
-        ``|c_k|^2``; divided by sqrt(30).
-    """
-    weights, centred, vectors = _frame(points, areas)
-    top = max(high for _, high in RING_BANDS)
-    orders = np.arange(1, top)
-    values = []
-    for axis in (2, 0):
-        u, v = vectors[:, (axis + 1) % 3], vectors[:, (axis + 2) % 3]
-        theta = np.arctan2(centred @ v, centred @ u)
-        r = np.hypot(centred @ u, centred @ v)
-        order = np.argsort(r, kind="stable")
-        cumulative = np.cumsum(weights[order])
-        shell = np.empty(len(r), dtype=np.int64)
-        shell[order] = np.minimum((3 * cumulative / cumulative[-1]).astype(np.int64), 2)
-        phases = np.exp(-1j * np.outer(theta, orders))  # (n, top - 1)
-        for index in range(3):
-            inside = shell == index
-            mass = max(float(weights[inside].sum()), 1e-300)
-            power = np.abs(weights[inside] @ phases[inside] / mass) ** 2
-            values += [np.sqrt(power[low - 1: high - 1].mean()) for low, high in RING_BANDS]
-    return np.array(values) / np.sqrt(len(values))
+    """The ``ring`` block at weight 1: ``core.extrinsic.angular_spectrum`` (written here
+    first, then moved to ``core`` unchanged when the rule chose it), ``(30,)`` over sqrt(30)."""
+    spectrum = angular_spectrum(points, areas).ravel()
+    return spectrum / np.sqrt(spectrum.size)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -19,14 +19,16 @@ translation and scale:
 - symmetry: the distances of the surface from its seven mirror, half-turn and inversion
   images in its principal frame;
 - axes: per principal axis, an area-weighted histogram of the points' offsets from the
-  centroid along it, over the RMS radius.
+  centroid along it, over the RMS radius;
+- ring: the angular spectrum about the first and third principal axes per shell of
+  distance from the axis (what repeats around a turned part: teeth, bolt holes, hex heads).
 
 The local block (``core.local_features``) pools every point's whole signature, and for the
 rigid family its surface variation, over a vocabulary shipped in ``core/data``: the detail
 (a screw's head, a flange's hub, a gear's teeth) that per-scale histograms drown.
 
 Layout: ``[HKS | WKS | WKS slope | eigenvalue channel | D2 | spread | D1 | normals |
-symmetry | axes | local]``, blocks of weight 0 left out.
+symmetry | axes | ring | local]``, blocks of weight 0 left out.
 
 Everything that changes the vector is written into ``descriptor_version``: vectors with
 different versions must never be compared. That includes the installed versions of the
@@ -47,6 +49,7 @@ import numpy as np
 
 from core.errors import SettingsError
 from core.extrinsic import (
+    angular_spectrum,
     axis_offsets,
     centroid_distance_ratios,
     normal_axis_cosines,
@@ -70,7 +73,7 @@ __all__ = [
 ]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
-_LAYOUT = "ss5"  # ss5: the local block (issue 24)
+_LAYOUT = "ss6"  # ss5: the local block; ss6: the ring block (issue 24)
 
 #: The libraries whose upgrade can change a descriptor for unchanged code and settings
 #: (distribution names): the linear algebra and eigensolvers (numpy, scipy, qdldl), the
@@ -85,7 +88,8 @@ VERSION_LENGTH = 255
 BLOCK_WEIGHTS: dict[str, str] = {
     "hks": "hks_weight", "wks": "wks_weight", "slope": "wks_slope_weight", "dna": "dna_weight",
     "d2": "d2_weight", "spread": "spread_weight", "d1": "d1_weight", "normals": "normal_weight",
-    "symmetry": "symmetry_weight", "axes": "axis_weight", "local": "local_weight",
+    "symmetry": "symmetry_weight", "axes": "axis_weight", "ring": "ring_weight",
+    "local": "local_weight",
 }
 
 #: Where the shipped vocabularies live (package data).
@@ -217,6 +221,7 @@ class DescriptorSpec:
     symmetry_weight: float
     axis_edges: tuple[float, ...]
     axis_weight: float
+    ring_weight: float = 0.0
     local_weight: float = 0.0
     local_encoding: str = "vlad"
     local_vocabulary: str = ""
@@ -280,6 +285,7 @@ class DescriptorSpec:
             symmetry_weight=settings.symmetry_weight,
             axis_edges=tuple(np.linspace(*settings.axis_range, settings.axis_bins + 1).tolist()),
             axis_weight=settings.axis_weight,
+            ring_weight=settings.ring_weight,
             local_weight=settings.local_weight,
             local_encoding=settings.local_encoding,
             local_vocabulary=settings.local_vocabulary,
@@ -433,6 +439,10 @@ class DescriptorSpec:
             edges = np.asarray(self.axis_edges)
             offsets = area_histograms(axis_offsets(points, areas), areas, edges)
             blocks["axes"] = self.axis_weight * _unit_block(np.sqrt(offsets))
+        if self.ring_weight > 0:
+            # Not unit norm (see DescriptorSettings.ring_weight): each value is in [0, 1].
+            spectrum = angular_spectrum(points, areas).ravel()
+            blocks["ring"] = self.ring_weight * spectrum / np.sqrt(spectrum.size)
         return blocks
 
     def _eigenvalue_channel(self, eigenvalues: np.ndarray) -> np.ndarray:
@@ -481,6 +491,7 @@ class DescriptorSpec:
         extrinsic = {
             "d2": self.d2_weight, "spr": self.spread_weight, "d1": self.d1_weight,
             "nrm": self.normal_weight, "sym": self.symmetry_weight, "ax": self.axis_weight,
+            "ring": self.ring_weight,
         }
         if self.local_weight > 0:
             # The vocabulary's own digest: a refitted file is a new version.

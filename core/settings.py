@@ -136,6 +136,12 @@ class DescriptorSettings:
     axis_weight: float = 0.0
     axis_range: tuple[float, float] = (0.0, 2.5)
     axis_bins: int = 16
+    # What repeats around the first and third principal axes (teeth, bolt holes, hex heads:
+    # core.extrinsic.angular_spectrum), 30 values scaled to norm <= 1 but not to unit norm
+    # (a part with nothing repeating has a small block, and that is information). Chosen by
+    # the second round of bench/profile_block_select.py (issue 24, docs/results.md): weight 4,
+    # leave-one-source-out +0.009 mAP over the six tuning sources.
+    ring_weight: float = 4.0
     # Local signatures pooled over a shipped vocabulary (core.local_features): the file
     # core/data/<local_vocabulary>.npz; each point's features are its log HKS at every time
     # (``local_columns="hks"``; "hks+wks" adds its log WKS), then its surface variation at
@@ -155,7 +161,7 @@ class DescriptorSettings:
     #: The weights of the blocks computed from the points rather than the spectrum.
     EXTRINSIC_WEIGHTS: ClassVar[tuple[str, ...]] = (
         "d2_weight", "spread_weight", "d1_weight", "normal_weight", "symmetry_weight",
-        "axis_weight",
+        "axis_weight", "ring_weight",
     )
     #: Every block's weight.
     WEIGHTS: ClassVar[tuple[str, ...]] = (

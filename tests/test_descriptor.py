@@ -16,7 +16,7 @@ from core.descriptor import (
     load_vocabulary,
 )
 from core.evaluation.scans import random_rotation
-from core.extrinsic import spread_profile
+from core.extrinsic import ANGULAR_BANDS, spread_profile
 from core.settings import DESCRIPTOR_FAMILIES, CutoffSettings, DescriptorSettings, EngineSettings
 from tests.shapes import plate_points, sphere_points, torus_points
 
@@ -69,6 +69,7 @@ def local_length(settings: DescriptorSettings) -> int:
         DescriptorSettings(d1_weight=0.0, normal_bins=4),
         DescriptorSettings(normal_weight=0.0, symmetry_weight=0.0, axis_bins=5),
         DescriptorSettings(axis_weight=0.5),
+        DescriptorSettings(ring_weight=0.0),
         DescriptorSettings(
             hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0
         ),
@@ -81,8 +82,8 @@ def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> No
     descriptor = spec.histogram(signature, areas, eigenvalues, fake_points())
     # Blocks: HKS (times x bins), WKS (energies x bins), WKS slope ((energies - 1) x bins),
     # eigenvalue channel (dna_count), D2 (bins), spread (3), D1 (bins), normals (3 x
-    # normal_bins), symmetry (7), axes (3 x axis_bins), local (words, x columns for VLAD);
-    # a block with weight 0 is left out.
+    # normal_bins), symmetry (7), axes (3 x axis_bins), ring (2 axes x 3 shells x bands),
+    # local (words, x columns for VLAD); a block with weight 0 is left out.
     energies = settings.wks_energies
     length = (
         (len(settings.hks_times) * settings.bins if settings.hks_weight > 0 else 0)
@@ -95,6 +96,7 @@ def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> No
         + (3 * settings.normal_bins if settings.normal_weight > 0 else 0)
         + (7 if settings.symmetry_weight > 0 else 0)
         + (3 * settings.axis_bins if settings.axis_weight > 0 else 0)
+        + (2 * 3 * len(ANGULAR_BANDS) if settings.ring_weight > 0 else 0)
         + (local_length(settings) if settings.local_weight > 0 else 0)
     )
     assert descriptor.dtype == np.float32
@@ -128,7 +130,7 @@ def test_a_descriptor_without_blocks_is_refused() -> None:
         DescriptorSettings(
             hks_weight=0.0, wks_energies=0, dna_count=0, d2_weight=0.0, spread_weight=0.0,
             d1_weight=0.0, normal_weight=0.0, symmetry_weight=0.0, axis_weight=0.0,
-            local_weight=0.0,
+            ring_weight=0.0, local_weight=0.0,
         ).validate()
 
 
@@ -315,7 +317,8 @@ def test_unit_blocks_reweighted_give_the_descriptor_of_those_weights() -> None:
         DescriptorSettings(**dict.fromkeys(BLOCK_WEIGHTS.values(), 1.0))
     )
     weights = {"hks": 0.5, "wks": 1.0, "slope": 0.0, "dna": 0.2, "d2": 1.5, "spread": 1.0,
-               "d1": 0.0, "normals": 0.5, "symmetry": 2.0, "axes": 1.0, "local": 0.7}
+               "d1": 0.0, "normals": 0.5, "symmetry": 2.0, "axes": 1.0, "ring": 4.0,
+               "local": 0.7}
     chosen = DescriptorSpec.from_settings(
         DescriptorSettings(**{BLOCK_WEIGHTS[block]: weight for block, weight in weights.items()})
     )

@@ -10,7 +10,9 @@ from manifold3d import CrossSection
 
 from core.evaluation.scans import random_rotation
 from core.extrinsic import (
+    ANGULAR_BANDS,
     SIGN_FLIPS,
+    angular_spectrum,
     axis_offsets,
     centroid_distance_ratios,
     normal_axis_cosines,
@@ -133,7 +135,47 @@ def test_symmetry_tells_a_u_section_from_a_z_section() -> None:
         assert symmetry[kept].max() < 0.3 * symmetry.max(), (name, symmetry)
 
 
-@pytest.mark.parametrize("measure", ["centroid", "normals", "symmetry", "axes"])
+def _toothed_outline(teeth: int, root: float, tip: float, per_tooth: int = 8
+                     ) -> list[tuple[float, float]]:
+    """A star polygon: ``teeth`` teeth between radii ``root`` and ``tip`` (``teeth=0``: a
+    circle of radius ``tip``, 240 sides)."""
+    if teeth == 0:
+        angles = np.linspace(0, 2 * np.pi, 240, endpoint=False)
+        return [(tip * np.cos(a), tip * np.sin(a)) for a in angles]
+    angles = np.linspace(0, 2 * np.pi, teeth * per_tooth, endpoint=False)
+    radii = np.where((np.arange(teeth * per_tooth) % per_tooth) < per_tooth // 2, tip, root)
+    return [(r * np.cos(a), r * np.sin(a)) for r, a in zip(radii, angles, strict=True)]
+
+
+def _band(order: int) -> int:
+    return next(i for i, (low, high) in enumerate(ANGULAR_BANDS) if low <= order < high)
+
+
+@pytest.mark.parametrize(("teeth", "root"), [(20, 0.85), (6, 0.75), (4, 0.7)])
+def test_teeth_put_the_rims_power_in_their_band(teeth: int, root: float) -> None:
+    # Flat parts: the third principal axis is the extrusion's. A k-toothed outline repeats
+    # k-fold around it, so the rim shell's power lies in the band that holds k; a circle of
+    # the same size has only sampling noise there (~ sqrt(1 / points per shell) = 0.03).
+    toothed = angular_spectrum(*_profile_points(_toothed_outline(teeth, root, 1.0), 0.1))
+    circle = angular_spectrum(*_profile_points(_toothed_outline(0, 0.0, 1.0), 0.1))
+    rim = toothed[1, 2]
+    assert int(np.argmax(rim)) == _band(teeth), rim
+    assert rim[_band(teeth)] > 4 * circle[1, 2, _band(teeth)], (rim, circle[1, 2])
+    assert circle[1].max() < 0.06, circle[1]
+    assert toothed.shape == circle.shape == (2, 3, len(ANGULAR_BANDS))
+    assert toothed.min() >= 0 and toothed.max() <= 1
+
+
+def test_angular_spectrum_ignores_point_order() -> None:
+    points, areas = _profile_points(_toothed_outline(12, 0.8, 1.0), 0.3)
+    order = np.random.default_rng(3).permutation(len(points))
+    np.testing.assert_allclose(
+        angular_spectrum(points[order], areas[order]), angular_spectrum(points, areas),
+        atol=1e-12,
+    )
+
+
+@pytest.mark.parametrize("measure", ["centroid", "normals", "symmetry", "axes", "ring"])
 def test_measurements_ignore_rotation_translation_scale_and_normal_signs(measure: str) -> None:
     points = torus_points(1200, r=0.3) * np.array([1.0, 1.6, 1.0])  # no degenerate axes
     areas = np.random.default_rng(1).uniform(0.5, 1.5, 1200)
@@ -146,6 +188,7 @@ def test_measurements_ignore_rotation_translation_scale_and_normal_signs(measure
         before = normal_axis_cosines(points, areas, surface_normals(points, 12))
         after = normal_axis_cosines(moved, areas, flipped)
     else:
-        measurement = reflection_symmetry if measure == "symmetry" else axis_offsets
+        measurement = {"symmetry": reflection_symmetry, "axes": axis_offsets,
+                       "ring": angular_spectrum}[measure]
         before, after = (measurement(p, areas) for p in (points, moved))
     np.testing.assert_allclose(after, before, atol=1e-8)
