@@ -74,6 +74,8 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -98,7 +100,7 @@ from positional_features_select import (  # noqa: E402
 )
 from rerank_select import _bootstrap  # noqa: E402
 
-from core.extrinsic import angular_spectrum  # noqa: E402
+from core.extrinsic import angular_spectrum, principal_frame  # noqa: E402
 from core.local_features import Vocabulary, encode_vlad  # noqa: E402
 
 NORMALISATIONS = ("rms", "own")
@@ -110,15 +112,6 @@ RING_WEIGHTS = (0.25, 0.5, 1.0, 2.0)
 RING_WEIGHTS_SECOND = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
 PAIR_BINS = 8
 PAIR_WEIGHTS = (0.25, 0.5, 1.0)
-
-
-def _frame(points: np.ndarray, areas: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Area weights summing to one, the centred points and the principal axes (columns,
-    ascending variance)."""
-    weights = areas / max(float(areas.sum()), 1e-300)
-    centred = points - weights @ points
-    _, vectors = np.linalg.eigh((centred * weights[:, None]).T @ centred)
-    return weights, centred, vectors
 
 
 def profile_block(points: np.ndarray, areas: np.ndarray, bins: int, normalisation: str
@@ -139,13 +132,14 @@ def profile_block(points: np.ndarray, areas: np.ndarray, bins: int, normalisatio
     block : (2 * bins * bins,) float
         Each axis' square-rooted histogram at unit norm, first axis first.
     """
-    weights, centred, vectors = _frame(points, areas)  # the first axis is the last column
-    rms = np.sqrt(max(float(weights @ np.einsum("ij,ij->i", centred, centred)), 1e-300))
+    coordinates, _, _ = principal_frame(points, areas)
+    weights = areas / areas.sum()
+    rms = np.sqrt(max(float(weights @ np.einsum("ij,ij->i", coordinates, coordinates)), 1e-300))
     parts = []
-    for axis in (vectors[:, 2], vectors[:, 0]):
-        along = centred @ axis
-        z = np.abs(along)
-        r = np.linalg.norm(centred - np.outer(along, axis), axis=1)
+    # Along the first axis and across it (second, third); along the third and across it.
+    for along, (u, v) in ((0, (1, 2)), (2, (0, 1))):
+        z = np.abs(coordinates[:, along])
+        r = np.hypot(coordinates[:, u], coordinates[:, v])
         if normalisation == "own":
             z = z / np.sqrt(max(float(weights @ z**2), 1e-300))
             r = r / np.sqrt(max(float(weights @ r**2), 1e-300))
@@ -165,6 +159,27 @@ def ring_block(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
     first, then moved to ``core`` unchanged when the rule chose it), ``(30,)`` over sqrt(30)."""
     spectrum = angular_spectrum(points, areas).ravel()
     return spectrum / np.sqrt(spectrum.size)
+
+
+def _sample(file: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The stored normalised sample of one model: points ``(n, 3)`` and areas ``(n,)``."""
+    with np.load(file) as data:
+        return data["points"].astype(np.float64), data["areas"].astype(np.float64)
+
+
+def _per_source(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]],
+                block: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                timings: list[float]) -> dict[str, np.ndarray]:
+    """``block`` of every model, ``(m, b)`` per source; appends each call's milliseconds."""
+    rows: dict[str, np.ndarray] = {}
+    for name, models in samples.items():
+        encoded = []
+        for points, areas in models:
+            start = time.perf_counter()
+            encoded.append(block(points, areas))
+            timings.append(1000.0 * (time.perf_counter() - start))
+        rows[name] = np.array(encoded)
+    return rows
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -205,37 +220,19 @@ def main(argv: list[str] | None = None) -> int:
     base = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name]]) for s in scored}
     print("local blocks done", flush=True)
 
+    # Every model's sample read once; both blocks computed from it.
+    samples = {source.name: [_sample(file) for file in sorted(path.glob("*.npz"))]
+               for source, path in zip(sources, folders, strict=True)}
     profiles: dict[tuple[str, int], dict[str, np.ndarray]] = {}
     timings: list[float] = []
     for normalisation, bins in itertools.product(NORMALISATIONS, BINS):
-        per_source = profiles.setdefault((normalisation, bins), {})
-        for source, path in zip(sources, folders, strict=True):
-            rows = []
-            for file in sorted(path.glob("*.npz")):
-                with np.load(file) as data:
-                    points = data["points"].astype(np.float64)
-                    areas = data["areas"].astype(np.float64)
-                start = time.perf_counter()
-                rows.append(profile_block(points, areas, bins, normalisation))
-                timings.append(1000.0 * (time.perf_counter() - start))
-            per_source[source.name] = np.array(rows)
+        profiles[(normalisation, bins)] = _per_source(
+            samples, partial(profile_block, bins=bins, normalisation=normalisation), timings)
+    ring_timings: list[float] = []
+    rings = _per_source(samples, ring_block, ring_timings)
+    for per_source in [*profiles.values(), rings]:
         if "capod" in per_source:
             per_source["capod-nonrigid"] = per_source["capod"][capod_keep]
-
-    rings: dict[str, np.ndarray] = {}
-    ring_timings: list[float] = []
-    for source, path in zip(sources, folders, strict=True):
-        rows = []
-        for file in sorted(path.glob("*.npz")):
-            with np.load(file) as data:
-                points = data["points"].astype(np.float64)
-                areas = data["areas"].astype(np.float64)
-            start = time.perf_counter()
-            rows.append(ring_block(points, areas))
-            ring_timings.append(1000.0 * (time.perf_counter() - start))
-        rings[source.name] = np.array(rows)
-    if "capod" in rings:
-        rings["capod-nonrigid"] = rings["capod"][capod_keep]
     print("blocks done", flush=True)
 
     # Candidate -> (per source block, weight); the block is None for ss5 alone.
