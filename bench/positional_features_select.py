@@ -222,9 +222,9 @@ def choose(table: dict[str, dict[str, dict[str, float]]], widths: dict[str, int]
 
 
 def loso(table: dict[str, dict[str, dict[str, float]]], widths: dict[str, int],
-         pool: list[str]) -> dict[str, str]:
-    return {s: choose(table, widths, pool, [o for o in RULE_SOURCES if o != s])
-            for s in RULE_SOURCES}
+         pool: list[str], sources: tuple[str, ...] = RULE_SOURCES) -> dict[str, str]:
+    """Per source of ``sources``: the candidate ``choose`` picks on the others."""
+    return {s: choose(table, widths, pool, [o for o in sources if o != s]) for s in sources}
 
 
 def nested_loso(table: dict[str, dict[str, dict[str, float]]], widths: dict[str, int],

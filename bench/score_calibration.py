@@ -38,7 +38,7 @@ from core.pipeline import describe  # noqa: E402
 from core.score_calibration import CALIBRATION_FILE, ScoreCalibration, layout_of  # noqa: E402
 from core.settings import EngineSettings  # noqa: E402
 
-THRESHOLDS = (0.95, 0.97, 0.98, 0.99, 0.995)
+THRESHOLDS = (0.95, 0.97, 0.975, 0.98, 0.99, 0.995)
 CALIBRATED_THRESHOLDS = (0.9, 0.95, 0.99, 0.999)
 CALIBRATION_POINTS = 1001  # quantiles kept: every 0.1 % of the different-kind pairs
 QUANTILES = (0.0, 0.01, 0.05, 0.5, 0.95, 0.99, 1.0)

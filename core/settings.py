@@ -140,7 +140,8 @@ class DescriptorSettings:
     # core.extrinsic.angular_spectrum), 30 values scaled to norm <= 1 but not to unit norm
     # (a part with nothing repeating has a small block, and that is information). Chosen by
     # the second round of bench/profile_block_select.py (issue 24, docs/results.md): weight 4,
-    # leave-one-source-out +0.009 mAP over the six tuning sources.
+    # leave-one-source-out +0.009 mAP over the six tuning sources (+0.010 over seven, with
+    # bd-vslot's parts, a source no setting was chosen on).
     ring_weight: float = 4.0
     # Local signatures pooled over a shipped vocabulary (core.local_features): the file
     # core/data/<local_vocabulary>.npz; each point's features are its log HKS at every time

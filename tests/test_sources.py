@@ -72,3 +72,17 @@ def test_madcad_source_makes_every_kind() -> None:
         seen[kind] = seen.get(kind, 0) + 1
         assert len(mesh.faces) > 50 and mesh.area > 0
     assert seen == dict.fromkeys(MADCAD, 10)
+
+
+def test_vslot_source_makes_every_kind_in_distinct_sizes() -> None:
+    pytest.importorskip("bd_vslot", reason="bd-vslot (the tune extra) is not installed")
+    from core.evaluation.sources.vslot_parts import KINDS as VSLOT
+    from core.evaluation.sources.vslot_parts import parts as vslot_parts
+
+    areas: dict[str, set[float]] = {}
+    for kind, _, mesh in vslot_parts(VSLOT):
+        assert mesh.is_watertight and mesh.area > 0
+        areas.setdefault(kind, set()).add(round(mesh.area, 2))
+    # Eight parts per kind, no two of one kind alike (625 and 688 bearings share their
+    # envelope and differ by the bore, T-nuts by the hole: the area tells them apart).
+    assert {kind: len(found) for kind, found in areas.items()} == dict.fromkeys(VSLOT, 8)

@@ -9,6 +9,7 @@ the libraries' own parametric models.
 |---|---|---|---|
 | ``madcad`` | pymadcad ``madcad.standard`` | LGPL-3.0 | 12: screws (4 heads), nuts, ... |
 | ``gearworks`` | py-gearworks on build123d | MIT / Apache-2.0 | 7 gear kinds |
+| ``vslot`` | bd-vslot on build123d | MIT / Apache-2.0 | 6: plates, brackets, wheels, ... |
 | ``parts`` | trimesh project's part meshes | MIT | one per part (instance level) |
 | ``capod`` | CAPOD (Papadakis 2014) | CC BY 3.0 | 15 object classes |
 | ``generated`` | ours (``core.evaluation.parts_generator``) | ours | 14 part families |
@@ -51,6 +52,12 @@ def _gearworks(seed: int, shared: Path) -> Parts:
     return parts()
 
 
+def _vslot(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.vslot_parts import parts
+
+    return parts()
+
+
 def _parts(seed: int, shared: Path) -> Parts:
     from core.evaluation.sources.real_parts import parts
 
@@ -73,7 +80,7 @@ def _bendable(seed: int, shared: Path) -> Parts:
 
 #: Every source that writes meshes (``capod`` is linked, not written).
 SOURCES: dict[str, Callable[[int, Path], Parts]] = {
-    "madcad": _madcad, "gearworks": _gearworks, "parts": _parts,
+    "madcad": _madcad, "gearworks": _gearworks, "vslot": _vslot, "parts": _parts,
     "generated": _generated, "bendable": _bendable,
 }
 

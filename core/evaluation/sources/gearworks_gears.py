@@ -12,8 +12,9 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from typing import Any
 
-import numpy as np
 import trimesh
+
+from core.evaluation.sources._build123d import to_trimesh
 
 __all__ = ["KINDS", "parts"]
 
@@ -58,14 +59,6 @@ def _solid(kind: str, teeth: int, module: float, width: float) -> Any:
     return part
 
 
-def _to_trimesh(part: Any) -> trimesh.Trimesh:
-    box = part.bounding_box()
-    diagonal = float(np.linalg.norm(np.subtract(tuple(box.max), tuple(box.min))))
-    vertices, triangles = part.tessellate(2e-3 * diagonal, 0.3)
-    points = np.array([tuple(vertex) for vertex in vertices], dtype=np.float64)
-    return trimesh.Trimesh(points, np.asarray(triangles, dtype=np.int64), process=True)
-
-
 def parts(kinds: tuple[str, ...] = KINDS) -> Iterator[tuple[str, str, trimesh.Trimesh]]:
     """``(kind, name, mesh)`` of every gear of ``kinds``, in a fixed order.
 
@@ -77,4 +70,4 @@ def parts(kinds: tuple[str, ...] = KINDS) -> Iterator[tuple[str, str, trimesh.Tr
     for kind in kinds:
         for teeth, module, width in _SIZES:
             name = f"z{teeth}m{module:g}b{width:g}"
-            yield kind, name, _to_trimesh(_solid(kind, teeth, module, width))
+            yield kind, name, to_trimesh(_solid(kind, teeth, module, width))
