@@ -20,7 +20,7 @@ from core.evaluation.sources._build123d import to_trimesh
 
 __all__ = ["KINDS", "parts"]
 
-# Per kind, the arguments of each instance, small to large.
+# Per kind, the positional arguments of each size.
 # (thickness, holes along x, holes along y, hole radius, corner radius)
 _PLATES = ((3.0, 4, 4, 1.55, 0.0), (4.0, 6, 4, 2.05, 2.0), (5.0, 8, 6, 2.55, 4.0),
            (3.0, 3, 8, 1.55, 1.0), (6.0, 10, 10, 3.05, 5.0), (4.0, 5, 3, 2.05, 0.0),
@@ -44,16 +44,17 @@ _BEARINGS = ((16.0, 5.0, 5.0), (16.0, 8.0, 5.0), (10.0, 5.0, 4.0), (22.0, 8.0, 7
 _T_NUTS = (1.5, 2.0, 2.5, 3.0, 1.8, 2.2, 2.8, 1.6)
 
 
-def _kinds() -> dict[str, tuple[tuple[Any, ...], Callable[..., Any]]]:
+def _kinds() -> dict[str, tuple[tuple[tuple[float, ...], ...], Callable[..., Any]]]:
+    """Kind -> (the arguments of each size, the library's part class they are passed to)."""
     import bd_vslot as vs
 
     return {
-        "build_plate": (_PLATES, lambda t, nx, ny, r, c: vs.BuildPlate(t, nx, ny, r, c)),
-        "l_bracket": (_L_PLATES, lambda t, nx, ny, nz, r: vs.LPlate(t, nx, ny, nz, r)),
-        "end_cap": (_END_CAPS, lambda t, nx, ny, r, c: vs.VSlot2020EndCap(t, nx, ny, r, c)),
-        "wheel": (_WHEELS, lambda do, di, to, ti: vs.Wheel(do, di, to, ti)),
-        "bearing": (_BEARINGS, lambda do, di, t: vs.Bearing(do, di, t)),
-        "t_nut": (tuple((r,) for r in _T_NUTS), lambda r: vs.VSlot2020SlidingTNut(r)),
+        "build_plate": (_PLATES, vs.BuildPlate),
+        "l_bracket": (_L_PLATES, vs.LPlate),
+        "end_cap": (_END_CAPS, vs.VSlot2020EndCap),
+        "wheel": (_WHEELS, vs.Wheel),
+        "bearing": (_BEARINGS, vs.Bearing),
+        "t_nut": (tuple((radius,) for radius in _T_NUTS), vs.VSlot2020SlidingTNut),
     }
 
 
