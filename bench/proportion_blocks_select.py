@@ -1,0 +1,160 @@
+"""Issue 24 follow-up: do the D2 and D1 blocks of ``ss6`` cost kinds that come in many lengths?
+
+Measurement only (nothing under ``core/``, ``app/`` or ``tests/`` changes). Why, disclosed: on
+pymadcad's screws (a tuning source) ``spectral`` + normals + symmetry + the local block scores
+button, hex and socket heads 0.83 / 0.96 / 0.82 mAP against ``ss6``'s 0.65 / 0.76 / 0.69, and
+the blocks in between are D2 and D1 (``core.extrinsic``): their histograms, over their mean,
+follow a part's length-to-diameter ratio, so one kind of screw in many lengths spreads out. The
+earlier selector (``bench/local_features_select.py``) tried bases with both or neither.
+
+The grid, written before any score of it was seen: ``ss6`` as the service builds it (the
+``ss4-noprop`` blocks, the VLAD block of ``hks+sv`` at 64 words and weight 1, each source
+encoded by a vocabulary fitted on the other sources, and the ring block at weight 4) with the
+D2 weight and the D1 weight each scaled by {0, 0.5, 1}: nine candidates, ``ss6`` is (1, 1).
+
+The rule (``bench/profile_block_select.py``'s): mAP per source, leave-one-out within it; the
+mean over the rule's sources (every source of the study; capod-nonrigid is scored apart), ties
+within 0.002 to the narrower vector; leave-one-source-out with a paired bootstrap over queries
+against ``ss6``; ship only if the LOSO mean is above ``ss6``'s by more than 0.002 and the 95 %
+interval lies above zero.
+
+    nice -n 10 .venv/bin/python bench/proportion_blocks_select.py /work/study \\
+        --json /work/study/proportion.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import os
+import sys
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from local_features_select import (  # noqa: E402
+    BASES,
+    NON_RIGID_CAPOD,
+    joined,
+    load_source,
+    score,
+    split_capod,
+)
+from positional_features_select import TIE, choose, loso, per_query_ap  # noqa: E402
+from profile_block_select import _sample, ring_block  # noqa: E402
+from rerank_select import _bootstrap  # noqa: E402
+
+from core.local_features import Vocabulary, encode_vlad  # noqa: E402
+
+SCALES = (0.0, 0.5, 1.0)
+RING_WEIGHT = 4.0
+SS6 = "ss6 (d2 x1, d1 x1)"
+
+
+def base_rows(folder: Path, d2: float, d1: float) -> np.ndarray:
+    """The ``ss4-noprop`` weighted blocks of every model in ``folder`` ``(m, d)``, with the
+    D2 and D1 weights scaled by ``d2`` and ``d1`` (a block at 0 is left out)."""
+    weights = dict(BASES["ss4-noprop"])
+    weights["d2"] *= d2
+    weights["d1"] *= d1
+    rows = []
+    for path in sorted(folder.glob("*.npz")):
+        with np.load(path) as data:
+            rows.append(np.concatenate([weights[key] * data[f"blocks_{key}"]
+                                        for key in weights if weights[key] > 0]))
+    return np.array(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--kind", default="clean")
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args(argv)
+    folder = args.out / "features" / args.kind
+    cache = args.out / "profile_cache" / args.kind  # shared with profile_block_select
+    cache.mkdir(parents=True, exist_ok=True)
+    folders = [path for path in sorted(folder.iterdir()) if path.is_dir()]
+    sources = [load_source(path) for path in folders]
+    rule_sources = tuple(s.name for s in sources)
+    fitting = {source.name: source for source in sources}
+    scored = list(sources) + (split_capod(fitting["capod"]) if "capod" in fitting else [])
+    names = [s.name for s in scored]
+    capod_keep = ([i for i, label in enumerate(fitting["capod"].labels)
+                   if label in NON_RIGID_CAPOD] if "capod" in fitting else [])
+
+    def with_nonrigid(per_source: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        if "capod" in per_source:
+            per_source["capod-nonrigid"] = per_source["capod"][capod_keep]
+        return per_source
+
+    local: dict[str, np.ndarray] = {}
+    for source in sources:
+        others = [s for s in sources if s.name != source.name]
+        key = f"hks+sv-64-{source.name}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
+        path = cache / f"vlad-{key}.npz"
+        if not path.exists():
+            vocabulary = Vocabulary.fit([r for s in others for r in s.local["hks+sv"]], 64,
+                                        seed=0, per_model=200)
+            np.savez(path, vlad=np.array([
+                encode_vlad(f, a, vocabulary)
+                for f, a in zip(source.local["hks+sv"], source.areas, strict=True)]))
+        with np.load(path) as stored:
+            local[source.name] = stored["vlad"]
+    with_nonrigid(local)
+    rings = with_nonrigid({source.name: np.array([ring_block(*_sample(file)) for file in
+                                                  sorted(path.glob("*.npz"))])
+                           for source, path in zip(sources, folders, strict=True)})
+
+    table: dict[str, dict[str, dict[str, float]]] = {}
+    widths: dict[str, int] = {}
+    queries: dict[str, dict[str, np.ndarray]] = {}
+    for d2, d1 in itertools.product(SCALES, SCALES):
+        name = SS6 if (d2, d1) == (1.0, 1.0) else f"ss6 (d2 x{d2:g}, d1 x{d1:g})"
+        bases = with_nonrigid({source.name: base_rows(path, d2, d1)
+                               for source, path in zip(sources, folders, strict=True)})
+        table[name], queries[name] = {}, {}
+        for source in scored:
+            vectors = joined(np.hstack([bases[source.name], local[source.name]]),
+                             rings[source.name], RING_WEIGHT)
+            widths[name] = int(vectors.shape[1])
+            table[name][source.name] = score(vectors, source.labels)
+            queries[name][source.name] = per_query_ap(vectors, source.labels)
+    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+
+    header = ["candidate", "width", "mean mAP", *names]
+    print("| " + " | ".join(header) + " |\n|" + "---|" * len(header))
+    for c in sorted(table, key=lambda c: -mean[c]):
+        cells = [f"{table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}" for s in names]
+        print(f"| {c} | {widths[c]} | {mean[c]:.4f} | " + " | ".join(cells) + " |")
+
+    pool = list(table)
+    chosen = choose(table, widths, pool, list(rule_sources))
+    by_source = loso(table, widths, pool, rule_sources)
+    loso_mean = float(np.mean([table[c][s]["map"] for s, c in by_source.items()]))
+    point, low, high = _bootstrap({s: queries[c][s] for s, c in by_source.items()},
+                                  {s: queries[SS6][s] for s in rule_sources}, list(rule_sources))
+    print(f"\nrule's choice over the {len(rule_sources)}: {chosen} (mean {mean[chosen]:.4f})")
+    print("| source left out | choice without it | mAP / NN | ss6 |\n|---|---|---|---|")
+    for s, c in by_source.items():
+        print(f"| {s} | {c} | {table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f} | "
+              f"{table[SS6][s]['map']:.3f} / {table[SS6][s]['nn']:.3f} |")
+    print(f"| **mean** | | **{loso_mean:.4f}** | {mean[SS6]:.4f} |")
+    ships = loso_mean > mean[SS6] + TIE and low > 0
+    print(f"LOSO - ss6: {point:+.4f} (95% bootstrap over queries {low:+.4f} .. {high:+.4f}); "
+          f"ship: {ships}")
+    if args.json:
+        args.json.write_text(json.dumps({
+            "table": table, "mean": mean, "widths": widths, "chosen": chosen,
+            "loso": by_source, "loso_mean": loso_mean, "minus_ss6": [point, low, high],
+            "ships": ships}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
