@@ -45,11 +45,13 @@ from local_features_select import (  # noqa: E402
     score,
     split_capod,
 )
-from positional_features_select import TIE, choose, loso, per_query_ap  # noqa: E402
-from profile_block_select import _sample, ring_block  # noqa: E402
-from rerank_select import _bootstrap  # noqa: E402
-
-from core.local_features import Vocabulary, encode_vlad  # noqa: E402
+from positional_features_select import per_query_ap  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    _sample,
+    default_local_blocks,
+    ring_block,
+    rule_report,
+)
 
 SCALES = (0.0, 0.5, 1.0)
 RING_WEIGHT = 4.0
@@ -93,19 +95,7 @@ def main(argv: list[str] | None = None) -> int:
             per_source["capod-nonrigid"] = per_source["capod"][capod_keep]
         return per_source
 
-    local: dict[str, np.ndarray] = {}
-    for source in sources:
-        others = [s for s in sources if s.name != source.name]
-        key = f"hks+sv-64-{source.name}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
-        path = cache / f"vlad-{key}.npz"
-        if not path.exists():
-            vocabulary = Vocabulary.fit([r for s in others for r in s.local["hks+sv"]], 64,
-                                        seed=0, per_model=200)
-            np.savez(path, vlad=np.array([
-                encode_vlad(f, a, vocabulary)
-                for f, a in zip(source.local["hks+sv"], source.areas, strict=True)]))
-        with np.load(path) as stored:
-            local[source.name] = stored["vlad"]
+    local = default_local_blocks(sources, cache)
     with_nonrigid(local)
     rings = with_nonrigid({source.name: np.array([ring_block(*_sample(file)) for file in
                                                   sorted(path.glob("*.npz"))])
@@ -133,26 +123,11 @@ def main(argv: list[str] | None = None) -> int:
         cells = [f"{table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}" for s in names]
         print(f"| {c} | {widths[c]} | {mean[c]:.4f} | " + " | ".join(cells) + " |")
 
-    pool = list(table)
-    chosen = choose(table, widths, pool, list(rule_sources))
-    by_source = loso(table, widths, pool, rule_sources)
-    loso_mean = float(np.mean([table[c][s]["map"] for s, c in by_source.items()]))
-    point, low, high = _bootstrap({s: queries[c][s] for s, c in by_source.items()},
-                                  {s: queries[SS6][s] for s in rule_sources}, list(rule_sources))
-    print(f"\nrule's choice over the {len(rule_sources)}: {chosen} (mean {mean[chosen]:.4f})")
-    print("| source left out | choice without it | mAP / NN | ss6 |\n|---|---|---|---|")
-    for s, c in by_source.items():
-        print(f"| {s} | {c} | {table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f} | "
-              f"{table[SS6][s]['map']:.3f} / {table[SS6][s]['nn']:.3f} |")
-    print(f"| **mean** | | **{loso_mean:.4f}** | {mean[SS6]:.4f} |")
-    ships = loso_mean > mean[SS6] + TIE and low > 0
-    print(f"LOSO - ss6: {point:+.4f} (95% bootstrap over queries {low:+.4f} .. {high:+.4f}); "
-          f"ship: {ships}")
+    report = rule_report(table, widths, queries, mean, list(table), "D2 and D1 scales",
+                         rule_sources, reference=SS6)
     if args.json:
-        args.json.write_text(json.dumps({
-            "table": table, "mean": mean, "widths": widths, "chosen": chosen,
-            "loso": by_source, "loso_mean": loso_mean, "minus_ss6": [point, low, high],
-            "ships": ships}, indent=1))
+        args.json.write_text(json.dumps({"table": table, "mean": mean, "widths": widths,
+                                         **report}, indent=1))
     return 0
 
 
