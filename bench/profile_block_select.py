@@ -105,7 +105,8 @@ from positional_features_select import (  # noqa: E402
 )
 from rerank_select import _bootstrap  # noqa: E402
 
-from core.extrinsic import angular_spectrum, principal_frame  # noqa: E402
+from core.descriptor import ring_block  # noqa: E402
+from core.extrinsic import principal_frame  # noqa: E402
 from core.local_features import Vocabulary, encode_vlad  # noqa: E402
 
 NORMALISATIONS = ("rms", "own")
@@ -157,13 +158,6 @@ def profile_block(points: np.ndarray, areas: np.ndarray, bins: int, normalisatio
         root = np.sqrt(histogram)
         parts.append(root / max(float(np.linalg.norm(root)), 1e-300))
     return np.concatenate(parts)
-
-
-def ring_block(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
-    """The ``ring`` block at weight 1: ``core.extrinsic.angular_spectrum`` (written here
-    first, then moved to ``core`` unchanged when the rule chose it), ``(30,)`` over sqrt(30)."""
-    spectrum = angular_spectrum(points, areas).ravel()
-    return spectrum / np.sqrt(spectrum.size)
 
 
 def _sample(file: Path) -> tuple[np.ndarray, np.ndarray]:

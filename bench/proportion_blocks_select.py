@@ -46,12 +46,9 @@ from local_features_select import (  # noqa: E402
     split_capod,
 )
 from positional_features_select import per_query_ap  # noqa: E402
-from profile_block_select import (  # noqa: E402
-    _sample,
-    default_local_blocks,
-    ring_block,
-    rule_report,
-)
+from profile_block_select import _sample, default_local_blocks, rule_report  # noqa: E402
+
+from core.descriptor import ring_block  # noqa: E402
 
 SCALES = (0.0, 0.5, 1.0)
 RING_WEIGHT = 4.0

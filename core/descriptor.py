@@ -70,6 +70,7 @@ __all__ = [
     "area_histograms",
     "distance_distribution",
     "engine_library_versions",
+    "ring_block",
 ]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
@@ -187,6 +188,25 @@ def _unit_block(block: np.ndarray) -> np.ndarray:
     flat = block.ravel()
     norm = np.linalg.norm(flat)
     return flat / norm if norm > 0 else flat
+
+
+def ring_block(points: np.ndarray, areas: np.ndarray, weight: float = 1.0) -> np.ndarray:
+    """The ring block: ``core.extrinsic.angular_spectrum`` flattened, times ``weight``, over
+    the square root of its length, ``(30,) float``.
+
+    Not scaled to unit norm (see ``DescriptorSettings.ring_weight``): each value is in
+    [0, 1], so the block's norm is at most 1 and small when nothing repeats.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    areas : (n,) float
+    weight : float
+        The block's weight (applied first, so the service's vectors stay bit for bit what
+        they were before this helper existed).
+    """
+    spectrum = angular_spectrum(points, areas).ravel()
+    return weight * spectrum / np.sqrt(spectrum.size)
 
 
 @dataclass(frozen=True)
@@ -440,9 +460,7 @@ class DescriptorSpec:
             offsets = area_histograms(axis_offsets(points, areas), areas, edges)
             blocks["axes"] = self.axis_weight * _unit_block(np.sqrt(offsets))
         if self.ring_weight > 0:
-            # Not unit norm (see DescriptorSettings.ring_weight): each value is in [0, 1].
-            spectrum = angular_spectrum(points, areas).ravel()
-            blocks["ring"] = self.ring_weight * spectrum / np.sqrt(spectrum.size)
+            blocks["ring"] = ring_block(points, areas, self.ring_weight)
         return blocks
 
     def _eigenvalue_channel(self, eigenvalues: np.ndarray) -> np.ndarray:
