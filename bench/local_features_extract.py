@@ -10,6 +10,10 @@ saved, so that stage 2 (``bench/local_features_select.py``) only recombines:
 - ``blocks_*``: the unit blocks of the default descriptor (every weight 1).
 
     .venv/bin/python bench/local_features_extract.py SOURCES OUT [--scan KIND]
+        [--feature-share S]
+
+``--feature-share`` samples clean models feature-aware (``core.evaluation.feature_sampling``)
+instead of uniformly: the study of ``bench/sampling_select.py``, one ``OUT`` per share.
 
 Eigenpairs are cached under ``OUT/cache`` (the evaluation's cache layout), features under
 ``OUT/features/<kind>/<source>/``; a re-run resumes.
@@ -38,13 +42,14 @@ from core.evaluation.scan_retrieval import ROTATION_SEED  # noqa: E402
 from core.settings import EngineSettings  # noqa: E402
 
 
-def extract(sources: Path, out: Path, scan: str, only: list[str] | None) -> None:
+def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
+            feature_share: float = 0.0) -> None:
     settings = EngineSettings()
     unit = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block != "local"}
     ones = replace(settings.descriptor, **unit)
     spec = DescriptorSpec.from_settings(ones)
     cache = out / "cache"
-    sampling = sampling_of(settings, ROTATION_SEED, scan)
+    sampling = sampling_of(settings, ROTATION_SEED, scan, feature_share)
     for source in sorted(p for p in sources.iterdir() if p.is_dir()):
         if only and source.name not in only:
             continue
@@ -96,8 +101,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("out", type=Path)
     parser.add_argument("--scan", default="clean")
     parser.add_argument("--only", nargs="*")
+    parser.add_argument("--feature-share", type=float, default=0.0)
     args = parser.parse_args(argv)
-    extract(args.sources, args.out, args.scan, args.only)
+    extract(args.sources, args.out, args.scan, args.only, args.feature_share)
     return 0
 
 

@@ -270,20 +270,22 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def default_local_blocks(sources: list[Source], cache: Path) -> dict[str, np.ndarray]:
+def default_local_blocks(sources: list[Source], cache: Path, point_pooling: bool = False
+                         ) -> dict[str, np.ndarray]:
     """The default's local block (VLAD of ``hks+sv`` on 64 words) of every model, per
     source ``(m, 64 * d)``, each source encoded by words fitted on the other sources; cached
-    in ``cache`` per source and the sources fitted on."""
+    in ``cache`` per source and the sources fitted on. ``point_pooling`` pools every point
+    with the same weight instead of the area it stands for (``bench/sampling_select.py``)."""
     local: dict[str, np.ndarray] = {}
     for source in sources:
         others = [s for s in sources if s.name != source.name]
         key = f"hks+sv-64-{source.name}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
-        path = cache / f"vlad-{key}.npz"
+        path = cache / f"vlad{'-points' if point_pooling else ''}-{key}.npz"
         if not path.exists():
             vocabulary = Vocabulary.fit([r for s in others for r in s.local["hks+sv"]], 64,
                                         seed=0, per_model=200)
             np.savez(path, vlad=np.array([
-                encode_vlad(f, a, vocabulary)
+                encode_vlad(f, np.ones(len(a)) if point_pooling else a, vocabulary)
                 for f, a in zip(source.local["hks+sv"], source.areas, strict=True)]))
         with np.load(path) as stored:
             local[source.name] = stored["vlad"]

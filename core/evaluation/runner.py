@@ -37,6 +37,7 @@ import scipy.sparse as sp
 
 from core.cutoff import CutoffRecord, CutoffResult, make_cutoff
 from core.evaluation.dataset import Model
+from core.evaluation.feature_sampling import FEATURE_OVERSAMPLING, feature_weighted_subsample
 from core.evaluation.scans import random_rotation, scan_of_kind
 from core.io import OUTLIER_RATIO, denoise_points, load_points, validate_points
 from core.pipeline import descriptor_from_eigenpairs, normalised_operators
@@ -69,22 +70,29 @@ class Sampling:
     sample_seed: int
     rotation_seed: int
     scan: str = "clean"  # "clean" or a scans.SCAN_KINDS kind, optionally with "+sor"
+    # Clean samples only: 0 is uniform, above 0 feature-aware (core.evaluation.feature_sampling).
+    feature_share: float = 0.0
 
     def cache_name(self, sha256: str) -> str:
+        feature = f"_f{self.feature_share:g}" if self.feature_share else ""
         return (
             f"{sha256[:24]}_{self.laplacian}_p{self.max_points}_s{self.sample_seed}"
-            f"_r{self.rotation_seed}_{self.scan}_{_CACHE_VERSION}.npz"
+            f"_r{self.rotation_seed}_{self.scan}{feature}_{_CACHE_VERSION}.npz"
         )
 
 
-def sampling_of(settings: EngineSettings, rotation_seed: int, scan: str = "clean") -> Sampling:
+def sampling_of(settings: EngineSettings, rotation_seed: int, scan: str = "clean",
+                feature_share: float = 0.0) -> Sampling:
     """The sampling a variant's settings ask for."""
+    if feature_share and scan != "clean":
+        raise ValueError("feature-aware sampling is measured on clean samples only")
     return Sampling(
         laplacian=settings.laplacian,
         max_points=settings.max_points,
         sample_seed=settings.sample_seed,
         rotation_seed=rotation_seed,
         scan=scan,
+        feature_share=feature_share,
     )
 
 
@@ -268,11 +276,16 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
     kind, _, steps = sampling.scan.partition("+")
     if kind == "points":
         dense = sampling.max_points
+    if sampling.feature_share:
+        dense = sampling.max_points * FEATURE_OVERSAMPLING
     shape = load_points(
         str(model.path), max_points=dense, min_points=min_points, seed=sampling.sample_seed
     )
     seed = _model_seed(model.sha256, sampling.rotation_seed)
     points = shape.points @ random_rotation(np.random.default_rng(seed)).T
+    if sampling.feature_share:
+        points = points[feature_weighted_subsample(
+            points, sampling.max_points, sampling.feature_share, sampling.sample_seed)]
     if sampling.scan != "clean":
         outliers, denoise, ratio = _cleanup_steps(steps)
         # Seeded without the denoise step: a denoised scan is the same scan, cleaned, so that

@@ -1,0 +1,140 @@
+"""Issue 24, the last candidate of its item 3: feature-aware sampling, chosen or declined.
+
+Measurement only (the service's sampling does not change unless the rule ships it). The issue
+lists three ways to make the descriptor see the small regions that tell standard parts apart:
+a vocabulary of local signatures (shipped: the VLAD block), a finer re-rank (declined,
+``bench/rerank_select.py``) and *feature-aware sampling that gives edges and small features
+points within the budget*, measured here. At 3000 uniform points a hex socket or a hub fillet
+gets the few dozen points its area earns; ``core.evaluation.feature_sampling`` draws the same
+budget from a four times denser uniform sample with weights that rise with the surface
+variation, so edges and curved features get more of it, flat faces less.
+
+Each sampling is one study folder made by ``bench/local_features_extract.py`` (same sources,
+same seeds, same rotations; only the sampler differs), and every candidate is ``ss6`` as the
+service builds it (``ss4-noprop`` blocks, the VLAD block of ``hks+sv`` on 64 words at weight 1,
+each source encoded by words fitted on the other sources *of the same sampling*, the ring
+block at weight 4). Every block and the Laplacian's mass weigh points by the area they stand
+for, so denser edges buy resolution, not weight; the second axis asks whether they should also
+buy weight in the local block.
+
+The grid, written before any score of it was seen:
+
+- sampling share {0 (the service's uniform sample), 0.5, 0.8};
+- local block pooling {``area`` (as shipped), ``point`` (every point the same weight)}.
+
+Six candidates; ``share 0, area`` is ``ss6``. The rule (``bench/profile_block_select.py``'s):
+mAP per source (leave-one-out within it; capod-nonrigid scored apart); the choice is the best
+mean over every source of the study, ties within 0.002 to the cheaper (uniform sampling skips
+the dense sample and its neighbour search; area pooling is what ships); leave-one-source-out
+with a paired bootstrap over queries against ``ss6``; ship only if the LOSO mean is above
+``ss6``'s by more than 0.002 and the 95 % interval lies above zero.
+
+    .venv/bin/python bench/local_features_extract.py /work/tuning /work/study
+    .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-f0.5 \\
+        --feature-share 0.5
+    .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-f0.8 \\
+        --feature-share 0.8
+    nice -n 10 .venv/bin/python bench/sampling_select.py 0=/work/study 0.5=/work/study-f0.5 \\
+        0.8=/work/study-f0.8 --json /work/study/sampling.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from local_features_select import (  # noqa: E402
+    NON_RIGID_CAPOD,
+    Source,
+    joined,
+    load_source,
+    score,
+    split_capod,
+)
+from positional_features_select import per_query_ap  # noqa: E402
+from profile_block_select import _sample, default_local_blocks, rule_report  # noqa: E402
+
+from core.descriptor import ring_block  # noqa: E402
+
+RING_WEIGHT = 4.0
+POOLINGS = ("area", "point")
+SS6 = "share 0, area"
+
+
+def candidate_vectors(folder: Path, point_pooling: bool
+                      ) -> tuple[list[Source], dict[str, np.ndarray]]:
+    """The study's sources in ``folder`` (``OUT/features/clean``) and every model's ``ss6``
+    vector under the given pooling, ``(m, 2817)`` per source, capod-nonrigid included."""
+    folders = [path for path in sorted(folder.iterdir()) if path.is_dir()]
+    sources = [load_source(path) for path in folders]
+    cache = folder.parent.parent / "profile_cache" / "clean"  # shared with the other studies
+    cache.mkdir(parents=True, exist_ok=True)
+    local = default_local_blocks(sources, cache, point_pooling)
+    vectors = {}
+    for source, path in zip(sources, folders, strict=True):
+        rings = np.array([ring_block(*_sample(file)) for file in sorted(path.glob("*.npz"))])
+        vectors[source.name] = joined(np.hstack([source.bases["ss4-noprop"], local[source.name]]),
+                                      rings, RING_WEIGHT)
+    if "capod" in vectors:
+        capod = next(s for s in sources if s.name == "capod")
+        keep = [i for i, label in enumerate(capod.labels) if label in NON_RIGID_CAPOD]
+        vectors["capod-nonrigid"] = vectors["capod"][keep]
+        sources = [*sources, *split_capod(capod)]
+    return sources, vectors
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("studies", nargs="+", metavar="SHARE=OUT",
+                        help="one study folder per sampling share; share 0 is the reference")
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args(argv)
+    studies = {float(share): Path(out) for share, out in
+               (item.split("=", 1) for item in args.studies)}
+    if 0.0 not in studies:
+        parser.error("the uniform sampling (0=OUT) is the reference and must be given")
+
+    table: dict[str, dict[str, dict[str, float]]] = {}
+    queries: dict[str, dict[str, np.ndarray]] = {}
+    cost_rank: dict[str, int] = {}  # the rule's tie-break: lower is cheaper
+    reference_models: dict[str, list[str]] = {}
+    for rank_share, (share, out) in enumerate(sorted(studies.items())):
+        for rank_pooling, pooling in enumerate(POOLINGS):
+            name = f"share {share:g}, {pooling}"
+            sources, vectors = candidate_vectors(out / "features" / "clean", pooling == "point")
+            models = {s.name: s.names for s in sources}
+            # Paired comparisons need the same models in the same order in every study.
+            if reference_models and models != reference_models:
+                raise SystemExit(f"{out}: its models differ from the uniform study's")
+            reference_models = models
+            cost_rank[name] = 2 * rank_share + rank_pooling
+            table[name] = {s.name: score(vectors[s.name], s.labels) for s in sources}
+            queries[name] = {s.name: per_query_ap(vectors[s.name], s.labels) for s in sources}
+            print(f"{name} scored", flush=True)
+    names = list(next(iter(table.values())))
+    rule_sources = tuple(n for n in names if n != "capod-nonrigid")
+    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+
+    header = ["candidate", "mean mAP", *names]
+    print("\n| " + " | ".join(header) + " |\n|" + "---|" * len(header))
+    for c in table:
+        cells = [f"{table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}" for s in names]
+        print(f"| {c} | {mean[c]:.4f} | " + " | ".join(cells) + " |")
+    report = rule_report(table, cost_rank, queries, mean, list(table), "sampling and pooling",
+                         rule_sources, reference=SS6)
+    if args.json:
+        args.json.write_text(json.dumps({"table": table, "mean": mean, **report}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
