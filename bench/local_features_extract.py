@@ -10,10 +10,11 @@ saved, so that stage 2 (``bench/local_features_select.py``) only recombines:
 - ``blocks_*``: the unit blocks of the default descriptor (every weight 1).
 
     .venv/bin/python bench/local_features_extract.py SOURCES OUT [--scan KIND]
-        [--feature-share S]
+        [--feature-share S] [--max-points N]
 
 ``--feature-share`` samples clean models feature-aware (``core.evaluation.feature_sampling``)
-instead of uniformly: the study of ``bench/sampling_select.py``, one ``OUT`` per share.
+instead of uniformly, ``--max-points`` changes the point budget (the engine's default 3000):
+the studies of ``bench/sampling_select.py``, one ``OUT`` per sampling.
 
 Eigenpairs are cached under ``OUT/cache`` (the evaluation's cache layout), features under
 ``OUT/features/<kind>/<source>/``; a re-run resumes.
@@ -43,8 +44,10 @@ from core.settings import EngineSettings  # noqa: E402
 
 
 def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
-            feature_share: float = 0.0) -> None:
+            feature_share: float = 0.0, max_points: int | None = None) -> None:
     settings = EngineSettings()
+    if max_points:
+        settings = replace(settings, max_points=max_points)
     unit = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block != "local"}
     ones = replace(settings.descriptor, **unit)
     spec = DescriptorSpec.from_settings(ones)
@@ -102,8 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scan", default="clean")
     parser.add_argument("--only", nargs="*")
     parser.add_argument("--feature-share", type=float, default=0.0)
+    parser.add_argument("--max-points", type=int)
     args = parser.parse_args(argv)
-    extract(args.sources, args.out, args.scan, args.only, args.feature_share)
+    extract(args.sources, args.out, args.scan, args.only, args.feature_share, args.max_points)
     return 0
 
 
