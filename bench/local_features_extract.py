@@ -10,11 +10,12 @@ saved, so that stage 2 (``bench/local_features_select.py``) only recombines:
 - ``blocks_*``: the unit blocks of the default descriptor (every weight 1).
 
     .venv/bin/python bench/local_features_extract.py SOURCES OUT [--scan KIND]
-        [--feature-share S] [--max-points N]
+        [--feature-share S] [--max-points N] [--cutoff-t T]
 
 ``--feature-share`` samples clean models feature-aware (``core.evaluation.feature_sampling``)
-instead of uniformly, ``--max-points`` changes the point budget (the engine's default 3000):
-the studies of ``bench/sampling_select.py``, one ``OUT`` per sampling.
+instead of uniformly, ``--max-points`` changes the point budget (the engine's default 3000),
+``--cutoff-t`` the adaptive cutoff's ``t`` (default 0.01): the studies of
+``bench/extraction_select.py``, one ``OUT`` per setting.
 
 Eigenpairs are cached under ``OUT/cache`` (the evaluation's cache layout), features under
 ``OUT/features/<kind>/<source>/``; a re-run resumes.
@@ -44,10 +45,13 @@ from core.settings import EngineSettings  # noqa: E402
 
 
 def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
-            feature_share: float = 0.0, max_points: int | None = None) -> None:
+            feature_share: float = 0.0, max_points: int | None = None,
+            cutoff_t: float | None = None) -> None:
     settings = EngineSettings()
     if max_points:
         settings = replace(settings, max_points=max_points)
+    if cutoff_t:
+        settings = replace(settings, cutoff=replace(settings.cutoff, t=cutoff_t))
     unit = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block != "local"}
     ones = replace(settings.descriptor, **unit)
     spec = DescriptorSpec.from_settings(ones)
@@ -106,8 +110,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", nargs="*")
     parser.add_argument("--feature-share", type=float, default=0.0)
     parser.add_argument("--max-points", type=int)
+    parser.add_argument("--cutoff-t", type=float)
     args = parser.parse_args(argv)
-    extract(args.sources, args.out, args.scan, args.only, args.feature_share, args.max_points)
+    extract(args.sources, args.out, args.scan, args.only, args.feature_share, args.max_points,
+            args.cutoff_t)
     return 0
 
 

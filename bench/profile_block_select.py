@@ -275,7 +275,7 @@ def default_local_blocks(sources: list[Source], cache: Path, point_pooling: bool
     """The default's local block (VLAD of ``hks+sv`` on 64 words) of every model, per
     source ``(m, 64 * d)``, each source encoded by words fitted on the other sources; cached
     in ``cache`` per source and the sources fitted on. ``point_pooling`` pools every point
-    with the same weight instead of the area it stands for (``bench/sampling_select.py``)."""
+    with the same weight instead of the area it stands for (``bench/extraction_select.py``)."""
     local: dict[str, np.ndarray] = {}
     for source in sources:
         others = [s for s in sources if s.name != source.name]

@@ -1,4 +1,9 @@
-"""Issue 24, the last candidate of its item 3: feature-aware sampling, chosen or declined.
+"""Issue 24: settings of the extraction stage (sampling, budget, cutoff), chosen or declined.
+
+Three questions, each a set of study folders that differ in one setting of the extraction
+(``bench/local_features_extract.py``) and nothing else, scored by one rule.
+
+**1. Feature-aware sampling**, the last candidate of the issue's item 3.
 
 Measurement only (the service's sampling does not change unless the rule ships it). The issue
 lists three ways to make the descriptor see the small regions that tell standard parts apart:
@@ -36,7 +41,7 @@ zero.
         --feature-share 0.5
     .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-f0.8 \\
         --feature-share 0.8
-    nice -n 10 .venv/bin/python bench/sampling_select.py "share 0=/work/study" \\
+    nice -n 10 .venv/bin/python bench/extraction_select.py "share 0=/work/study" \\
         "share 0.5=/work/study-f0.5" "share 0.8=/work/study-f0.8" --json /work/study/sampling.json
 
 A second question, written after the first run (which declined: see docs/results.md) and
@@ -47,8 +52,26 @@ budget ships only if ``bench/descriptor_cost.py`` also finds it within 1.5x of `
 
     .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-p4000 \\
         --max-points 4000
-    nice -n 10 .venv/bin/python bench/sampling_select.py "3000 points=/work/study" \\
+    nice -n 10 .venv/bin/python bench/extraction_select.py "3000 points=/work/study" \\
         "4000 points=/work/study-p4000" --json /work/study/budget.json
+
+**3. The adaptive cutoff's t**, written after the first two runs (both declined) and before
+any score of it was seen. ``t`` is the method's tunable parameter (../shared/docs/method.md):
+the criterion keeps eigenpairs until the heat kernel's tail at time ``t`` is below ``xi``, so
+a smaller ``t`` keeps more of them (finer detail in the signatures, a longer solve). Its
+value 0.01 was chosen on capod alone (docs/results.md, "Chosen defaults"). Grid: ``t`` in
+{0.02, 0.01, 0.005}, area pooling only (the second axis above decided nothing), the same
+rule and condition against 0.01, ties to the larger ``t`` (fewer eigenpairs); a ``t`` ships
+only if ``bench/descriptor_cost.py`` also finds it within 1.5x of ``ss4``. The eigenpairs
+are shared with the reference study (``OUT/cache`` a link to ``/work/study/cache``), so
+every ``t`` describes the same Laplacians.
+
+    for t in 0.02 0.005; do mkdir -p /work/study-t$t; ln -s /work/study/cache /work/study-t$t/cache
+        .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-t$t \\
+            --cutoff-t $t; done
+    nice -n 10 .venv/bin/python bench/extraction_select.py "t 0.02=/work/study-t0.02" \\
+        "t 0.01=/work/study" "t 0.005=/work/study-t0.005" --reference "t 0.01" \\
+        --poolings area --json /work/study/cutoff.json
 """
 
 from __future__ import annotations
@@ -107,19 +130,21 @@ def candidate_vectors(folder: Path, point_pooling: bool
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("studies", nargs="+", metavar="LABEL=OUT",
-                        help="one study folder per sampling, cheapest first; the first is "
-                        "the service's sampling, the reference")
+                        help="one study folder per setting, cheapest first")
+    parser.add_argument("--reference", help="the label of the service's setting "
+                        "(default: the first study)")
+    parser.add_argument("--poolings", nargs="+", choices=POOLINGS, default=list(POOLINGS))
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     studies = dict(item.split("=", 1) for item in args.studies)
-    reference = f"{next(iter(studies))}, area"
+    reference = f"{args.reference or next(iter(studies))}, area"
 
     table: dict[str, dict[str, dict[str, float]]] = {}
     queries: dict[str, dict[str, np.ndarray]] = {}
     cost_rank: dict[str, int] = {}  # the rule's tie-break: lower is cheaper
     reference_models: dict[str, list[str]] = {}
     for rank_study, (label, out) in enumerate(studies.items()):
-        for rank_pooling, pooling in enumerate(POOLINGS):
+        for rank_pooling, pooling in enumerate(args.poolings):
             name = f"{label}, {pooling}"
             sources, vectors = candidate_vectors(Path(out) / "features" / "clean",
                                                  pooling == "point")
@@ -128,7 +153,7 @@ def main(argv: list[str] | None = None) -> int:
             if reference_models and models != reference_models:
                 raise SystemExit(f"{out}: its models differ from the first study's")
             reference_models = models
-            cost_rank[name] = 2 * rank_study + rank_pooling
+            cost_rank[name] = len(POOLINGS) * rank_study + rank_pooling
             table[name] = {s.name: score(vectors[s.name], s.labels) for s in sources}
             queries[name] = {s.name: per_query_ap(vectors[s.name], s.labels) for s in sources}
             print(f"{name} scored", flush=True)
