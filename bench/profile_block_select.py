@@ -107,7 +107,7 @@ from rerank_select import _bootstrap  # noqa: E402
 
 from core.descriptor import ring_block  # noqa: E402
 from core.extrinsic import principal_frame  # noqa: E402
-from core.local_features import Vocabulary, encode_vlad  # noqa: E402
+from core.local_features import Vocabulary, encode_bof, encode_vlad  # noqa: E402
 
 NORMALISATIONS = ("rms", "own")
 BINS = (6, 8, 12)
@@ -270,23 +270,26 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def default_local_blocks(sources: list[Source], cache: Path, point_pooling: bool = False
+def default_local_blocks(sources: list[Source], cache: Path, point_pooling: bool = False,
+                         features: str = "hks+sv", encoding: str = "vlad"
                          ) -> dict[str, np.ndarray]:
     """The default's local block (VLAD of ``hks+sv`` on 64 words) of every model, per
-    source ``(m, 64 * d)``, each source encoded by words fitted on the other sources; cached
-    in ``cache`` per source and the sources fitted on. ``point_pooling`` pools every point
-    with the same weight instead of the area it stands for (``bench/extraction_select.py``)."""
+    source ``(m, b)``, each source encoded by words fitted on the other sources; cached in
+    ``cache`` per source and the sources fitted on. ``point_pooling`` pools every point with
+    the same weight instead of the area it stands for; ``features`` and ``encoding``
+    (``"bof"``) make the bendable family's block instead (``bench/extraction_select.py``)."""
+    encode = encode_vlad if encoding == "vlad" else encode_bof
     local: dict[str, np.ndarray] = {}
     for source in sources:
         others = [s for s in sources if s.name != source.name]
-        key = f"hks+sv-64-{source.name}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
-        path = cache / f"vlad{'-points' if point_pooling else ''}-{key}.npz"
+        key = f"{features}-64-{source.name}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
+        path = cache / f"{encoding}{'-points' if point_pooling else ''}-{key}.npz"
         if not path.exists():
-            vocabulary = Vocabulary.fit([r for s in others for r in s.local["hks+sv"]], 64,
+            vocabulary = Vocabulary.fit([r for s in others for r in s.local[features]], 64,
                                         seed=0, per_model=200)
             np.savez(path, vlad=np.array([
-                encode_vlad(f, np.ones(len(a)) if point_pooling else a, vocabulary)
-                for f, a in zip(source.local["hks+sv"], source.areas, strict=True)]))
+                encode(f, np.ones(len(a)) if point_pooling else a, vocabulary)
+                for f, a in zip(source.local[features], source.areas, strict=True)]))
         with np.load(path) as stored:
             local[source.name] = stored["vlad"]
     return local
