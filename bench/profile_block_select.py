@@ -283,15 +283,15 @@ def default_local_blocks(sources: list[Source], cache: Path, point_pooling: bool
     for source in sources:
         others = [s for s in sources if s.name != source.name]
         key = f"{features}-64-{source.name}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
-        path = cache / f"{encoding}{'-points' if point_pooling else ''}-{key}.npz"
+        path = cache / f"local-{encoding}{'-points' if point_pooling else ''}-{key}.npz"
         if not path.exists():
             vocabulary = Vocabulary.fit([r for s in others for r in s.local[features]], 64,
                                         seed=0, per_model=200)
-            np.savez(path, vlad=np.array([
+            np.savez(path, block=np.array([
                 encode(f, np.ones(len(a)) if point_pooling else a, vocabulary)
                 for f, a in zip(source.local[features], source.areas, strict=True)]))
         with np.load(path) as stored:
-            local[source.name] = stored["vlad"]
+            local[source.name] = stored["block"]
     return local
 
 
