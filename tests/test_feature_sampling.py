@@ -48,3 +48,16 @@ def test_small_inputs_are_kept_whole_and_bad_shares_refused() -> None:
     assert np.array_equal(feature_weighted_subsample(dense, 800, 0.5, seed=0), np.arange(500))
     with pytest.raises(ValueError, match="share"):
         feature_weighted_subsample(dense, 100, 1.5, seed=0)
+
+
+def test_a_feature_aware_sampling_has_its_own_cache_and_is_for_clean_samples_only() -> None:
+    from core.evaluation.runner import sampling_of
+    from core.settings import EngineSettings
+
+    settings = EngineSettings()
+    uniform = sampling_of(settings, rotation_seed=1)
+    featured = sampling_of(settings, rotation_seed=1, feature_share=0.5)
+    # Eigenpairs of one sampling must never be served for the other.
+    assert uniform.cache_name("ab" * 32) != featured.cache_name("ab" * 32)
+    with pytest.raises(ValueError, match="clean"):
+        sampling_of(settings, rotation_seed=1, scan="single", feature_share=0.5)
