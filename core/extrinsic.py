@@ -37,6 +37,7 @@ __all__ = [
     "pair_distance_ratios",
     "principal_frame",
     "reflection_symmetry",
+    "shell_spectrum",
     "spread_profile",
     "surface_normals",
 ]
@@ -216,29 +217,41 @@ def angular_spectrum(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
     """
     coordinates, _, _ = principal_frame(points, areas)
     weights = areas / areas.sum()
-    highest = max(high for _, high in ANGULAR_BANDS)
     spectrum = np.zeros((2, ANGULAR_SHELLS, len(ANGULAR_BANDS)))
     # About the first axis the angle lies in the plane of the second and third, about the
     # third in that of the first and second; the coordinate along the axis does not enter.
     for row, (u, v) in enumerate(((1, 2), (0, 1))):
-        across = coordinates[:, u] - 1j * coordinates[:, v]
-        radius = np.abs(across)
-        # e^(-i theta) per point (1 on the axis itself, where theta is undefined), and its
-        # powers 1 .. highest - 1 by repeated products rather than one exp per order.
-        unit = np.where(radius > 0, across / np.where(radius > 0, radius, 1.0), 1.0)
-        powers = np.cumprod(np.repeat(unit[:, None], highest - 1, axis=1), axis=1)
-        order = np.argsort(radius, kind="stable")
-        share = np.cumsum(weights[order])
-        shells = np.empty(len(radius), dtype=np.int64)
-        shells[order] = np.minimum(
-            (ANGULAR_SHELLS * share / share[-1]).astype(np.int64), ANGULAR_SHELLS - 1
-        )
-        # One product for all shells: each row holds the weights of one shell's points.
-        by_shell = np.zeros((ANGULAR_SHELLS, len(radius)))
-        by_shell[shells, np.arange(len(radius))] = weights
-        mass = by_shell.sum(axis=1)
-        coefficients = (by_shell @ powers) / np.where(mass > 0, mass, 1.0)[:, None]
-        power = np.abs(coefficients) ** 2
-        for band, (low, high) in enumerate(ANGULAR_BANDS):
-            spectrum[row, :, band] = np.sqrt(power[:, low - 1 : high - 1].mean(axis=1))
+        spectrum[row] = shell_spectrum(coordinates[:, u] - 1j * coordinates[:, v], weights)
     return spectrum
+
+
+def shell_spectrum(across: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The band powers of ``angular_spectrum`` about one axis, ``(ANGULAR_SHELLS, bands)``.
+
+    Parameters
+    ----------
+    across : (n,) complex
+        Each point's position across the axis, ``x - i y`` in the plane normal to it.
+    weights : (n,) float
+        Non-negative; shells are their weighted tertiles of distance from the axis.
+    """
+    highest = max(high for _, high in ANGULAR_BANDS)
+    radius = np.abs(across)
+    # e^(-i theta) per point (1 on the axis itself, where theta is undefined), and its
+    # powers 1 .. highest - 1 by repeated products rather than one exp per order.
+    unit = np.where(radius > 0, across / np.where(radius > 0, radius, 1.0), 1.0)
+    powers = np.cumprod(np.repeat(unit[:, None], highest - 1, axis=1), axis=1)
+    order = np.argsort(radius, kind="stable")
+    share = np.cumsum(weights[order])
+    shells = np.empty(len(radius), dtype=np.int64)
+    shells[order] = np.minimum(
+        (ANGULAR_SHELLS * share / share[-1]).astype(np.int64), ANGULAR_SHELLS - 1
+    )
+    # One product for all shells: each row holds the weights of one shell's points.
+    by_shell = np.zeros((ANGULAR_SHELLS, len(radius)))
+    by_shell[shells, np.arange(len(radius))] = weights
+    mass = by_shell.sum(axis=1)
+    coefficients = (by_shell @ powers) / np.where(mass > 0, mass, 1.0)[:, None]
+    power = np.abs(coefficients) ** 2
+    return np.stack([np.sqrt(power[:, low - 1 : high - 1].mean(axis=1))
+                     for low, high in ANGULAR_BANDS], axis=1)

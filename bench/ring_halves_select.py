@@ -1,0 +1,168 @@
+"""Issue 24 follow-up: does what repeats around the axis, told *per end*, generalise?
+
+Measurement only (the service's descriptor does not change in this step; a choice that
+ships by the rule is adopted in a later step, with its tests and the score calibration).
+Why, disclosed: the held-out set's worst kinds are screws of four head types and flanges
+of three; ``ss6``'s ring block measures k-fold repetition about the symmetry axis in three
+shells of distance from it, over the whole part. A socket head's hexagonal recess then
+shares the innermost shell with the whole shank, and a hex head's flats share the outer
+shell with the thread's end; a flange's bolt holes share a side with its hub. Telling the
+two ends (about the first axis) or the two faces (about the third) apart keeps a head's
+repetition from being diluted by the shank's lack of it.
+
+The ``halves`` block (computed on the stored normalised sample): about each of the first
+and the third area-weighted principal axes, the points split by the sign of their
+coordinate along that axis (through the area-weighted centroid); per half,
+``core.extrinsic.shell_spectrum`` (the ring block's three shells and five bands, the shells
+the half's own area tertiles); the halves ordered by area, larger first, so that the axis'
+arbitrary sign does not matter; 2 axes x 2 halves x 3 shells x 5 bands = 60 values over
+sqrt(60), like the ring block (not unit norm). A half with fewer than three points gives
+zeros. Invariant to rotation, translation, uniform scale and point order, like the ring.
+
+The grid, written before any score of it was seen: ``ss6`` (the reference); ``ss6`` with the
+ring block replaced by ``halves`` at weight {2, 4, 8}; ``ss6`` with ``halves`` added (the ring
+kept at 4) at weight {1, 2, 4}. Seven candidates. The rule and the ship condition are the
+ring study's (``bench/profile_block_select.py``): mAP per source, mean over the seven
+sources (capod-nonrigid scored apart), ties within 0.002 to the narrower vector,
+leave-one-source-out with a paired bootstrap against ``ss6``; ship only if the LOSO mean is
+above ``ss6``'s by more than 0.002 with the 95 % interval above zero. The block is extrinsic:
+the ``bendable`` family would leave it out.
+
+    nice -n 10 .venv/bin/python bench/ring_halves_select.py /work/study \\
+        --json /work/study/ring_halves.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from local_features_select import (  # noqa: E402
+    NON_RIGID_CAPOD,
+    joined,
+    load_source,
+    score,
+    split_capod,
+)
+from positional_features_select import per_query_ap  # noqa: E402
+from profile_block_select import _sample, default_local_blocks, rule_report  # noqa: E402
+
+from core.descriptor import ring_block  # noqa: E402
+from core.extrinsic import (  # noqa: E402
+    ANGULAR_BANDS,
+    ANGULAR_SHELLS,
+    principal_frame,
+    shell_spectrum,
+)
+
+RING_WEIGHT = 4.0
+REPLACE_WEIGHTS = (2.0, 4.0, 8.0)
+ADD_WEIGHTS = (1.0, 2.0, 4.0)
+SS6 = "ss6"
+
+
+def halves_block(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    """The ring block's band powers per axial half, ``(60,) float`` (see the docstring).
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    areas : (n,) float
+    """
+    coordinates, _, _ = principal_frame(points, areas)
+    weights = areas / areas.sum()
+    parts = []
+    for along, (u, v) in ((0, (1, 2)), (2, (0, 1))):
+        across = coordinates[:, u] - 1j * coordinates[:, v]
+        halves = []
+        for mask in (coordinates[:, along] >= 0, coordinates[:, along] < 0):
+            spectrum = (shell_spectrum(across[mask], weights[mask])
+                        if mask.sum() >= ANGULAR_SHELLS and weights[mask].sum() > 0
+                        else np.zeros((ANGULAR_SHELLS, len(ANGULAR_BANDS))))
+            halves.append((float(weights[mask].sum()), spectrum.ravel()))
+        # Larger half first: the axis' sign is arbitrary, the halves' areas are not.
+        halves.sort(key=lambda half: -half[0])
+        parts.extend(spectrum for _, spectrum in halves)
+    block = np.concatenate(parts)
+    return block / np.sqrt(block.size)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args(argv)
+    folder = args.out / "features" / "clean"
+    cache = args.out / "profile_cache" / "clean"  # shared with the other studies
+    cache.mkdir(parents=True, exist_ok=True)
+    folders = [path for path in sorted(folder.iterdir()) if path.is_dir()]
+    sources = [load_source(path) for path in folders]
+    rule_sources = tuple(s.name for s in sources)
+    fitting = {source.name: source for source in sources}
+    scored = list(sources) + (split_capod(fitting["capod"]) if "capod" in fitting else [])
+    names = [s.name for s in scored]
+    keep = ([i for i, label in enumerate(fitting["capod"].labels) if label in NON_RIGID_CAPOD]
+            if "capod" in fitting else [])
+
+    local = default_local_blocks(sources, cache)
+    rings, halves, timings = {}, {}, []
+    for source, path in zip(sources, folders, strict=True):
+        samples = [_sample(file) for file in sorted(path.glob("*.npz"))]
+        rings[source.name] = np.array([ring_block(*sample) for sample in samples])
+        rows = []
+        for sample in samples:
+            start = time.perf_counter()
+            rows.append(halves_block(*sample))
+            timings.append(1000.0 * (time.perf_counter() - start))
+        halves[source.name] = np.array(rows)
+    for per_source in (local, rings, halves):
+        if "capod" in per_source:
+            per_source["capod-nonrigid"] = per_source["capod"][keep]
+    base = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name]]) for s in scored}
+
+    # Candidate -> per source, the weighted extra blocks after ss5's (base and local).
+    candidates = {SS6: {n: RING_WEIGHT * rings[n] for n in names}}
+    for weight in REPLACE_WEIGHTS:
+        candidates[f"halves w{weight:g} (no ring)"] = {n: weight * halves[n] for n in names}
+    for weight in ADD_WEIGHTS:
+        candidates[f"ss6 + halves w{weight:g}"] = {
+            n: np.hstack([RING_WEIGHT * rings[n], weight * halves[n]]) for n in names}
+    table: dict[str, dict[str, dict[str, float]]] = {}
+    widths: dict[str, int] = {}
+    queries: dict[str, dict[str, np.ndarray]] = {}
+    for name, extra in candidates.items():
+        table[name], queries[name] = {}, {}
+        for source in scored:
+            vectors = joined(base[source.name], extra[source.name], 1.0)
+            widths[name] = int(vectors.shape[1])
+            table[name][source.name] = score(vectors, source.labels)
+            queries[name][source.name] = per_query_ap(vectors, source.labels)
+    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+
+    header = ["candidate", "width", "mean mAP", *names]
+    print("| " + " | ".join(header) + " |\n|" + "---|" * len(header))
+    for c in table:
+        cells = [f"{table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}" for s in names]
+        print(f"| {c} | {widths[c]} | {mean[c]:.4f} | " + " | ".join(cells) + " |")
+    report = rule_report(table, widths, queries, mean, list(table), "ring halves",
+                         rule_sources, reference=SS6)
+    cost = float(np.median(timings))
+    print(f"halves block, median ms per model: {cost:.2f} ({len(timings)} models)")
+    if args.json:
+        args.json.write_text(json.dumps({"table": table, "mean": mean, "widths": widths,
+                                         "cost_ms": cost, **report}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
