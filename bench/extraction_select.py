@@ -99,14 +99,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import (  # noqa: E402
-    NON_RIGID_CAPOD,
-    Source,
-    joined,
-    load_source,
-    score,
-    split_capod,
-)
+from local_features_select import Source, joined, load_study, score  # noqa: E402
 from positional_features_select import per_query_ap  # noqa: E402
 from profile_block_select import _sample, default_local_blocks, rule_report  # noqa: E402
 
@@ -125,29 +118,23 @@ def candidate_vectors(folder: Path, point_pooling: bool, family: str = "parts"
     under the given pooling, per source, capod-nonrigid included: ``ss6`` ``(m, 2817)`` for
     the ``parts`` family; for ``bendable``, ``spectral`` and the idf word counts of HKS on
     64 words at weight 2 (each source's words fitted on the other sources)."""
-    folders = [path for path in sorted(folder.iterdir()) if path.is_dir()]
-    sources = [load_source(path) for path in folders]
+    study = load_study(folder)
     cache = folder.parent.parent / "profile_cache" / "clean"  # shared with the other studies
     cache.mkdir(parents=True, exist_ok=True)
     vectors = {}
     if family == "bendable":
-        words = default_local_blocks(sources, cache, point_pooling, "hks", "bof")
-        for source in sources:
+        words = default_local_blocks(study.sources, cache, point_pooling, "hks", "bof")
+        for source in study.sources:
             vectors[source.name] = joined(source.bases["spectral"], words[source.name],
                                           BENDABLE_WORDS_WEIGHT)
     else:
-        local = default_local_blocks(sources, cache, point_pooling)
-        for source, path in zip(sources, folders, strict=True):
+        local = default_local_blocks(study.sources, cache, point_pooling)
+        for source, path in zip(study.sources, study.folders, strict=True):
             rings = np.array([ring_block(*_sample(file))
                               for file in sorted(path.glob("*.npz"))])
             vectors[source.name] = joined(
                 np.hstack([source.bases["ss4-noprop"], local[source.name]]), rings, RING_WEIGHT)
-    if "capod" in vectors:
-        capod = next(s for s in sources if s.name == "capod")
-        keep = [i for i, label in enumerate(capod.labels) if label in NON_RIGID_CAPOD]
-        vectors["capod-nonrigid"] = vectors["capod"][keep]
-        sources = [*sources, *split_capod(capod)]
-    return sources, vectors
+    return study.scored, study.with_nonrigid(vectors)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -144,9 +144,14 @@ def load_source(folder: Path) -> Source:
     return Source(folder.name, labels, names, bases, local, areas)
 
 
+def nonrigid_rows(source: Source) -> list[int]:
+    """The rows of capod's non-rigid classes in ``source`` (capod)."""
+    return [i for i, label in enumerate(source.labels) if label in NON_RIGID_CAPOD]
+
+
 def split_capod(source: Source) -> list[Source]:
     """capod's non-rigid classes as a source of their own (scored within themselves)."""
-    keep = [i for i, label in enumerate(source.labels) if label in NON_RIGID_CAPOD]
+    keep = nonrigid_rows(source)
     return [Source(
         "capod-nonrigid",
         [source.labels[i] for i in keep], [source.names[i] for i in keep],
@@ -154,6 +159,37 @@ def split_capod(source: Source) -> list[Source]:
         {name: [rows[i] for i in keep] for name, rows in source.local.items()},
         [source.areas[i] for i in keep],
     )]
+
+
+@dataclass
+class Study:
+    """Every source of one study folder (``OUT/features/<kind>``), as the selectors use them.
+
+    ``sources`` are the rule's, one per folder of ``folders``; ``scored`` adds
+    capod-nonrigid, which is scored apart.
+    """
+
+    folders: list[Path]
+    sources: list[Source]
+
+    @property
+    def scored(self) -> list[Source]:
+        capod = [s for s in self.sources if s.name == "capod"]
+        return self.sources + (split_capod(capod[0]) if capod else [])
+
+    def with_nonrigid(self, per_source: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``per_source`` (rows per source) with capod-nonrigid's rows added, when capod is
+        there; the same dict, for chaining."""
+        capod = [s for s in self.sources if s.name == "capod"]
+        if capod and "capod" in per_source:
+            per_source["capod-nonrigid"] = per_source["capod"][nonrigid_rows(capod[0])]
+        return per_source
+
+
+def load_study(folder: Path) -> Study:
+    """The sources of ``folder`` (one sub-folder of feature files each), sorted by name."""
+    folders = [path for path in sorted(folder.iterdir()) if path.is_dir()]
+    return Study(folders, [load_source(path) for path in folders])
 
 
 def score(vectors: np.ndarray, labels: list[str]) -> dict[str, float]:

@@ -89,14 +89,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import (  # noqa: E402
-    NON_RIGID_CAPOD,
-    Source,
-    joined,
-    load_source,
-    score,
-    split_capod,
-)
+from local_features_select import Source, joined, load_study, score  # noqa: E402
 from positional_features_select import (  # noqa: E402
     TIE,
     choose,
@@ -189,22 +182,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sources", nargs="+", help="the rule's sources (default: every "
                         "source of the study; capod-nonrigid is always scored apart)")
     args = parser.parse_args(argv)
-    folder = args.out / "features" / args.kind
+    study = load_study(args.out / "features" / args.kind)
     cache = args.out / "profile_cache" / args.kind
     cache.mkdir(parents=True, exist_ok=True)
-    folders = [path for path in sorted(folder.iterdir()) if path.is_dir()]
-    sources = [load_source(path) for path in folders]
-    fitting = {source.name: source for source in sources}
-    scored = list(sources) + (split_capod(fitting["capod"]) if "capod" in fitting else [])
+    sources, scored, folders = study.sources, study.scored, study.folders
     names = [s.name for s in scored]
     rule_sources = tuple(args.sources or [s.name for s in sources])
     print("sources:", {s.name: len(s.labels) for s in scored}, flush=True)
-    capod_keep = ([i for i, label in enumerate(fitting["capod"].labels)
-                   if label in NON_RIGID_CAPOD] if "capod" in fitting else [])
 
-    local = default_local_blocks(sources, cache)
-    if "capod" in local:
-        local["capod-nonrigid"] = local["capod"][capod_keep]
+    local = study.with_nonrigid(default_local_blocks(sources, cache))
     base = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name]]) for s in scored}
     print("local blocks done", flush=True)
 
@@ -219,8 +205,7 @@ def main(argv: list[str] | None = None) -> int:
     ring_timings: list[float] = []
     rings = _per_source(samples, ring_block, ring_timings)
     for per_source in [*profiles.values(), rings]:
-        if "capod" in per_source:
-            per_source["capod-nonrigid"] = per_source["capod"][capod_keep]
+        study.with_nonrigid(per_source)
     print("blocks done", flush=True)
 
     # Candidate -> (per source block, weight); the block is None for ss5 alone.

@@ -37,14 +37,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import (  # noqa: E402
-    BASES,
-    NON_RIGID_CAPOD,
-    joined,
-    load_source,
-    score,
-    split_capod,
-)
+from local_features_select import BASES, joined, load_study, score  # noqa: E402
 from positional_features_select import per_query_ap  # noqa: E402
 from profile_block_select import _sample, default_local_blocks, rule_report  # noqa: E402
 
@@ -75,36 +68,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--kind", default="clean")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    folder = args.out / "features" / args.kind
+    study = load_study(args.out / "features" / args.kind)
     cache = args.out / "profile_cache" / args.kind  # shared with profile_block_select
     cache.mkdir(parents=True, exist_ok=True)
-    folders = [path for path in sorted(folder.iterdir()) if path.is_dir()]
-    sources = [load_source(path) for path in folders]
+    sources, scored, folders = study.sources, study.scored, study.folders
     rule_sources = tuple(s.name for s in sources)
-    fitting = {source.name: source for source in sources}
-    scored = list(sources) + (split_capod(fitting["capod"]) if "capod" in fitting else [])
     names = [s.name for s in scored]
-    capod_keep = ([i for i, label in enumerate(fitting["capod"].labels)
-                   if label in NON_RIGID_CAPOD] if "capod" in fitting else [])
 
-    def with_nonrigid(per_source: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        if "capod" in per_source:
-            per_source["capod-nonrigid"] = per_source["capod"][capod_keep]
-        return per_source
-
-    local = default_local_blocks(sources, cache)
-    with_nonrigid(local)
-    rings = with_nonrigid({source.name: np.array([ring_block(*_sample(file)) for file in
-                                                  sorted(path.glob("*.npz"))])
-                           for source, path in zip(sources, folders, strict=True)})
+    local = study.with_nonrigid(default_local_blocks(sources, cache))
+    rings = study.with_nonrigid({source.name: np.array([ring_block(*_sample(file)) for file in
+                                                        sorted(path.glob("*.npz"))])
+                                 for source, path in zip(sources, folders, strict=True)})
 
     table: dict[str, dict[str, dict[str, float]]] = {}
     widths: dict[str, int] = {}
     queries: dict[str, dict[str, np.ndarray]] = {}
     for d2, d1 in itertools.product(SCALES, SCALES):
         name = SS6 if (d2, d1) == (1.0, 1.0) else f"ss6 (d2 x{d2:g}, d1 x{d1:g})"
-        bases = with_nonrigid({source.name: base_rows(path, d2, d1)
-                               for source, path in zip(sources, folders, strict=True)})
+        bases = study.with_nonrigid({source.name: base_rows(path, d2, d1)
+                                     for source, path in zip(sources, folders, strict=True)})
         table[name], queries[name] = {}, {}
         for source in scored:
             vectors = joined(np.hstack([bases[source.name], local[source.name]]),

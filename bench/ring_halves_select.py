@@ -47,13 +47,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import (  # noqa: E402
-    NON_RIGID_CAPOD,
-    joined,
-    load_source,
-    score,
-    split_capod,
-)
+from local_features_select import joined, load_study, score  # noqa: E402
 from positional_features_select import per_query_ap  # noqa: E402
 from profile_block_select import _sample, default_local_blocks, rule_report  # noqa: E402
 
@@ -102,21 +96,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("out", type=Path)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    folder = args.out / "features" / "clean"
+    study = load_study(args.out / "features" / "clean")
     cache = args.out / "profile_cache" / "clean"  # shared with the other studies
     cache.mkdir(parents=True, exist_ok=True)
-    folders = [path for path in sorted(folder.iterdir()) if path.is_dir()]
-    sources = [load_source(path) for path in folders]
+    sources, scored = study.sources, study.scored
     rule_sources = tuple(s.name for s in sources)
-    fitting = {source.name: source for source in sources}
-    scored = list(sources) + (split_capod(fitting["capod"]) if "capod" in fitting else [])
     names = [s.name for s in scored]
-    keep = ([i for i, label in enumerate(fitting["capod"].labels) if label in NON_RIGID_CAPOD]
-            if "capod" in fitting else [])
 
-    local = default_local_blocks(sources, cache)
+    local = study.with_nonrigid(default_local_blocks(sources, cache))
     rings, halves, timings = {}, {}, []
-    for source, path in zip(sources, folders, strict=True):
+    for source, path in zip(sources, study.folders, strict=True):
         samples = [_sample(file) for file in sorted(path.glob("*.npz"))]
         rings[source.name] = np.array([ring_block(*sample) for sample in samples])
         rows = []
@@ -125,9 +114,8 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(halves_block(*sample))
             timings.append(1000.0 * (time.perf_counter() - start))
         halves[source.name] = np.array(rows)
-    for per_source in (local, rings, halves):
-        if "capod" in per_source:
-            per_source["capod-nonrigid"] = per_source["capod"][keep]
+    study.with_nonrigid(rings)
+    study.with_nonrigid(halves)
     base = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name]]) for s in scored}
 
     # Candidate -> per source, the weighted extra blocks after ss5's (base and local).
