@@ -99,9 +99,14 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import Source, joined, load_study, score  # noqa: E402
-from positional_features_select import per_query_ap  # noqa: E402
-from profile_block_select import _sample, default_local_blocks, rule_report  # noqa: E402
+from local_features_select import Source, joined, load_study  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    _sample,
+    default_local_blocks,
+    print_table,
+    rule_report,
+    score_candidates,
+)
 
 from core.descriptor import ring_block  # noqa: E402
 
@@ -112,29 +117,30 @@ NON_RIGID_SOURCES = ("bendable", "capod-nonrigid")
 POOLINGS = ("area", "point")
 
 
-def candidate_vectors(folder: Path, point_pooling: bool, family: str = "parts"
-                      ) -> tuple[list[Source], dict[str, np.ndarray]]:
-    """The study's sources in ``folder`` (``OUT/features/clean``) and every model's vector
-    under the given pooling, per source, capod-nonrigid included: ``ss6`` ``(m, 2817)`` for
-    the ``parts`` family; for ``bendable``, ``spectral`` and the idf word counts of HKS on
-    64 words at weight 2 (each source's words fitted on the other sources)."""
+def study_vectors(folder: Path, poolings: list[str], family: str
+                  ) -> tuple[list[Source], dict[str, dict[str, np.ndarray]]]:
+    """The study's sources in ``folder`` (``OUT/features/clean``, capod-nonrigid included)
+    and, per pooling, every model's vector per source: ``ss6`` ``(m, 2817)`` for the
+    ``parts`` family; for ``bendable``, ``spectral`` and the idf word counts of HKS on 64
+    words at weight 2 (each source's words fitted on the other sources)."""
     study = load_study(folder)
     cache = folder.parent.parent / "profile_cache" / "clean"  # shared with the other studies
     cache.mkdir(parents=True, exist_ok=True)
-    vectors = {}
-    if family == "bendable":
-        words = default_local_blocks(study.sources, cache, point_pooling, "hks", "bof")
-        for source in study.sources:
-            vectors[source.name] = joined(source.bases["spectral"], words[source.name],
-                                          BENDABLE_WORDS_WEIGHT)
-    else:
-        local = default_local_blocks(study.sources, cache, point_pooling)
-        for source, path in zip(study.sources, study.folders, strict=True):
-            rings = np.array([ring_block(*_sample(file))
-                              for file in sorted(path.glob("*.npz"))])
-            vectors[source.name] = joined(
-                np.hstack([source.bases["ss4-noprop"], local[source.name]]), rings, RING_WEIGHT)
-    return study.scored, study.with_nonrigid(vectors)
+    rings = {} if family == "bendable" else {
+        source.name: np.array([ring_block(*_sample(file)) for file in sorted(path.glob("*.npz"))])
+        for source, path in zip(study.sources, study.folders, strict=True)}
+    by_pooling = {}
+    for pooling in poolings:
+        if family == "bendable":
+            words = default_local_blocks(study.sources, cache, pooling == "point", "hks", "bof")
+            vectors = {s.name: joined(s.bases["spectral"], words[s.name], BENDABLE_WORDS_WEIGHT)
+                       for s in study.sources}
+        else:
+            local = default_local_blocks(study.sources, cache, pooling == "point")
+            vectors = {s.name: joined(np.hstack([s.bases["ss4-noprop"], local[s.name]]),
+                                      rings[s.name], RING_WEIGHT) for s in study.sources}
+        by_pooling[pooling] = study.with_nonrigid(vectors)
+    return study.scored, by_pooling
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -150,44 +156,34 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     studies = dict(item.split("=", 1) for item in args.studies)
-    reference = f"{args.reference or next(iter(studies))}, area"
+    reference_label = args.reference or next(iter(studies))
+    reference = f"{reference_label}, area"
 
-    table: dict[str, dict[str, dict[str, float]]] = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    cost_rank: dict[str, int] = {}  # the rule's tie-break: lower is cheaper
-    reference_models: dict[str, list[str]] = {}
-    for rank_study, (label, out) in enumerate(studies.items()):
-        for rank_pooling, pooling in enumerate(args.poolings):
-            name = f"{label}, {pooling}"
-            sources, vectors = candidate_vectors(Path(out) / "features" / "clean",
-                                                 pooling == "point", args.family)
-            models = {s.name: s.names for s in sources}
-            # Paired comparisons need the same models in the same order in every study.
-            if reference_models and models != reference_models:
-                raise SystemExit(f"{out}: its models differ from the first study's")
-            reference_models = models
-            cost_rank[name] = len(POOLINGS) * rank_study + rank_pooling
-            table[name] = {s.name: score(vectors[s.name], s.labels) for s in sources}
-            queries[name] = {s.name: per_query_ap(vectors[s.name], s.labels) for s in sources}
-            print(f"{name} scored", flush=True)
-    names = list(next(iter(table.values())))
+    loaded = {label: study_vectors(Path(out) / "features" / "clean", args.poolings,
+                                   args.family) for label, out in studies.items()}
+    scored = next(iter(loaded.values()))[0]
+    # Paired comparisons need the same models in the same order in every study.
+    for label, (sources, _) in loaded.items():
+        if [(s.name, s.names) for s in sources] != [(s.name, s.names) for s in scored]:
+            raise SystemExit(f"{studies[label]}: its models differ from the first study's")
+    table, _, queries = score_candidates(
+        ((f"{label}, {pooling}", vectors) for label, (_, by_pooling) in loaded.items()
+         for pooling, vectors in by_pooling.items()), scored)
+    # The rule's tie-break: the order given, cheapest first.
+    cost_rank = {name: rank for rank, name in enumerate(table)}
+    names = [s.name for s in scored]
     rule_sources = (NON_RIGID_SOURCES if args.family == "bendable"
                     else tuple(n for n in names if n != "capod-nonrigid"))
     mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
-
-    header = ["candidate", "mean mAP", *names]
-    print("\n| " + " | ".join(header) + " |\n|" + "---|" * len(header))
-    for c in table:
-        cells = [f"{table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}" for s in names]
-        print(f"| {c} | {mean[c]:.4f} | " + " | ".join(cells) + " |")
+    print_table(table, mean, table)
     report = rule_report(table, cost_rank, queries, mean, list(table), "the rule",
-                         rule_sources, reference=reference)
+                         rule_sources, reference=reference, tie_key="cost rank")
     # A check, not part of the rule: when the rule keeps the reference for every source left
     # out, how far below it do the other settings land when one of them must be chosen?
-    others = [c for c in table if not c.startswith(reference.rsplit(", ", 1)[0] + ", ")]
+    others = [c for c in table if not c.startswith(f"{reference_label}, ")]
     forced = rule_report(table, cost_rank, queries, mean, others,
                          "forced to change the setting (a check)", rule_sources,
-                         reference=reference)
+                         reference=reference, tie_key="cost rank")
     if args.json:
         args.json.write_text(json.dumps({"table": table, "mean": mean, **report,
                                          "forced": forced}, indent=1))

@@ -79,7 +79,7 @@ import json
 import os
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from functools import partial
 from pathlib import Path
 
@@ -186,7 +186,6 @@ def main(argv: list[str] | None = None) -> int:
     cache = args.out / "profile_cache" / args.kind
     cache.mkdir(parents=True, exist_ok=True)
     sources, scored, folders = study.sources, study.scored, study.folders
-    names = [s.name for s in scored]
     rule_sources = tuple(args.sources or [s.name for s in sources])
     print("sources:", {s.name: len(s.labels) for s in scored}, flush=True)
 
@@ -218,24 +217,15 @@ def main(argv: list[str] | None = None) -> int:
         pair = {name: np.hstack([rows, rings[name]])
                 for name, rows in profiles[(normalisation, PAIR_BINS)].items()}
         candidates[f"ss5+profile-{normalisation}-{PAIR_BINS}+ring-w{weight:g}"] = (pair, weight)
-    table: dict[str, dict[str, dict[str, float]]] = {}
-    widths: dict[str, int] = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    for name, (per_source_block, weight) in candidates.items():
-        table[name] = {}
-        for source in scored:
-            block = None if per_source_block is None else per_source_block[source.name]
-            vectors = joined(base[source.name], block, weight)
-            widths[name] = int(vectors.shape[1])
-            table[name][source.name] = score(vectors, source.labels)
-            queries.setdefault(name, {})[source.name] = per_query_ap(vectors, source.labels)
-    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+    def vectors(block: dict[str, np.ndarray] | None, weight: float) -> dict[str, np.ndarray]:
+        return {s.name: joined(base[s.name], None if block is None else block[s.name], weight)
+                for s in scored}
 
-    header = ["candidate", "width", "mean mAP", *names]
-    print("\n| " + " | ".join(header) + " |\n|" + "---|" * len(header))
-    for c in [SS5, *sorted((c for c in table if c != SS5), key=lambda c: -mean[c])[:8]]:
-        cells = [f"{table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}" for s in names]
-        print(f"| {c} | {widths[c]} | {mean[c]:.4f} | " + " | ".join(cells) + " |")
+    table, widths, queries = score_candidates(
+        ((name, vectors(block, weight)) for name, (block, weight) in candidates.items()), scored)
+    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+    print_table(table, mean, [SS5, *sorted((c for c in table if c != SS5),
+                                           key=lambda c: -mean[c])[:8]], widths)
 
     first_round = [c for c in table if not (c.startswith("ss5+ring-w")
                                             and float(c[10:]) not in RING_WEIGHTS)]
@@ -283,9 +273,10 @@ def default_local_blocks(sources: list[Source], cache: Path, point_pooling: bool
 def rule_report(table: dict[str, dict[str, dict[str, float]]], widths: dict[str, int],
                 queries: dict[str, dict[str, np.ndarray]], mean: dict[str, float],
                 pool: list[str], title: str, sources: tuple[str, ...],
-                reference: str = SS5) -> dict[str, object]:
+                reference: str = SS5, tie_key: str = "width") -> dict[str, object]:
     """The rule's choice in ``pool`` on ``sources``, its leave-one-source-out table and the
-    ship test against ``reference`` (the default it would replace)."""
+    ship test against ``reference`` (the default it would replace). ``widths`` breaks ties
+    (lower first); ``tie_key`` names what it holds in the printout."""
     print(f"\n{title}: {len(pool)} candidates")
     chosen = choose(table, widths, pool, list(sources))
     by_source = loso(table, widths, pool, sources)
@@ -293,7 +284,7 @@ def rule_report(table: dict[str, dict[str, dict[str, float]]], widths: dict[str,
     point, low, high = _bootstrap({s: queries[c][s] for s, c in by_source.items()},
                                   {s: queries[reference][s] for s in sources}, list(sources))
     print(f"\nrule's choice over the {len(sources)}: {chosen} (mean {mean[chosen]:.4f}, "
-          f"width {widths[chosen]})")
+          f"{tie_key} {widths[chosen]})")
     print(f"| source left out | choice without it | mAP / NN | {reference} |\n|---|---|---|---|")
     for s, c in by_source.items():
         print(f"| {s} | {c} | {table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f} | "
@@ -304,6 +295,38 @@ def rule_report(table: dict[str, dict[str, dict[str, float]]], widths: dict[str,
           f"{high:+.4f}); ship: {ships}")
     return {"chosen": chosen, "loso": by_source, "loso_mean": loso_mean,
             f"minus_{reference}": [point, low, high], "ships": ships}
+
+
+Table = dict[str, dict[str, dict[str, float]]]
+
+
+def score_candidates(candidates: Iterable[tuple[str, dict[str, np.ndarray]]],
+                     scored: list[Source]
+                     ) -> tuple[Table, dict[str, int], dict[str, dict[str, np.ndarray]]]:
+    """Score each candidate's unit rows per source (``(name, {source: (m, d)})``, one
+    candidate at a time so that only one is in memory): its scores per source, its width
+    and each query's average precision (for the paired bootstrap)."""
+    table: Table = {}
+    widths: dict[str, int] = {}
+    queries: dict[str, dict[str, np.ndarray]] = {}
+    for name, vectors in candidates:
+        table[name] = {s.name: score(vectors[s.name], s.labels) for s in scored}
+        queries[name] = {s.name: per_query_ap(vectors[s.name], s.labels) for s in scored}
+        widths[name] = int(vectors[scored[0].name].shape[1])
+    return table, widths, queries
+
+
+def print_table(table: Table, mean: dict[str, float], rows: Iterable[str],
+                widths: dict[str, int] | None = None) -> None:
+    """The markdown table of ``rows`` (candidates): mean mAP, then mAP / NN per source."""
+    names = list(next(iter(table.values())))
+    header = ["candidate", *(["width"] if widths else []), "mean mAP", *names]
+    print("\n| " + " | ".join(header) + " |\n|" + "---|" * len(header))
+    for c in rows:
+        cells = [f"{table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}" for s in names]
+        width = [str(widths[c])] if widths else []
+        print("| " + " | ".join([c, *width, f"{mean[c]:.4f}", *cells]) + " |")
+
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -29,6 +29,7 @@ import itertools
 import json
 import os
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -37,9 +38,14 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import BASES, joined, load_study, score  # noqa: E402
-from positional_features_select import per_query_ap  # noqa: E402
-from profile_block_select import _sample, default_local_blocks, rule_report  # noqa: E402
+from local_features_select import BASES, joined, load_study  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    _sample,
+    default_local_blocks,
+    print_table,
+    rule_report,
+    score_candidates,
+)
 
 from core.descriptor import ring_block  # noqa: E402
 
@@ -73,34 +79,23 @@ def main(argv: list[str] | None = None) -> int:
     cache.mkdir(parents=True, exist_ok=True)
     sources, scored, folders = study.sources, study.scored, study.folders
     rule_sources = tuple(s.name for s in sources)
-    names = [s.name for s in scored]
 
     local = study.with_nonrigid(default_local_blocks(sources, cache))
     rings = study.with_nonrigid({source.name: np.array([ring_block(*_sample(file)) for file in
                                                         sorted(path.glob("*.npz"))])
                                  for source, path in zip(sources, folders, strict=True)})
 
-    table: dict[str, dict[str, dict[str, float]]] = {}
-    widths: dict[str, int] = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    for d2, d1 in itertools.product(SCALES, SCALES):
-        name = SS6 if (d2, d1) == (1.0, 1.0) else f"ss6 (d2 x{d2:g}, d1 x{d1:g})"
-        bases = study.with_nonrigid({source.name: base_rows(path, d2, d1)
-                                     for source, path in zip(sources, folders, strict=True)})
-        table[name], queries[name] = {}, {}
-        for source in scored:
-            vectors = joined(np.hstack([bases[source.name], local[source.name]]),
-                             rings[source.name], RING_WEIGHT)
-            widths[name] = int(vectors.shape[1])
-            table[name][source.name] = score(vectors, source.labels)
-            queries[name][source.name] = per_query_ap(vectors, source.labels)
-    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
+        for d2, d1 in itertools.product(SCALES, SCALES):
+            name = SS6 if (d2, d1) == (1.0, 1.0) else f"ss6 (d2 x{d2:g}, d1 x{d1:g})"
+            bases = study.with_nonrigid({source.name: base_rows(path, d2, d1)
+                                         for source, path in zip(sources, folders, strict=True)})
+            yield name, {s.name: joined(np.hstack([bases[s.name], local[s.name]]),
+                                        rings[s.name], RING_WEIGHT) for s in scored}
 
-    header = ["candidate", "width", "mean mAP", *names]
-    print("| " + " | ".join(header) + " |\n|" + "---|" * len(header))
-    for c in sorted(table, key=lambda c: -mean[c]):
-        cells = [f"{table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}" for s in names]
-        print(f"| {c} | {widths[c]} | {mean[c]:.4f} | " + " | ".join(cells) + " |")
+    table, widths, queries = score_candidates(candidates(), scored)
+    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+    print_table(table, mean, sorted(table, key=lambda c: -mean[c]), widths)
 
     report = rule_report(table, widths, queries, mean, list(table), "D2 and D1 scales",
                          rule_sources, reference=SS6)

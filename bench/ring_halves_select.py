@@ -47,9 +47,14 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import joined, load_study, score  # noqa: E402
-from positional_features_select import per_query_ap  # noqa: E402
-from profile_block_select import _sample, default_local_blocks, rule_report  # noqa: E402
+from local_features_select import joined, load_study  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    _sample,
+    default_local_blocks,
+    print_table,
+    rule_report,
+    score_candidates,
+)
 
 from core.descriptor import ring_block  # noqa: E402
 from core.extrinsic import (  # noqa: E402
@@ -125,23 +130,11 @@ def main(argv: list[str] | None = None) -> int:
     for weight in ADD_WEIGHTS:
         candidates[f"ss6 + halves w{weight:g}"] = {
             n: np.hstack([RING_WEIGHT * rings[n], weight * halves[n]]) for n in names}
-    table: dict[str, dict[str, dict[str, float]]] = {}
-    widths: dict[str, int] = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    for name, extra in candidates.items():
-        table[name], queries[name] = {}, {}
-        for source in scored:
-            vectors = joined(base[source.name], extra[source.name], 1.0)
-            widths[name] = int(vectors.shape[1])
-            table[name][source.name] = score(vectors, source.labels)
-            queries[name][source.name] = per_query_ap(vectors, source.labels)
+    table, widths, queries = score_candidates(
+        ((name, {s.name: joined(base[s.name], extra[s.name], 1.0) for s in scored})
+         for name, extra in candidates.items()), scored)
     mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
-
-    header = ["candidate", "width", "mean mAP", *names]
-    print("| " + " | ".join(header) + " |\n|" + "---|" * len(header))
-    for c in table:
-        cells = [f"{table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}" for s in names]
-        print(f"| {c} | {widths[c]} | {mean[c]:.4f} | " + " | ".join(cells) + " |")
+    print_table(table, mean, table, widths)
     report = rule_report(table, widths, queries, mean, list(table), "ring halves",
                          rule_sources, reference=SS6)
     cost = float(np.median(timings))
