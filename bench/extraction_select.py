@@ -101,16 +101,14 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import Source, joined, load_study  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    _sample,
     default_local_blocks,
     print_table,
+    ring_blocks,
     rule_report,
     score_candidates,
+    ss6_rows,
 )
 
-from core.descriptor import ring_block  # noqa: E402
-
-RING_WEIGHT = 4.0
 BENDABLE_WORDS_WEIGHT = 2.0
 #: The bendable family's rule sources (issue 24's rule 4): the non-rigid ones.
 NON_RIGID_SOURCES = ("bendable", "capod-nonrigid")
@@ -126,9 +124,7 @@ def study_vectors(folder: Path, poolings: list[str], family: str
     study = load_study(folder)
     cache = folder.parent.parent / "profile_cache" / "clean"  # shared with the other studies
     cache.mkdir(parents=True, exist_ok=True)
-    rings = {} if family == "bendable" else {
-        source.name: np.array([ring_block(*_sample(file)) for file in sorted(path.glob("*.npz"))])
-        for source, path in zip(study.sources, study.folders, strict=True)}
+    rings = {} if family == "bendable" else ring_blocks(study)
     by_pooling = {}
     for pooling in poolings:
         if family == "bendable":
@@ -137,8 +133,8 @@ def study_vectors(folder: Path, poolings: list[str], family: str
                        for s in study.sources}
         else:
             local = default_local_blocks(study.sources, cache, pooling == "point")
-            vectors = {s.name: joined(np.hstack([s.bases["ss4-noprop"], local[s.name]]),
-                                      rings[s.name], RING_WEIGHT) for s in study.sources}
+            vectors = {s.name: ss6_rows(s, local[s.name], rings[s.name])
+                       for s in study.sources}
         by_pooling[pooling] = study.with_nonrigid(vectors)
     return study.scored, by_pooling
 

@@ -54,19 +54,18 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import Source, joined, load_study, nonrigid_rows  # noqa: E402
+from local_features_select import Source, load_study, nonrigid_rows  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    _sample,
     default_local_blocks,
     print_table,
+    ring_blocks,
     rule_report,
     score_candidates,
+    ss6_rows,
 )
 
-from core.descriptor import ring_block  # noqa: E402
 from core.local_features import Vocabulary, encode_vlad  # noqa: E402
 
-RING_WEIGHT = 4.0
 RANKS = (4, 8, 16, 32, 64, 128)
 STRENGTHS = (0.0, 0.5)
 SS6 = "ss6"
@@ -135,19 +134,15 @@ def main(argv: list[str] | None = None) -> int:
     sources, scored = study.sources, study.scored
     rule_sources = tuple(s.name for s in sources)
 
-    rings = {s.name: np.array([ring_block(*_sample(file)) for file in sorted(path.glob("*.npz"))])
-             for s, path in zip(sources, study.folders, strict=True)}
+    rings = ring_blocks(study)
     folds = fold_local_blocks(sources, cache)
     # The fold of s encodes s as the service's study always did: a check, not an assumption.
     served = default_local_blocks(sources, cache)
     for s in sources:
         assert np.allclose(folds[s.name][s.name], served[s.name]), s.name
 
-    def ss6_rows(fold: str, source: Source) -> np.ndarray:
-        base = np.hstack([source.bases["ss4-noprop"], folds[fold][source.name]])
-        return joined(base, RING_WEIGHT * rings[source.name], 1.0)
-
-    rows = {fold: {s.name: ss6_rows(fold, s) for s in sources} for fold in rule_sources}
+    rows = {fold: {s.name: ss6_rows(s, folds[fold][s.name], rings[s.name]) for s in sources}
+            for fold in rule_sources}
     directions = {}
     for fold in rule_sources:
         fitting = [s for s in sources if s.name != fold]

@@ -89,7 +89,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import Source, joined, load_study, score  # noqa: E402
+from local_features_select import Source, Study, joined, load_study, score  # noqa: E402
 from positional_features_select import (  # noqa: E402
     TIE,
     choose,
@@ -107,6 +107,8 @@ BINS = (6, 8, 12)
 WEIGHTS = (0.25, 0.5, 1.0, 2.0)
 RANGE = 2.5
 SS5 = "ss5"
+#: The ring block's weight in ``ss6``, the service's layout (the second round's choice).
+SS6_RING_WEIGHT = 4.0
 RING_WEIGHTS = (0.25, 0.5, 1.0, 2.0)
 RING_WEIGHTS_SECOND = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
 PAIR_BINS = 8
@@ -157,6 +159,21 @@ def _sample(file: Path) -> tuple[np.ndarray, np.ndarray]:
     """The stored normalised sample of one model: points ``(n, 3)`` and areas ``(n,)``."""
     with np.load(file) as data:
         return data["points"].astype(np.float64), data["areas"].astype(np.float64)
+
+
+def ring_blocks(study: Study) -> dict[str, np.ndarray]:
+    """The service's ring block of every model of ``study``, ``(m, 30)`` per source,
+    capod-nonrigid included."""
+    return study.with_nonrigid({
+        source.name: np.array([ring_block(*_sample(file)) for file in sorted(path.glob("*.npz"))])
+        for source, path in zip(study.sources, study.folders, strict=True)})
+
+
+def ss6_rows(source: Source, local: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """``ss6`` unit rows ``(m, 2817)`` of ``source`` as the service joins them: the
+    ``ss4-noprop`` base, the local block ``local`` ``(m, 1152)``, the ring block ``ring``
+    ``(m, 30)`` at its weight."""
+    return joined(np.hstack([source.bases["ss4-noprop"], local]), ring, SS6_RING_WEIGHT)
 
 
 def _per_source(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]],

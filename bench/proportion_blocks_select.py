@@ -40,17 +40,15 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import BASES, joined, load_study  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    _sample,
+    SS6_RING_WEIGHT,
     default_local_blocks,
     print_table,
+    ring_blocks,
     rule_report,
     score_candidates,
 )
 
-from core.descriptor import ring_block  # noqa: E402
-
 SCALES = (0.0, 0.5, 1.0)
-RING_WEIGHT = 4.0
 SS6 = "ss6 (d2 x1, d1 x1)"
 
 
@@ -81,9 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     rule_sources = tuple(s.name for s in sources)
 
     local = study.with_nonrigid(default_local_blocks(sources, cache))
-    rings = study.with_nonrigid({source.name: np.array([ring_block(*_sample(file)) for file in
-                                                        sorted(path.glob("*.npz"))])
-                                 for source, path in zip(sources, folders, strict=True)})
+    rings = ring_blocks(study)
 
     def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
         for d2, d1 in itertools.product(SCALES, SCALES):
@@ -91,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
             bases = study.with_nonrigid({source.name: base_rows(path, d2, d1)
                                          for source, path in zip(sources, folders, strict=True)})
             yield name, {s.name: joined(np.hstack([bases[s.name], local[s.name]]),
-                                        rings[s.name], RING_WEIGHT) for s in scored}
+                                        rings[s.name], SS6_RING_WEIGHT) for s in scored}
 
     table, widths, queries = score_candidates(candidates(), scored)
     mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}

@@ -39,15 +39,15 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import joined, load_study  # noqa: E402
+from local_features_select import load_study  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    _sample,
     default_local_blocks,
     print_table,
+    ring_blocks,
     rule_report,
+    ss6_rows,
 )
 
-from core.descriptor import ring_block  # noqa: E402
 from core.evaluation.metrics import (  # noqa: E402
     average_precision,
     pairwise_distances,
@@ -55,7 +55,6 @@ from core.evaluation.metrics import (  # noqa: E402
     score_rankings,
 )
 
-RING_WEIGHT = 4.0
 NEIGHBOURS = (1, 2, 3, 5)
 ALPHAS = (0.0, 3.0)
 SS6 = "ss6"
@@ -95,12 +94,9 @@ def main(argv: list[str] | None = None) -> int:
     sources, scored = study.sources, study.scored
     rule_sources = tuple(s.name for s in sources)
 
-    rings = study.with_nonrigid({
-        s.name: np.array([ring_block(*_sample(file)) for file in sorted(path.glob("*.npz"))])
-        for s, path in zip(sources, study.folders, strict=True)})
+    rings = ring_blocks(study)
     local = study.with_nonrigid(default_local_blocks(sources, cache))
-    rows = {s.name: joined(np.hstack([s.bases["ss4-noprop"], local[s.name]]),
-                           RING_WEIGHT * rings[s.name], 1.0) for s in scored}
+    rows = {s.name: ss6_rows(s, local[s.name], rings[s.name]) for s in scored}
 
     grid = [(SS6, 0, 0.0)] + [(f"qe n{n} alpha{a:g}", n, a) for n in NEIGHBOURS for a in ALPHAS]
     table: dict[str, dict[str, dict[str, float]]] = {}

@@ -49,14 +49,15 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import joined, load_study  # noqa: E402
 from profile_block_select import (  # noqa: E402
+    SS6_RING_WEIGHT,
     _sample,
     default_local_blocks,
     print_table,
+    ring_blocks,
     rule_report,
     score_candidates,
 )
 
-from core.descriptor import ring_block  # noqa: E402
 from core.extrinsic import (  # noqa: E402
     ANGULAR_BANDS,
     ANGULAR_SHELLS,
@@ -64,7 +65,6 @@ from core.extrinsic import (  # noqa: E402
     shell_spectrum,
 )
 
-RING_WEIGHT = 4.0
 REPLACE_WEIGHTS = (2.0, 4.0, 8.0)
 ADD_WEIGHTS = (1.0, 2.0, 4.0)
 SS6 = "ss6"
@@ -109,27 +109,25 @@ def main(argv: list[str] | None = None) -> int:
     names = [s.name for s in scored]
 
     local = study.with_nonrigid(default_local_blocks(sources, cache))
-    rings, halves, timings = {}, {}, []
+    rings, halves, timings = ring_blocks(study), {}, []
     for source, path in zip(sources, study.folders, strict=True):
         samples = [_sample(file) for file in sorted(path.glob("*.npz"))]
-        rings[source.name] = np.array([ring_block(*sample) for sample in samples])
         rows = []
         for sample in samples:
             start = time.perf_counter()
             rows.append(halves_block(*sample))
             timings.append(1000.0 * (time.perf_counter() - start))
         halves[source.name] = np.array(rows)
-    study.with_nonrigid(rings)
     study.with_nonrigid(halves)
     base = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name]]) for s in scored}
 
     # Candidate -> per source, the weighted extra blocks after ss5's (base and local).
-    candidates = {SS6: {n: RING_WEIGHT * rings[n] for n in names}}
+    candidates = {SS6: {n: SS6_RING_WEIGHT * rings[n] for n in names}}
     for weight in REPLACE_WEIGHTS:
         candidates[f"halves w{weight:g} (no ring)"] = {n: weight * halves[n] for n in names}
     for weight in ADD_WEIGHTS:
         candidates[f"ss6 + halves w{weight:g}"] = {
-            n: np.hstack([RING_WEIGHT * rings[n], weight * halves[n]]) for n in names}
+            n: np.hstack([SS6_RING_WEIGHT * rings[n], weight * halves[n]]) for n in names}
     table, widths, queries = score_candidates(
         ((name, {s.name: joined(base[s.name], extra[s.name], 1.0) for s in scored})
          for name, extra in candidates.items()), scored)
