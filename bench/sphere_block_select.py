@@ -1,0 +1,165 @@
+"""Issue 24 follow-up: does a spherical-harmonic energy block generalise across sources?
+
+Measurement only (the service's descriptor does not change in this step; a choice that
+ships by the rule is adopted in a later step, with its tests and the score calibration).
+Why, disclosed: on the Engineering Shape Benchmark (Jayanti et al., 2006) the spherical
+harmonics descriptor (Kazhdan, Funkhouser & Rusinkiewicz, 2003) was among the best global
+descriptors for engineering parts. ``ss6`` sees where area lies from the centre only as a
+distance (D1) and about its principal axes (symmetry, ring); the directions in which it lies
+at each distance, with no axis chosen at all, it does not see: a screw's head is area at
+large distance toward one pole, a gear's teeth area at large distance around an equator,
+a flange's bolt holes gaps in a band.
+
+The ``sphere`` block (computed on the stored normalised sample ``points`` ``(n, 3)`` with
+``areas`` ``(n,)``): about the area-weighted centroid, the points fall into ``S`` shells of
+equal area by their distance from it (area-weighted quantiles, so proportions stay D1's
+job); per shell, the area-weighted mean of every spherical harmonic ``Y_lm`` over the
+points' directions, and per degree ``l = 1..L`` the energy ``sqrt(sum_m |f_lm|^2)`` over
+its largest possible value ``sqrt((2l + 1) / (4 pi))`` (all the shell's area in one
+direction), so each value lies in [0, 1]. A rotation mixes the ``m`` of one ``l`` and keeps
+the energy; translation, uniform scale and point order do not enter. ``S x L`` values divided
+by ``sqrt(S L)``, like the ring block (norm at most 1, not unit norm: a ball has a small
+block). A shell with fewer than 3 points gives zeros.
+
+The grid, written before any score of it was seen: ``ss6`` (the reference) and ``ss6`` with
+the ``sphere`` block added at shells ``S`` in {4, 8} x degrees ``L`` in {8, 16} x weight in
+{1, 2, 4, 8}: 17 candidates. The rule and the ship condition are the ring study's
+(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(capod-nonrigid scored apart), ties within 0.002 to the narrower vector, leave-one-source-out
+with a paired bootstrap against ``ss6``; ship only if the LOSO mean is above ``ss6``'s by
+more than 0.002 with the 95 % interval above zero. The block is extrinsic: the ``bendable``
+family would leave it out.
+
+    nice -n 10 .venv/bin/python bench/sphere_block_select.py /work/study \\
+        --json /work/study/sphere.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+from scipy.special import sph_harm_y  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from local_features_select import joined, load_study  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    SS6_RING_WEIGHT,
+    _sample,
+    default_local_blocks,
+    print_table,
+    ring_blocks,
+    rule_report,
+    score_candidates,
+    ss6_rows,
+)
+
+SHELLS = (4, 8)
+DEGREES = (8, 16)
+WEIGHTS = (1.0, 2.0, 4.0, 8.0)
+SS6 = "ss6"
+
+
+def sphere_block(points: np.ndarray, areas: np.ndarray, shells: int, degrees: int
+                 ) -> np.ndarray:
+    """Spherical-harmonic energies per shell of equal area, ``(shells * degrees,) float``.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    areas : (n,) float
+    shells : int
+    degrees : int
+        Degrees ``l = 1..degrees`` (``l = 0`` is constant).
+    """
+    weights = areas / areas.sum()
+    offsets = points - weights @ points
+    radius = np.linalg.norm(offsets, axis=1)
+    order = np.argsort(radius, kind="stable")
+    # Area-weighted quantiles: shell i holds the points whose cumulative area lies in
+    # [i / shells, (i + 1) / shells).
+    cumulative = np.cumsum(weights[order]) - 0.5 * weights[order]
+    shell_of = np.empty(len(points), dtype=int)
+    shell_of[order] = np.minimum((cumulative * shells).astype(int), shells - 1)
+    polar = np.arccos(np.clip(offsets[:, 2] / np.maximum(radius, 1e-300), -1.0, 1.0))
+    azimuth = np.arctan2(offsets[:, 1], offsets[:, 0])
+    # Every (l, m >= 0) at once: |f_{l,-m}| = |f_{l,m}| for real weights, so m > 0 counts twice.
+    degree, order_m = np.array([(d, m) for d in range(1, degrees + 1) for m in range(d + 1)]).T
+    harmonics = sph_harm_y(degree[:, None], order_m[:, None], polar[None], azimuth[None])
+    members = shell_of[None, :] == np.arange(shells)[:, None]  # (shells, n)
+    shell_weights = np.where(members, weights[None, :], 0.0)
+    totals = shell_weights.sum(axis=1, keepdims=True)
+    means = (shell_weights / np.maximum(totals, 1e-300)) @ harmonics.T  # (shells, K)
+    power = np.abs(means) ** 2 * np.where(order_m == 0, 1.0, 2.0)
+    energy = np.zeros((shells, degrees))
+    np.add.at(energy.T, degree - 1, power.T)
+    block = np.sqrt(energy / ((2 * np.arange(1, degrees + 1) + 1) / (4 * np.pi)))
+    block[members.sum(axis=1) < 3] = 0.0
+    return block.ravel() / np.sqrt(block.size)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args(argv)
+    study = load_study(args.out / "features" / "clean")
+    cache = args.out / "profile_cache" / "clean"  # shared with the other studies
+    cache.mkdir(parents=True, exist_ok=True)
+    sources, scored = study.sources, study.scored
+    rule_sources = tuple(s.name for s in sources)
+
+    local = study.with_nonrigid(default_local_blocks(sources, cache))
+    rings = ring_blocks(study)
+    samples = {s.name: [_sample(file) for file in sorted(path.glob("*.npz"))]
+               for s, path in zip(sources, study.folders, strict=True)}
+    spheres: dict[tuple[int, int], dict[str, np.ndarray]] = {}
+    timings: dict[tuple[int, int], list[float]] = {}
+    for shells in SHELLS:
+        for degrees in DEGREES:
+            per_source, spent = {}, []
+            for name, models in samples.items():
+                rows = []
+                for points, areas in models:
+                    start = time.perf_counter()
+                    rows.append(sphere_block(points, areas, shells, degrees))
+                    spent.append(1000.0 * (time.perf_counter() - start))
+                per_source[name] = np.array(rows)
+            spheres[shells, degrees] = study.with_nonrigid(per_source)
+            timings[shells, degrees] = spent
+    # ss6's raw weighted blocks: a new block joins them before the one unit scaling.
+    raw = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name],
+                              SS6_RING_WEIGHT * rings[s.name]]) for s in scored}
+
+    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
+        yield SS6, {s.name: ss6_rows(s, local[s.name], rings[s.name]) for s in scored}
+        for (shells, degrees), block in spheres.items():
+            for weight in WEIGHTS:
+                yield (f"ss6 + sphere S{shells} L{degrees} w{weight:g}",
+                       {s.name: joined(raw[s.name], block[s.name], weight) for s in scored})
+
+    table, widths, queries = score_candidates(candidates(), scored)
+    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+    print_table(table, mean, table, widths)
+    report = rule_report(table, widths, queries, mean, list(table), "sphere block",
+                         rule_sources, reference=SS6)
+    cost = {f"S{s} L{d}": float(np.median(t)) for (s, d), t in timings.items()}
+    print("sphere block, median ms per model:", cost)
+    if args.json:
+        args.json.write_text(json.dumps({"table": table, "mean": mean, "widths": widths,
+                                         "cost_ms": cost, **report}, indent=1))
+    return 0
+
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
