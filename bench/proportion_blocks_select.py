@@ -52,12 +52,10 @@ SCALES = (0.0, 0.5, 1.0)
 SS6 = "ss6 (d2 x1, d1 x1)"
 
 
-def base_rows(folder: Path, d2: float, d1: float) -> np.ndarray:
-    """The ``ss4-noprop`` weighted blocks of every model in ``folder`` ``(m, d)``, with the
-    D2 and D1 weights scaled by ``d2`` and ``d1`` (a block at 0 is left out)."""
-    weights = dict(BASES["ss4-noprop"])
-    weights["d2"] *= d2
-    weights["d1"] *= d1
+def base_rows(folder: Path, scales: dict[str, float]) -> np.ndarray:
+    """The ``ss4-noprop`` weighted blocks of every model in ``folder`` ``(m, d)``, each
+    block's weight scaled by ``scales[block]`` (1 if absent; a block at 0 is left out)."""
+    weights = {key: value * scales.get(key, 1.0) for key, value in BASES["ss4-noprop"].items()}
     rows = []
     for path in sorted(folder.glob("*.npz")):
         with np.load(path) as data:
@@ -84,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
         for d2, d1 in itertools.product(SCALES, SCALES):
             name = SS6 if (d2, d1) == (1.0, 1.0) else f"ss6 (d2 x{d2:g}, d1 x{d1:g})"
-            bases = study.with_nonrigid({source.name: base_rows(path, d2, d1)
+            bases = study.with_nonrigid({source.name: base_rows(path, {"d2": d2, "d1": d1})
                                          for source, path in zip(sources, folders, strict=True)})
             yield name, {s.name: joined(np.hstack([bases[s.name], local[s.name]]),
                                         rings[s.name], SS6_RING_WEIGHT) for s in scored}

@@ -1,0 +1,100 @@
+"""Issue 24 follow-up: were ``ss6``'s block weights chosen on data that generalises?
+
+Measurement only (the service's descriptor does not change in this step; a choice that
+ships by the rule is adopted in a later step, with its tests and the score calibration).
+Why, disclosed: issue 24 says every setting was chosen on capod and on our own generator.
+The weights of ``ss6``'s extrinsic blocks come from ``bench/descriptor_weights.py`` (issue
+12, on our generated parts and capod, scans included), its spectral weights from ``ss3``
+(capod); only some were looked at again by the leave-one-source-out rule since (D2 and D1
+in ``bench/proportion_blocks_select.py``, the ring block's weight in
+``bench/profile_block_select.py``, the local block's weight with the base before the ring).
+
+The grid, written before any score of it was seen: ``ss6`` as the service builds it (the
+``ss4-noprop`` blocks, the VLAD block of ``hks+sv`` at 64 words, each source encoded by a
+vocabulary fitted on the other sources, the ring block at weight 4), and one block at a time
+with its weight halved or doubled, for the blocks not yet re-weighed by the rule with the
+ring in place: ``hks``, ``wks``, ``slope``, ``dna``, ``normals``, ``symmetry`` and the local
+block: 15 candidates. The rule and the ship condition are the ring study's
+(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(capod-nonrigid scored apart), leave-one-source-out with a paired bootstrap against ``ss6``;
+ship only if the LOSO mean is above ``ss6``'s by more than 0.002 with the 95 % interval above
+zero. Every candidate has the same width, so ties within 0.002 go to ``ss6`` (the tie key is
+the number of weights changed, 0 or 1).
+
+    nice -n 10 .venv/bin/python bench/block_weights_select.py /work/study \\
+        --json /work/study/block_weights.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from local_features_select import joined, load_study  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    SS6_RING_WEIGHT,
+    default_local_blocks,
+    print_table,
+    ring_blocks,
+    rule_report,
+    score_candidates,
+)
+from proportion_blocks_select import base_rows  # noqa: E402
+
+BLOCKS = ("hks", "wks", "slope", "dna", "normals", "symmetry", "local")
+SCALES = (0.5, 2.0)
+SS6 = "ss6"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args(argv)
+    study = load_study(args.out / "features" / "clean")
+    cache = args.out / "profile_cache" / "clean"  # shared with the other studies
+    cache.mkdir(parents=True, exist_ok=True)
+    sources, scored = study.sources, study.scored
+    rule_sources = tuple(s.name for s in sources)
+
+    local = study.with_nonrigid(default_local_blocks(sources, cache))
+    rings = ring_blocks(study)
+
+    def vectors(block: str | None, scale: float) -> dict[str, np.ndarray]:
+        scales = {} if block in (None, "local") else {block: scale}
+        local_scale = scale if block == "local" else 1.0
+        bases = study.with_nonrigid({
+            source.name: base_rows(path, scales)
+            for source, path in zip(sources, study.folders, strict=True)})
+        return {s.name: joined(np.hstack([bases[s.name], local_scale * local[s.name]]),
+                               rings[s.name], SS6_RING_WEIGHT) for s in scored}
+
+    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
+        yield SS6, vectors(None, 1.0)
+        for block in BLOCKS:
+            for scale in SCALES:
+                yield f"{block} x{scale:g}", vectors(block, scale)
+
+    table, _, queries = score_candidates(candidates(), scored)
+    changed = {name: int(name != SS6) for name in table}
+    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+    print_table(table, mean, sorted(table, key=lambda c: -mean[c]))
+    report = rule_report(table, changed, queries, mean, list(table), "block weights",
+                         rule_sources, reference=SS6, tie_key="weights changed")
+    if args.json:
+        args.json.write_text(json.dumps({"table": table, "mean": mean, **report}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
