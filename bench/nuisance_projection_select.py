@@ -42,7 +42,6 @@ family (intrinsic blocks only) is not part of this question.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -54,7 +53,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import Source, load_study, nonrigid_rows  # noqa: E402
+from local_features_select import Source, nonrigid_rows  # noqa: E402
 from profile_block_select import (  # noqa: E402
     default_local_blocks,
     print_table,
@@ -62,6 +61,7 @@ from profile_block_select import (  # noqa: E402
     rule_report,
     score_candidates,
     ss6_rows,
+    study_command,
 )
 
 from core.local_features import Vocabulary, encode_vlad  # noqa: E402
@@ -124,13 +124,7 @@ def fold_local_blocks(sources: list[Source], cache: Path) -> dict[str, dict[str,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--json", type=Path)
-    args = parser.parse_args(argv)
-    study = load_study(args.out / "features" / "clean")
-    cache = args.out / "profile_cache" / "clean"  # shared with the other studies
-    cache.mkdir(parents=True, exist_ok=True)
+    args, study, cache = study_command(__doc__, argv)
     sources, scored = study.sources, study.scored
     rule_sources = tuple(s.name for s in sources)
 

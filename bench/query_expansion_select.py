@@ -27,7 +27,6 @@ so leaving a source out only changes which ``n, alpha`` the others choose.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -39,13 +38,13 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import load_study  # noqa: E402
 from profile_block_select import (  # noqa: E402
     default_local_blocks,
     print_table,
     ring_blocks,
     rule_report,
     ss6_rows,
+    study_command,
 )
 
 from core.evaluation.metrics import (  # noqa: E402
@@ -84,13 +83,7 @@ def expanded_distances(rows: np.ndarray, neighbours: int, alpha: float) -> np.nd
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--json", type=Path)
-    args = parser.parse_args(argv)
-    study = load_study(args.out / "features" / "clean")
-    cache = args.out / "profile_cache" / "clean"  # shared with the other studies
-    cache.mkdir(parents=True, exist_ok=True)
+    args, study, cache = study_command(__doc__, argv)
     sources, scored = study.sources, study.scored
     rule_sources = tuple(s.name for s in sources)
 

@@ -34,7 +34,6 @@ the ``bendable`` family would leave it out.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -47,7 +46,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import joined, load_study  # noqa: E402
+from local_features_select import joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     _sample,
@@ -56,6 +55,7 @@ from profile_block_select import (  # noqa: E402
     ring_blocks,
     rule_report,
     score_candidates,
+    study_command,
 )
 
 from core.extrinsic import (  # noqa: E402
@@ -97,13 +97,7 @@ def halves_block(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--json", type=Path)
-    args = parser.parse_args(argv)
-    study = load_study(args.out / "features" / "clean")
-    cache = args.out / "profile_cache" / "clean"  # shared with the other studies
-    cache.mkdir(parents=True, exist_ok=True)
+    args, study, cache = study_command(__doc__, argv)
     sources, scored = study.sources, study.scored
     rule_sources = tuple(s.name for s in sources)
     names = [s.name for s in scored]

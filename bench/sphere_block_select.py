@@ -36,7 +36,6 @@ family would leave it out.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -51,7 +50,7 @@ import numpy as np  # noqa: E402
 from scipy.special import sph_harm_y  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import joined, load_study  # noqa: E402
+from local_features_select import joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     _sample,
@@ -61,6 +60,7 @@ from profile_block_select import (  # noqa: E402
     rule_report,
     score_candidates,
     ss6_rows,
+    study_command,
 )
 
 SHELLS = (4, 8)
@@ -108,13 +108,7 @@ def sphere_block(points: np.ndarray, areas: np.ndarray, shells: int, degrees: in
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--json", type=Path)
-    args = parser.parse_args(argv)
-    study = load_study(args.out / "features" / "clean")
-    cache = args.out / "profile_cache" / "clean"  # shared with the other studies
-    cache.mkdir(parents=True, exist_ok=True)
+    args, study, cache = study_command(__doc__, argv)
     sources, scored = study.sources, study.scored
     rule_sources = tuple(s.name for s in sources)
 
