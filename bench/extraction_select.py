@@ -83,6 +83,26 @@ the tie margin on those sources; otherwise ``t`` stays 0.01 for both.
     nice -n 10 .venv/bin/python bench/extraction_select.py "t 0.02=/work/study-t0.02" \\
         "t 0.01=/work/study" "t 0.005=/work/study-t0.005" --reference "t 0.01" \\
         --poolings area --family bendable --json /work/study/cutoff-bendable.json
+
+**4. The heat-kernel times**, written after the first three questions had been answered and
+before any score of this one was seen. The 16 times of the HKS blocks and of the local words
+(0.001 to 0.1, log-spaced, on the area-normalised shape) were chosen on capod alone (issue
+4), like ``t``; they set how local a point's signature is. Grid: the times scaled by {0.5, 1,
+2} (0.0005-0.05, the service's, 0.002-0.2), area pooling only, ties to 1 (the service's;
+the order given below is the tie order).
+Unlike ``t``, the times are a field of each family's descriptor settings, so each family
+takes its own rule's answer, decided here: the ``parts`` family by the rule above over the
+seven sources against 1, the ``bendable`` family by its own rule (``--family bendable``, the
+non-rigid sources) against 1; each ships only if its condition holds and
+``bench/descriptor_cost.py`` finds it within 1.5x of ``ss4``. The eigenpairs are shared with
+the reference study (the same cutoff), so every scale describes the same spectra.
+
+    for f in 0.5 2; do mkdir -p /work/study-h$f; ln -s /work/study/cache /work/study-h$f/cache
+        .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-h$f \\
+            --hks-scale $f; done
+    nice -n 10 .venv/bin/python bench/extraction_select.py "times x1=/work/study" \\
+        "times x0.5=/work/study-h0.5" "times x2=/work/study-h2" --reference "times x1" \\
+        --poolings area [--family bendable] --json /work/study/times[-bendable].json
 """
 
 from __future__ import annotations
