@@ -1,0 +1,126 @@
+"""Issue 24 follow-up: does the histograms' bin count, chosen on capod, hold on other sources?
+
+Measurement only (the service's descriptor does not change in this step; a choice that
+ships by the rule is adopted in a later step, with its tests and the score calibration).
+Why, disclosed: written after the heat-kernel times held (``bench/extraction_select.py``,
+question 4), as the next setting of the descriptor chosen on capod alone (issue 4): the
+``bins`` of the HKS, WKS, WKS-slope, D2 and D1 histograms (32). Fewer bins pool more, more
+bins resolve a small share of the surface that sits at other signature values.
+
+The ``parts`` family's vectors as ``ss6`` joins them, the five binned blocks recomputed from
+each model's stored features (signature, areas, eigenvalues, points, as
+``bench/local_features_extract.py`` saved them) by ``DescriptorSpec`` with ``bins`` changed,
+every other block as stored; the local block (each source encoded by words fitted on the
+other sources) and the ring block at weight 4 as the service joins them. The 32-bin
+reference is recomputed the same way (the stored signature is float32), so every candidate
+is made alike; its mean is printed next to the stored ``ss6``'s as a check.
+
+The grid, written before any score of it was seen: ``bins`` in {32 (the service's), 16, 64},
+ties in that order. The rule and the ship condition are the ring study's
+(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(capod-nonrigid scored apart), leave-one-source-out with a paired bootstrap against 32; ship
+only if the LOSO mean is above 32's by more than 0.002 with the 95 % interval above zero and
+``bench/descriptor_cost.py`` finds it within 1.5x of ``ss4``. The ``bendable`` family is not
+part of this question (it would keep 32 whatever this finds, until asked by its own rule).
+
+    nice -n 10 .venv/bin/python bench/histogram_bins_select.py /work/study \\
+        --json /work/study/bins.json
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from collections.abc import Iterator
+from dataclasses import replace
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from local_features_select import BASES, joined  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    SS6_RING_WEIGHT,
+    default_local_blocks,
+    print_table,
+    ring_blocks,
+    rule_report,
+    score_candidates,
+    ss6_rows,
+    study_command,
+)
+
+from core.descriptor import BLOCK_WEIGHTS, DescriptorSpec  # noqa: E402
+from core.settings import DescriptorSettings  # noqa: E402
+
+BINS = (32, 16, 64)
+BINNED = ("hks", "wks", "slope", "d2", "d1")
+
+
+def binned_spec(bins: int) -> DescriptorSpec:
+    """The spec that makes the five binned blocks, each at weight 1, and nothing else."""
+    weights = {field: 1.0 if block in BINNED else 0.0
+               for block, field in BLOCK_WEIGHTS.items()}
+    return DescriptorSpec.from_settings(replace(DescriptorSettings(), bins=bins, **weights))
+
+
+def base_rows(folder: Path, bins: int, cache: Path) -> np.ndarray:
+    """The ``ss4-noprop`` weighted blocks ``(m, d)`` of every model in ``folder`` with the
+    binned blocks at ``bins``; cached per source and bin count."""
+    path = cache / f"bins-{bins}-{folder.name}.npy"
+    if path.exists():
+        return np.load(path)
+    spec = binned_spec(bins)
+    weights = BASES["ss4-noprop"]
+    rows = []
+    for file in sorted(folder.glob("*.npz")):
+        with np.load(file) as data:
+            made = spec.blocks(data["signature"].astype(np.float64), data["areas"],
+                               data["eigenvalues"], data["points"].astype(np.float64))
+            stored = {key: data[f"blocks_{key}"] for key in weights
+                      if key not in BINNED and weights[key] > 0}
+        rows.append(np.concatenate([weights[key] * (made[key] if key in BINNED else stored[key])
+                                    for key in weights if weights[key] > 0]))
+    np.save(path, np.array(rows))
+    return np.load(path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args, study, cache = study_command(__doc__, argv)
+    sources, scored = study.sources, study.scored
+    rule_sources = tuple(s.name for s in sources)
+    local = study.with_nonrigid(default_local_blocks(sources, cache))
+    rings = ring_blocks(study)
+
+    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
+        for bins in BINS:
+            bases = study.with_nonrigid({
+                source.name: base_rows(path, bins, cache)
+                for source, path in zip(sources, study.folders, strict=True)})
+            yield f"bins {bins}", {
+                s.name: joined(np.hstack([bases[s.name], local[s.name]]), rings[s.name],
+                               SS6_RING_WEIGHT) for s in scored}
+
+    table, widths, queries = score_candidates(candidates(), scored)
+    order = {name: rank for rank, name in enumerate(table)}
+    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
+    stored, _, _ = score_candidates(
+        [("ss6 (stored blocks)", {s.name: ss6_rows(s, local[s.name], rings[s.name])
+                                  for s in scored})], scored)
+    stored_mean = float(np.mean([stored["ss6 (stored blocks)"][s]["map"] for s in rule_sources]))
+    print(f"check: ss6 from the stored blocks, mean {stored_mean:.4f}")
+    print_table(table, mean, table, widths)
+    report = rule_report(table, order, queries, mean, list(table), "histogram bins",
+                         rule_sources, reference="bins 32", tie_key="order")
+    if args.json:
+        args.json.write_text(json.dumps({"table": table, "mean": mean, "widths": widths,
+                                         **report}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
