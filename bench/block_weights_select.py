@@ -27,7 +27,6 @@ the number of weights changed, 0 or 1).
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from collections.abc import Iterator
@@ -42,10 +41,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
+    decide,
     default_local_blocks,
-    print_table,
     ring_blocks,
-    rule_report,
     score_candidates,
     study_command,
 )
@@ -81,12 +79,8 @@ def main(argv: list[str] | None = None) -> int:
 
     table, _, queries = score_candidates(candidates(), scored)
     changed = {name: int(name != SS6) for name in table}
-    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
-    print_table(table, mean, sorted(table, key=lambda c: -mean[c]))
-    report = rule_report(table, changed, queries, mean, list(table), "block weights",
-                         rule_sources, reference=SS6, tie_key="weights changed")
-    if args.json:
-        args.json.write_text(json.dumps({"table": table, "mean": mean, **report}, indent=1))
+    decide(table, queries, changed, "block weights", rule_sources, SS6, args.json,
+           tie_key="weights changed", by_mean=True)
     return 0
 
 

@@ -29,7 +29,6 @@ part of this question (it would keep 32 whatever this finds, until asked by its 
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from collections.abc import Iterator
@@ -45,10 +44,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import BASES, joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
+    decide,
     default_local_blocks,
-    print_table,
     ring_blocks,
-    rule_report,
     score_candidates,
     ss6_rows,
     study_command,
@@ -107,18 +105,13 @@ def main(argv: list[str] | None = None) -> int:
 
     table, widths, queries = score_candidates(candidates(), scored)
     order = {name: rank for rank, name in enumerate(table)}
-    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
     stored, _, _ = score_candidates(
         [("ss6 (stored blocks)", {s.name: ss6_rows(s, local[s.name], rings[s.name])
                                   for s in scored})], scored)
     stored_mean = float(np.mean([stored["ss6 (stored blocks)"][s]["map"] for s in rule_sources]))
     print(f"check: ss6 from the stored blocks, mean {stored_mean:.4f}")
-    print_table(table, mean, table, widths)
-    report = rule_report(table, order, queries, mean, list(table), "histogram bins",
-                         rule_sources, reference="bins 32", tie_key="order")
-    if args.json:
-        args.json.write_text(json.dumps({"table": table, "mean": mean, "widths": widths,
-                                         **report}, indent=1))
+    decide(table, queries, order, "histogram bins", rule_sources, "bins 32", args.json,
+           tie_key="order", widths=widths)
     return 0
 
 

@@ -42,7 +42,6 @@ family (intrinsic blocks only) is not part of this question.
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from pathlib import Path
@@ -53,18 +52,19 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import Source, nonrigid_rows  # noqa: E402
+from local_features_select import Source  # noqa: E402
 from profile_block_select import (  # noqa: E402
+    decide,
     default_local_blocks,
-    print_table,
+    fold_key,
+    fold_words,
     ring_blocks,
-    rule_report,
     score_candidates,
     ss6_rows,
     study_command,
 )
 
-from core.local_features import Vocabulary, encode_vlad  # noqa: E402
+from core.local_features import encode_vlad  # noqa: E402
 
 RANKS = (4, 8, 16, 32, 64, 128)
 STRENGTHS = (0.0, 0.5)
@@ -109,12 +109,9 @@ def fold_local_blocks(sources: list[Source], cache: Path) -> dict[str, dict[str,
     ``default_local_blocks``); cached per fold."""
     folds: dict[str, dict[str, np.ndarray]] = {}
     for held in sources:
-        others = [s for s in sources if s.name != held.name]
-        key = f"hks+sv-64-{held.name}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
-        path = cache / f"fold-vlad-{key}.npz"
+        path = cache / f"fold-vlad-{fold_key(sources, held.name)}.npz"
         if not path.exists():
-            vocabulary = Vocabulary.fit([r for s in others for r in s.local["hks+sv"]], 64,
-                                        seed=0, per_model=200)
+            vocabulary = fold_words(sources, held.name)
             np.savez(path, **{s.name: np.array([
                 encode_vlad(f, a, vocabulary)
                 for f, a in zip(s.local["hks+sv"], s.areas, strict=True)]) for s in sources})
@@ -142,25 +139,18 @@ def main(argv: list[str] | None = None) -> int:
         fitting = [s for s in sources if s.name != fold]
         directions[fold] = within_class_directions(
             [rows[fold][s.name] for s in fitting], [s.labels for s in fitting], max(RANKS))
-    nonrigid = nonrigid_rows(next(s for s in sources if s.name == "capod"))
 
     def vectors(rank: int, strength: float) -> dict[str, np.ndarray]:
-        out = {fold: rows[fold][fold] if rank == 0 else projected(
-            rows[fold][fold], directions[fold][:, :rank], strength) for fold in rule_sources}
-        out["capod-nonrigid"] = out["capod"][nonrigid]  # scored with capod's fold
-        return out
+        # capod-nonrigid is scored with capod's fold.
+        return study.with_nonrigid({fold: rows[fold][fold] if rank == 0 else projected(
+            rows[fold][fold], directions[fold][:, :rank], strength) for fold in rule_sources})
 
     grid = [(SS6, 0, 0.0)] + [(f"nap r{r} beta{b:g}", r, b) for r in RANKS for b in STRENGTHS]
     table, _, queries = score_candidates(
         ((name, vectors(rank, strength)) for name, rank, strength in grid), scored)
     ranks = {name: rank for name, rank, _ in grid}
-    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
-    print_table(table, mean, table, ranks)
-    report = rule_report(table, ranks, queries, mean, list(table), "nuisance projection",
-                         rule_sources, reference=SS6, tie_key="rank")
-    if args.json:
-        args.json.write_text(json.dumps({"table": table, "mean": mean, "ranks": ranks,
-                                         **report}, indent=1))
+    decide(table, queries, ranks, "nuisance projection", rule_sources, SS6, args.json,
+           tie_key="rank", widths=ranks)
     return 0
 
 

@@ -173,12 +173,16 @@ def study_command(doc: str, argv: list[str] | None) -> tuple[argparse.Namespace,
     return args, load_study(args.out / "features" / "clean"), cache
 
 
+def study_samples(study: Study) -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
+    """Every model's stored normalised sample (points, areas), per source of ``study``."""
+    return {source.name: [_sample(file) for file in sorted(path.glob("*.npz"))]
+            for source, path in zip(study.sources, study.folders, strict=True)}
+
+
 def ring_blocks(study: Study) -> dict[str, np.ndarray]:
     """The service's ring block of every model of ``study``, ``(m, 30)`` per source,
     capod-nonrigid included."""
-    return study.with_nonrigid({
-        source.name: np.array([ring_block(*_sample(file)) for file in sorted(path.glob("*.npz"))])
-        for source, path in zip(study.sources, study.folders, strict=True)})
+    return study.with_nonrigid(blocks_per_source(study_samples(study), ring_block, []))
 
 
 def ss6_rows(source: Source, local: np.ndarray, ring: np.ndarray) -> np.ndarray:
@@ -188,9 +192,9 @@ def ss6_rows(source: Source, local: np.ndarray, ring: np.ndarray) -> np.ndarray:
     return joined(np.hstack([source.bases["ss4-noprop"], local]), ring, SS6_RING_WEIGHT)
 
 
-def _per_source(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]],
-                block: Callable[[np.ndarray, np.ndarray], np.ndarray],
-                timings: list[float]) -> dict[str, np.ndarray]:
+def blocks_per_source(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]],
+                      block: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                      timings: list[float]) -> dict[str, np.ndarray]:
     """``block`` of every model, ``(m, b)`` per source; appends each call's milliseconds."""
     rows: dict[str, np.ndarray] = {}
     for name, models in samples.items():
@@ -214,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
     study = load_study(args.out / "features" / args.kind)
     cache = args.out / "profile_cache" / args.kind
     cache.mkdir(parents=True, exist_ok=True)
-    sources, scored, folders = study.sources, study.scored, study.folders
+    sources, scored = study.sources, study.scored
     rule_sources = tuple(args.sources or [s.name for s in sources])
     print("sources:", {s.name: len(s.labels) for s in scored}, flush=True)
 
@@ -222,16 +226,14 @@ def main(argv: list[str] | None = None) -> int:
     base = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name]]) for s in scored}
     print("local blocks done", flush=True)
 
-    # Every model's sample read once; both blocks computed from it.
-    samples = {source.name: [_sample(file) for file in sorted(path.glob("*.npz"))]
-               for source, path in zip(sources, folders, strict=True)}
+    samples = study_samples(study)  # every model's sample read once; both blocks from it
     profiles: dict[tuple[str, int], dict[str, np.ndarray]] = {}
     timings: list[float] = []
     for normalisation, bins in itertools.product(NORMALISATIONS, BINS):
-        profiles[(normalisation, bins)] = _per_source(
+        profiles[(normalisation, bins)] = blocks_per_source(
             samples, partial(profile_block, bins=bins, normalisation=normalisation), timings)
     ring_timings: list[float] = []
-    rings = _per_source(samples, ring_block, ring_timings)
+    rings = blocks_per_source(samples, ring_block, ring_timings)
     for per_source in [*profiles.values(), rings]:
         study.with_nonrigid(per_source)
     print("blocks done", flush=True)
@@ -274,6 +276,20 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def fold_key(sources: list[Source], held: str, features: str = "hks+sv") -> str:
+    """The cache name of ``fold_words(sources, held, features)``."""
+    others = [s for s in sources if s.name != held]
+    return f"{features}-64-{held}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
+
+
+def fold_words(sources: list[Source], held: str, features: str = "hks+sv") -> Vocabulary:
+    """The 64 words that encode source ``held``: fitted on every other source's
+    ``features``, as the service's words are fitted on every source."""
+    others = [s for s in sources if s.name != held]
+    return Vocabulary.fit([r for s in others for r in s.local[features]], 64, seed=0,
+                          per_model=200)
+
+
 def default_local_blocks(sources: list[Source], cache: Path, point_pooling: bool = False,
                          features: str = "hks+sv", encoding: str = "vlad"
                          ) -> dict[str, np.ndarray]:
@@ -285,12 +301,10 @@ def default_local_blocks(sources: list[Source], cache: Path, point_pooling: bool
     encode = encode_vlad if encoding == "vlad" else encode_bof
     local: dict[str, np.ndarray] = {}
     for source in sources:
-        others = [s for s in sources if s.name != source.name]
-        key = f"{features}-64-{source.name}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
+        key = fold_key(sources, source.name, features)
         path = cache / f"local-{encoding}{'-points' if point_pooling else ''}-{key}.npz"
         if not path.exists():
-            vocabulary = Vocabulary.fit([r for s in others for r in s.local[features]], 64,
-                                        seed=0, per_model=200)
+            vocabulary = fold_words(sources, source.name, features)
             np.savez(path, block=np.array([
                 encode(f, np.ones(len(a)) if point_pooling else a, vocabulary)
                 for f, a in zip(source.local[features], source.areas, strict=True)]))
@@ -327,6 +341,23 @@ def rule_report(table: dict[str, dict[str, dict[str, float]]], widths: dict[str,
 
 
 Table = dict[str, dict[str, dict[str, float]]]
+
+
+def decide(table: Table, queries: dict[str, dict[str, np.ndarray]], tie_order: dict[str, int],
+           title: str, sources: tuple[str, ...], reference: str, json_path: Path | None, *,
+           tie_key: str = "width", widths: dict[str, int] | None = None, by_mean: bool = False,
+           extra: dict[str, object] | None = None) -> dict[str, object]:
+    """A selector's closing step: the mean over ``sources``, the candidates' table (in
+    ``table``'s order, or by mean), ``rule_report`` against ``reference`` with ties broken
+    by ``tie_order``, and all of it (with ``extra``) written to ``json_path``."""
+    mean = {c: float(np.mean([table[c][s]["map"] for s in sources])) for c in table}
+    print_table(table, mean, sorted(table, key=lambda c: -mean[c]) if by_mean else table, widths)
+    report = rule_report(table, tie_order, queries, mean, list(table), title, sources,
+                         reference=reference, tie_key=tie_key)
+    if json_path:
+        json_path.write_text(json.dumps({"table": table, "mean": mean, "tie_order": tie_order,
+                                         **(extra or {}), **report}, indent=1))
+    return report
 
 
 def score_candidates(candidates: Iterable[tuple[str, dict[str, np.ndarray]]],

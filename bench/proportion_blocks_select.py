@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
 import os
 import sys
 from collections.abc import Iterator
@@ -41,10 +40,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import BASES, joined, load_study  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
+    decide,
     default_local_blocks,
-    print_table,
     ring_blocks,
-    rule_report,
     score_candidates,
 )
 
@@ -88,14 +86,8 @@ def main(argv: list[str] | None = None) -> int:
                                         rings[s.name], SS6_RING_WEIGHT) for s in scored}
 
     table, widths, queries = score_candidates(candidates(), scored)
-    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
-    print_table(table, mean, sorted(table, key=lambda c: -mean[c]), widths)
-
-    report = rule_report(table, widths, queries, mean, list(table), "D2 and D1 scales",
-                         rule_sources, reference=SS6)
-    if args.json:
-        args.json.write_text(json.dumps({"table": table, "mean": mean, "widths": widths,
-                                         **report}, indent=1))
+    decide(table, queries, widths, "D2 and D1 scales", rule_sources, SS6, args.json,
+           widths=widths, by_mean=True)
     return 0
 
 

@@ -27,7 +27,6 @@ so leaving a source out only changes which ``n, alpha`` the others choose.
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from pathlib import Path
@@ -39,10 +38,9 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from profile_block_select import (  # noqa: E402
+    decide,
     default_local_blocks,
-    print_table,
     ring_blocks,
-    rule_report,
     ss6_rows,
     study_command,
 )
@@ -103,12 +101,8 @@ def main(argv: list[str] | None = None) -> int:
             queries.setdefault(name, {})[s.name] = np.array(
                 [average_precision(r) for r in relevance if r.any()])
     cost = {name: neighbours for name, neighbours, _ in grid}
-    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
-    print_table(table, mean, table, cost)
-    report = rule_report(table, cost, queries, mean, list(table), "query expansion",
-                         rule_sources, reference=SS6, tie_key="neighbours")
-    if args.json:
-        args.json.write_text(json.dumps({"table": table, "mean": mean, **report}, indent=1))
+    decide(table, queries, cost, "query expansion", rule_sources, SS6, args.json,
+           tie_key="neighbours", widths=cost)
     return 0
 
 

@@ -34,10 +34,8 @@ the ``bendable`` family would leave it out.
 
 from __future__ import annotations
 
-import json
 import os
 import sys
-import time
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -49,13 +47,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
-    _sample,
+    blocks_per_source,
+    decide,
     default_local_blocks,
-    print_table,
     ring_blocks,
-    rule_report,
     score_candidates,
     study_command,
+    study_samples,
 )
 
 from core.extrinsic import (  # noqa: E402
@@ -103,16 +101,8 @@ def main(argv: list[str] | None = None) -> int:
     names = [s.name for s in scored]
 
     local = study.with_nonrigid(default_local_blocks(sources, cache))
-    rings, halves, timings = ring_blocks(study), {}, []
-    for source, path in zip(sources, study.folders, strict=True):
-        samples = [_sample(file) for file in sorted(path.glob("*.npz"))]
-        rows = []
-        for sample in samples:
-            start = time.perf_counter()
-            rows.append(halves_block(*sample))
-            timings.append(1000.0 * (time.perf_counter() - start))
-        halves[source.name] = np.array(rows)
-    study.with_nonrigid(halves)
+    rings, timings = ring_blocks(study), []
+    halves = study.with_nonrigid(blocks_per_source(study_samples(study), halves_block, timings))
     base = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name]]) for s in scored}
 
     # Candidate -> per source, the weighted extra blocks after ss5's (base and local).
@@ -125,15 +115,10 @@ def main(argv: list[str] | None = None) -> int:
     table, widths, queries = score_candidates(
         ((name, {s.name: joined(base[s.name], extra[s.name], 1.0) for s in scored})
          for name, extra in candidates.items()), scored)
-    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
-    print_table(table, mean, table, widths)
-    report = rule_report(table, widths, queries, mean, list(table), "ring halves",
-                         rule_sources, reference=SS6)
     cost = float(np.median(timings))
+    decide(table, queries, widths, "ring halves", rule_sources, SS6, args.json, widths=widths,
+           extra={"cost_ms": cost})
     print(f"halves block, median ms per model: {cost:.2f} ({len(timings)} models)")
-    if args.json:
-        args.json.write_text(json.dumps({"table": table, "mean": mean, "widths": widths,
-                                         "cost_ms": cost, **report}, indent=1))
     return 0
 
 

@@ -36,11 +36,11 @@ family would leave it out.
 
 from __future__ import annotations
 
-import json
+import itertools
 import os
 import sys
-import time
 from collections.abc import Iterator
+from functools import partial
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -53,14 +53,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
-    _sample,
+    blocks_per_source,
+    decide,
     default_local_blocks,
-    print_table,
     ring_blocks,
-    rule_report,
     score_candidates,
     ss6_rows,
     study_command,
+    study_samples,
 )
 
 SHELLS = (4, 8)
@@ -114,22 +114,14 @@ def main(argv: list[str] | None = None) -> int:
 
     local = study.with_nonrigid(default_local_blocks(sources, cache))
     rings = ring_blocks(study)
-    samples = {s.name: [_sample(file) for file in sorted(path.glob("*.npz"))]
-               for s, path in zip(sources, study.folders, strict=True)}
+    samples = study_samples(study)
     spheres: dict[tuple[int, int], dict[str, np.ndarray]] = {}
     timings: dict[tuple[int, int], list[float]] = {}
-    for shells in SHELLS:
-        for degrees in DEGREES:
-            per_source, spent = {}, []
-            for name, models in samples.items():
-                rows = []
-                for points, areas in models:
-                    start = time.perf_counter()
-                    rows.append(sphere_block(points, areas, shells, degrees))
-                    spent.append(1000.0 * (time.perf_counter() - start))
-                per_source[name] = np.array(rows)
-            spheres[shells, degrees] = study.with_nonrigid(per_source)
-            timings[shells, degrees] = spent
+    for shells, degrees in itertools.product(SHELLS, DEGREES):
+        timings[shells, degrees] = []
+        spheres[shells, degrees] = study.with_nonrigid(blocks_per_source(
+            samples, partial(sphere_block, shells=shells, degrees=degrees),
+            timings[shells, degrees]))
     # ss6's raw weighted blocks: a new block joins them before the one unit scaling.
     raw = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name],
                               SS6_RING_WEIGHT * rings[s.name]]) for s in scored}
@@ -142,15 +134,10 @@ def main(argv: list[str] | None = None) -> int:
                        {s.name: joined(raw[s.name], block[s.name], weight) for s in scored})
 
     table, widths, queries = score_candidates(candidates(), scored)
-    mean = {c: float(np.mean([table[c][s]["map"] for s in rule_sources])) for c in table}
-    print_table(table, mean, table, widths)
-    report = rule_report(table, widths, queries, mean, list(table), "sphere block",
-                         rule_sources, reference=SS6)
     cost = {f"S{s} L{d}": float(np.median(t)) for (s, d), t in timings.items()}
+    decide(table, queries, widths, "sphere block", rule_sources, SS6, args.json, widths=widths,
+           extra={"cost_ms": cost})
     print("sphere block, median ms per model:", cost)
-    if args.json:
-        args.json.write_text(json.dumps({"table": table, "mean": mean, "widths": widths,
-                                         "cost_ms": cost, **report}, indent=1))
     return 0
 
 
