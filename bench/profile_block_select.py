@@ -356,6 +356,7 @@ def decide(table: Table, queries: dict[str, dict[str, np.ndarray]], tie_order: d
                          reference=reference, tie_key=tie_key)
     if json_path:
         json_path.write_text(json.dumps({"table": table, "mean": mean, "tie_order": tie_order,
+                                         **({"widths": widths} if widths else {}),
                                          **(extra or {}), **report}, indent=1))
     return report
 
