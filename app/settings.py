@@ -314,6 +314,17 @@ class Settings(BaseSettings):
     index_nprobe: int = Field(
         default=8, ge=1, description="Inverted lists searched per query in an IVF partition."
     )
+    index_projected_dims: int = Field(
+        default=0,
+        ge=0,
+        le=1024,
+        description="0 (default): an IVF partition's codes hold every dimension. N > 0: "
+        "they hold the vectors' N leading principal components, fitted on the partition's "
+        "training sample (when it and the vectors are wide enough), and the exact re-rank "
+        "is unchanged. At 10^5 models and 256: 1.4-1.6x the similar requests per second at "
+        "c=16, a 9x smaller index; recall@10 1.0 on real descriptors, 0.85 on the "
+        "benchmark's synthetic ones, 0.37 at 10^6 (near ties; README, Projected codes).",
+    )
     api_processes: int = Field(
         default=1,
         ge=1,

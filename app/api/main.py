@@ -91,6 +91,7 @@ def create_app(
             compact_min=settings.index_compact_min,
             nprobe=settings.index_nprobe,
             rerank_factor=settings.index_rerank_factor,
+            projected_dims=settings.index_projected_dims,
         )
         index.rebuild()
         observe_index(len(index))

@@ -40,6 +40,7 @@ def run(*, min_score: float, output_format: str, tenant: str,
     report = compute_report(
         sessions, tenant, query, exact_max=settings.index_exact_max,
         compact_min=settings.index_compact_min, nprobe=settings.index_nprobe,
+        projected_dims=settings.index_projected_dims,
     )
     with sessions.begin() as session:
         report_id = store_report(session, tenant, report, job_id=None)

@@ -107,6 +107,7 @@ def compute_report(
     exact_max: int,
     compact_min: int,
     nprobe: int,
+    projected_dims: int = 0,
 ) -> ComputedReport:
     """The report of ``tenant``'s ready models of ``query.descriptor_version``; the index
     options are the service's (``SHAPESEARCH_INDEX_*``), so the partition is the one its
@@ -121,7 +122,8 @@ def compute_report(
 
     key = (tenant, query.descriptor_version)
     index = ShapeIndex(
-        sessions, exact_max=exact_max, compact_min=compact_min, nprobe=nprobe, only=key
+        sessions, exact_max=exact_max, compact_min=compact_min, nprobe=nprobe,
+        projected_dims=projected_dims, only=key,
     )
     index.rebuild()
     lap("load")

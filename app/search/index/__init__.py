@@ -27,6 +27,10 @@ the model's integer ``index_id``. A partition is
   the exact re-rank (``rerank_candidates``); its scan costs about what the 8-bit one does
   (bench/search_scale.py, README).
 
+With ``projected_dims`` (off by default), an IVF partition's codes hold the leading principal
+components of its vectors instead of every dimension (``_projection``): a shorter scan and
+smaller codes, the same exact re-rank, at a recall that depends on the catalogue.
+
 The index also knows each model's public id (``locate``) and gives back the vectors it
 holds, exactly as added (``vector``, ``exact_vectors``), so a similar query by model id reads
 no descriptor from the database.
@@ -110,6 +114,9 @@ class ShapeIndex:
         Inverted lists searched per query in an IVF partition.
     rerank_factor : int
         Candidates per wanted result fetched from an IVF partition for exact re-ranking.
+    projected_dims : int
+        Principal components an IVF partition's codes hold instead of every dimension
+        (``_projection``); 0, the default: every dimension.
     only : PartitionKey, optional
         Hold this partition alone, without its views: one tenant's descriptors of one
         version, read once (a duplicates job). None: every partition.
@@ -123,6 +130,7 @@ class ShapeIndex:
         compact_min: int = 500_000,
         nprobe: int = 8,
         rerank_factor: int = 2,
+        projected_dims: int = 0,
         only: PartitionKey | None = None,
     ) -> None:
         self.sessions = sessions
@@ -131,6 +139,7 @@ class ShapeIndex:
         self.compact_min = compact_min
         self.nprobe = nprobe
         self.rerank_factor = rerank_factor
+        self.projected_dims = projected_dims
         self.revision = 0  # last change-feed revision applied
         self.changes = 0  # moves on every applied change: answers cached before are stale
         self._partitions: dict[PartitionKey, Partition] = {}
@@ -201,7 +210,8 @@ class ShapeIndex:
         )
 
     def describe(self, key: PartitionKey) -> str:
-        """The kind of a partition: "flat", "ivf-sq8", "ivf-sq4" or "empty"."""
+        """The kind of a partition: "flat", "ivf-sq8", "ivf-sq4" (prefixed "pcaN-" when
+        the codes hold N principal components) or "empty"."""
         partition = self._partitions.get(key)
         return "empty" if partition is None else partition.kind
 
@@ -324,7 +334,8 @@ class ShapeIndex:
 
     def _builder(self, expected: int) -> Builder:
         return Builder(expected, exact_max=self.exact_max, compact_min=self.compact_min,
-                       nprobe=self.nprobe, chunk=_ROW_CHUNK)
+                       nprobe=self.nprobe, projected_dims=self.projected_dims,
+                       chunk=_ROW_CHUNK)
 
     def _apply(self, removed: Iterable[int], added: Iterable[_Added]) -> None:
         """Remove, then add, models with their views, grouped by partition; call with
@@ -363,7 +374,7 @@ class ShapeIndex:
             vectors = np.ascontiguousarray(np.stack([v for _, v in rows]))
             partition = self._partitions.get(key)
             if partition is None:
-                partition = Partition(vectors.shape[1], self.nprobe)
+                partition = Partition(vectors.shape[1], self.nprobe, self.projected_dims)
                 self._partitions[key] = partition
             with partition.lock.writing():
                 if not partition.approximate and partition.index.ntotal + len(ids) > self.exact_max:

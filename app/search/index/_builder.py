@@ -17,12 +17,20 @@ class Builder:
     when it exceeds ``compact_min``)."""
 
     def __init__(
-        self, expected: int, *, exact_max: int, compact_min: int, nprobe: int, chunk: int
+        self,
+        expected: int,
+        *,
+        exact_max: int,
+        compact_min: int,
+        nprobe: int,
+        projected_dims: int,
+        chunk: int,
     ) -> None:
         self.expected = expected
         self.exact_max = exact_max
         self.compact_min = compact_min
         self.nprobe = nprobe
+        self.projected_dims = projected_dims
         self.chunk = chunk
         self.partition: Partition | None = None
         self.ids: list[int] = []
@@ -62,7 +70,7 @@ class Builder:
         ids = np.concatenate([i for i, _ in self._pending])
         vectors = np.concatenate([v for _, v in self._pending])
         self._pending, self._pending_count = [], 0
-        self.partition = Partition(vectors.shape[1], self.nprobe)
+        self.partition = Partition(vectors.shape[1], self.nprobe, self.projected_dims)
         if self.expected > self.exact_max:
             bits = 4 if self.expected > self.compact_min else 8
             self.partition.compress(vectors, self.expected, bits)

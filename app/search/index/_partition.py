@@ -1,5 +1,6 @@
 """One FAISS partition: flat while small, IVF with scalar-quantised codes when compressed
-(the full vectors then live in a memory-mapped file, ``app.search.full_vectors``)."""
+(the full vectors then live in a memory-mapped file, ``app.search.full_vectors``; on request
+the codes hold the vectors' leading principal components, ``_projection``)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numpy as np
 
 from app.search.full_vectors import FullVectors
 from app.search.index._lock import ReadWriteLock
+from app.search.index._projection import Projection
 
 __all__ = ["TRAIN_PER_LIST", "Partition"]
 
@@ -26,22 +28,29 @@ _RERANK_SCALE = {8: 1, 4: 2}
 
 class Partition:
     """The vectors of one (tenant, descriptor_version), flat or IVF with scalar-quantised
-    codes of ``bits`` 8 or 4."""
+    codes of ``bits`` 8 or 4; with ``projected_dims`` > 0, an IVF partition's codes hold
+    that many principal components of the vectors instead of every dimension (when the
+    vectors and the training sample are wide and large enough: ``Projection.worthwhile``)."""
 
-    def __init__(self, dim: int, nprobe: int) -> None:
+    def __init__(self, dim: int, nprobe: int, projected_dims: int = 0) -> None:
         self.dim = dim
         # Zero-padded to a multiple of 16: FAISS's SIMD scalar-quantiser kernels need it
         # (1534 dims scan ~20x slower than 1536); L2 distances are unchanged.
         self.padded = -(-dim // 16) * 16
         self.nprobe = nprobe
+        self.projected_dims = projected_dims
         self.index: faiss.Index = faiss.IndexIDMap2(faiss.IndexFlatL2(self.padded))
         self.bits = 32  # float32 while flat
         self.full: FullVectors | None = None  # the full vectors, once compressed
+        self.projection: Projection | None = None  # what the codes hold, when not all
         self.lock = ReadWriteLock()
 
     @property
     def kind(self) -> str:
-        return "flat" if self.bits == 32 else f"ivf-sq{self.bits}"
+        if self.bits == 32:
+            return "flat"
+        projected = "" if self.projection is None else f"pca{self.projection.dims}-"
+        return f"{projected}ivf-sq{self.bits}"
 
     @property
     def approximate(self) -> bool:
@@ -57,13 +66,16 @@ class Partition:
         float32``; moves what is held."""
         nlist = int(np.clip(math.sqrt(expected), 16, 4096))
         nlist = min(nlist, max(1, len(sample) // 4))
-        quantizer = faiss.IndexFlatL2(self.padded)
+        if Projection.worthwhile(len(sample), self.padded, self.projected_dims):
+            self.projection = Projection.fit(self.pad(sample), self.projected_dims)
+        coded = self.padded if self.projection is None else self.projection.dims
+        quantizer = faiss.IndexFlatL2(coded)
         ivf = faiss.IndexIVFScalarQuantizer(
-            quantizer, self.padded, nlist, _QUANTIZERS[bits], faiss.METRIC_L2
+            quantizer, coded, nlist, _QUANTIZERS[bits], faiss.METRIC_L2
         )
         ivf.cp.niter = _TRAIN_ITERATIONS
         ivf.cp.min_points_per_centroid = 1  # a small sample is enough for coarse lists
-        ivf.train(self.pad(sample[: TRAIN_PER_LIST * nlist]))
+        ivf.train(self.codable(sample[: TRAIN_PER_LIST * nlist]))
         ivf.set_direct_map_type(faiss.DirectMap.Hashtable)  # remove_ids without a scan
         ivf.nprobe = self.nprobe
         held = self.index
@@ -72,7 +84,7 @@ class Partition:
             ids = faiss.vector_to_array(held.id_map).astype(np.int64)
             vectors = held.index.reconstruct_n(0, held.ntotal)  # padded already
             full.put(ids.tolist(), vectors)
-            ivf.add_with_ids(vectors, ids)
+            ivf.add_with_ids(self._projected(vectors), ids)
         self.index, self.bits, self.full = ivf, bits, full
 
     def nbytes(self) -> int:
@@ -80,7 +92,9 @@ class Partition:
         if not self.approximate:
             return n * (4 * self.padded + 16)  # float32 rows, the id map both ways
         # Codes and an id per vector, ~24 bytes of direct map, float32 centroids.
-        return n * (self.index.code_size + 8 + 24) + self.index.nlist * self.padded * 4
+        centroids = self.index.nlist * self.index.d * 4
+        projection = 0 if self.projection is None else self.projection.nbytes()
+        return n * (self.index.code_size + 8 + 24) + centroids + projection
 
     def pad(self, vectors: np.ndarray) -> np.ndarray:
         """``vectors : (m, dim) float`` as ``(m, padded) float32``."""
@@ -88,10 +102,18 @@ class Partition:
         padded[:, : vectors.shape[1]] = vectors
         return padded
 
+    def codable(self, vectors: np.ndarray) -> np.ndarray:
+        """``vectors : (m, dim) float`` as the index takes them: padded, then projected
+        when the codes hold principal components."""
+        return self._projected(self.pad(vectors))
+
+    def _projected(self, padded: np.ndarray) -> np.ndarray:
+        return padded if self.projection is None else self.projection.apply(padded)
+
     def add(self, ids: np.ndarray, vectors: np.ndarray) -> None:
         if self.full is not None:  # first: when its disk is full, nothing is added
             self.full.put(ids.tolist(), vectors)
-        self.index.add_with_ids(self.pad(vectors), ids)
+        self.index.add_with_ids(self.codable(vectors), ids)
 
     def remove(self, ids: np.ndarray) -> None:
         # An array selector: the IVF direct map (a hashtable) then removes without a scan.
@@ -126,11 +148,12 @@ class Partition:
                 params = faiss.SearchParametersIVF(sel=selector, nprobe=self.index.nlist)
             else:
                 params = faiss.SearchParameters(sel=selector)
-        squared, ids = self.index.search(self.pad(query), k, params=params)
+        coded = self.codable(query)
+        squared, ids = self.index.search(coded, k, params=params)
         if params is None and self.approximate and (ids[:, -1] < 0).any():
             # The nprobe nearest lists held fewer than k vectors: a caller widening its
             # search (filters, scan mode) would take that for the end of the partition.
             # Probe every list instead, so k results come back whenever k exist.
             every = faiss.SearchParametersIVF(nprobe=self.index.nlist)
-            squared, ids = self.index.search(self.pad(query), k, params=every)
+            squared, ids = self.index.search(coded, k, params=every)
         return squared, ids
