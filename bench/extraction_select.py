@@ -1,6 +1,6 @@
 """Issue 24: settings of the extraction stage (sampling, budget, cutoff), chosen or declined.
 
-Three questions, each a set of study folders that differ in one setting of the extraction
+Five questions, each a set of study folders that differ in one setting of the extraction
 (``bench/local_features_extract.py``) and nothing else, scored by one rule.
 
 **1. Feature-aware sampling**, the last candidate of the issue's item 3.
@@ -103,6 +103,26 @@ the reference study (the same cutoff), so every scale describes the same spectra
     nice -n 10 .venv/bin/python bench/extraction_select.py "times x1=/work/study" \\
         "times x0.5=/work/study-h0.5" "times x2=/work/study-h2" --reference "times x1" \\
         --poolings area [--family bendable] --json /work/study/times[-bendable].json
+
+**5. The wave-kernel width**, written after the first four questions had been answered and
+before any score of this one was seen. The WKS (Aubry et al. 2011) filters the spectrum
+with log-normal bands at 16 energies; each band's width ``wks_sigma`` (2.0 energy steps)
+was, like the times, chosen on capod alone, and it sets how much of the spectrum one band
+mixes: narrower bands tell eigenvalues apart (a gear's tooth count, a screw's pitch),
+wider ones are steadier under noise. It enters the WKS and slope blocks (the local words
+use HKS only, so they are re-used). Grid: ``wks_sigma`` in {1, 2, 4} energy steps, area
+pooling only, ties to 2 (the service's; the order below is the tie order). Like the times,
+a field of each family's settings: the ``parts`` family by the rule above over the seven
+sources against 2, the ``bendable`` family by its own rule (``--family bendable``) against
+2; each ships only if its condition holds (the cost is the same: 16 bands either way). The
+eigenpairs are shared with the reference study.
+
+    for w in 1 4; do mkdir -p /work/study-w$w; ln -s /work/study/cache /work/study-w$w/cache
+        .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-w$w \\
+            --wks-sigma $w; done
+    nice -n 10 .venv/bin/python bench/extraction_select.py "wks 2=/work/study" \\
+        "wks 1=/work/study-w1" "wks 4=/work/study-w4" --reference "wks 2" \\
+        --poolings area [--family bendable] --json /work/study/wks[-bendable].json
 """
 
 from __future__ import annotations

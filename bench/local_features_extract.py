@@ -10,13 +10,14 @@ saved, so that stage 2 (``bench/local_features_select.py``) only recombines:
 - ``blocks_*``: the unit blocks of the default descriptor (every weight 1).
 
     .venv/bin/python bench/local_features_extract.py SOURCES OUT [--scan KIND]
-        [--feature-share S] [--max-points N] [--cutoff-t T] [--hks-scale F]
+        [--feature-share S] [--max-points N] [--cutoff-t T] [--hks-scale F] [--wks-sigma W]
 
 ``--feature-share`` samples clean models feature-aware (``core.evaluation.feature_sampling``)
 instead of uniformly, ``--max-points`` changes the point budget (the engine's default 3000),
 ``--cutoff-t`` the adaptive cutoff's ``t`` (default 0.01), ``--hks-scale`` multiplies the
-16 heat-kernel times (default 1: 0.001 to 0.1): the studies of
-``bench/extraction_select.py``, one ``OUT`` per setting.
+16 heat-kernel times (default 1: 0.001 to 0.1), ``--wks-sigma`` sets the wave kernel's band
+width in energy steps (default 2): the studies of ``bench/extraction_select.py``, one ``OUT``
+per setting.
 
 Eigenpairs are cached under ``OUT/cache`` (the evaluation's cache layout), features under
 ``OUT/features/<kind>/<source>/``; a re-run resumes.
@@ -47,11 +48,15 @@ from core.settings import EngineSettings  # noqa: E402
 
 def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
             feature_share: float = 0.0, max_points: int | None = None,
-            cutoff_t: float | None = None, hks_scale: float = 1.0) -> None:
+            cutoff_t: float | None = None, hks_scale: float = 1.0,
+            wks_sigma: float | None = None) -> None:
     settings = EngineSettings()
     if hks_scale != 1.0:
         times = tuple(hks_scale * time for time in settings.descriptor.hks_times)
         settings = replace(settings, descriptor=replace(settings.descriptor, hks_times=times))
+    if wks_sigma:
+        settings = replace(settings,
+                           descriptor=replace(settings.descriptor, wks_sigma=wks_sigma))
     if max_points:
         settings = replace(settings, max_points=max_points)
     if cutoff_t:
@@ -116,9 +121,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--max-points", type=int)
     parser.add_argument("--cutoff-t", type=float)
     parser.add_argument("--hks-scale", type=float, default=1.0)
+    parser.add_argument("--wks-sigma", type=float)
     args = parser.parse_args(argv)
     extract(args.sources, args.out, args.scan, args.only, args.feature_share, args.max_points,
-            args.cutoff_t, args.hks_scale)
+            args.cutoff_t, args.hks_scale, args.wks_sigma)
     return 0
 
 
