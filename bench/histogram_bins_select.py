@@ -59,20 +59,24 @@ BINS = (32, 16, 64)
 BINNED = ("hks", "wks", "slope", "d2", "d1")
 
 
-def binned_spec(bins: int) -> DescriptorSpec:
-    """The spec that makes the five binned blocks, each at weight 1, and nothing else."""
-    weights = {field: 1.0 if block in BINNED else 0.0
+def recomputed_spec(blocks: tuple[str, ...], **change: object) -> DescriptorSpec:
+    """The spec that makes ``blocks``, each at weight 1, and nothing else, with the
+    descriptor settings ``change``d."""
+    weights = {field: 1.0 if block in blocks else 0.0
                for block, field in BLOCK_WEIGHTS.items()}
-    return DescriptorSpec.from_settings(replace(DescriptorSettings(), bins=bins, **weights))
+    return DescriptorSpec.from_settings(replace(DescriptorSettings(), **weights, **change))
 
 
-def base_rows(folder: Path, bins: int, cache: Path) -> np.ndarray:
-    """The ``ss4-noprop`` weighted blocks ``(m, d)`` of every model in ``folder`` with the
-    binned blocks at ``bins``; cached per source and bin count."""
-    path = cache / f"bins-{bins}-{folder.name}.npy"
+def base_rows(folder: Path, cache: Path, blocks: tuple[str, ...], **change: object
+              ) -> np.ndarray:
+    """The ``ss4-noprop`` weighted blocks ``(m, d)`` of every model in ``folder``, with
+    ``blocks`` recomputed from its stored features under the settings ``change`` and the
+    others as stored; cached per source and change."""
+    tag = "-".join(f"{name}-{value}" for name, value in sorted(change.items()))
+    path = cache / f"{tag}-{folder.name}.npy"
     if path.exists():
         return np.load(path)
-    spec = binned_spec(bins)
+    spec = recomputed_spec(blocks, **change)
     weights = BASES["ss4-noprop"]
     rows = []
     for file in sorted(folder.glob("*.npz")):
@@ -80,8 +84,8 @@ def base_rows(folder: Path, bins: int, cache: Path) -> np.ndarray:
             made = spec.blocks(data["signature"].astype(np.float64), data["areas"],
                                data["eigenvalues"], data["points"].astype(np.float64))
             stored = {key: data[f"blocks_{key}"] for key in weights
-                      if key not in BINNED and weights[key] > 0}
-        rows.append(np.concatenate([weights[key] * (made[key] if key in BINNED else stored[key])
+                      if key not in blocks and weights[key] > 0}
+        rows.append(np.concatenate([weights[key] * (made[key] if key in blocks else stored[key])
                                     for key in weights if weights[key] > 0]))
     np.save(path, np.array(rows))
     return np.load(path)
@@ -97,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
         for bins in BINS:
             bases = study.with_nonrigid({
-                source.name: base_rows(path, bins, cache)
+                source.name: base_rows(path, cache, BINNED, bins=bins)
                 for source, path in zip(sources, study.folders, strict=True)})
             yield f"bins {bins}", {
                 s.name: joined(np.hstack([bases[s.name], local[s.name]]), rings[s.name],

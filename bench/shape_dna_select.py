@@ -1,0 +1,81 @@
+"""Issue 24 follow-up: does the ShapeDNA count, chosen on capod, hold on other sources?
+
+Measurement only (the service's descriptor does not change in this step; a choice that
+ships by the rule is adopted in a later step, with its tests and the score calibration).
+Why, disclosed: written after the WKS band width held (``bench/extraction_select.py``,
+question 5), as the next setting of the descriptor chosen on capod alone: the ``dna`` block
+(Reuter et al. 2006, on Weyl's scale: ``log(lambda_j / 4 pi j)`` of the first ``dna_count``
+non-zero eigenvalues, centred), 30 values at weight 0.2. Fewer values keep the coarse
+spectrum only; more reach eigenvalues that tell finer, repeated features apart (teeth,
+threads, holes on a circle), and are noisier.
+
+The ``parts`` family's vectors as ``ss6`` joins them, the ``dna`` block recomputed from each
+model's stored eigenvalues (``bench/local_features_extract.py`` keeps those up to the
+adaptive cutoff; a shorter spectrum repeats its last value, as the service does) by
+``DescriptorSpec`` with ``dna_count`` changed, every other block as stored; the local block
+(each source encoded by words fitted on the other sources) and the ring block at weight 4
+as the service joins them.
+
+The grid, written before any score of it was seen: ``dna_count`` in {30 (the service's), 15,
+60}, ties in that order. The rule and the ship condition are the ring study's
+(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(capod-nonrigid scored apart), leave-one-source-out with a paired bootstrap against 30; ship
+only if the LOSO mean is above 30's by more than 0.002 with the 95 % interval above zero.
+The ``bendable`` family is not part of this question (it keeps 30 until asked by its own
+rule).
+
+    nice -n 10 .venv/bin/python bench/shape_dna_select.py /work/study \\
+        --json /work/study/dna.json
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from histogram_bins_select import base_rows  # noqa: E402
+from local_features_select import joined  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    SS6_RING_WEIGHT,
+    decide,
+    default_local_blocks,
+    ring_blocks,
+    score_candidates,
+    study_command,
+)
+
+COUNTS = (30, 15, 60)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args, study, cache = study_command(__doc__, argv)
+    sources, scored = study.sources, study.scored
+    local = study.with_nonrigid(default_local_blocks(sources, cache))
+    rings = ring_blocks(study)
+
+    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
+        for count in COUNTS:
+            bases = study.with_nonrigid({
+                source.name: base_rows(path, cache, ("dna",), dna_count=count)
+                for source, path in zip(sources, study.folders, strict=True)})
+            yield f"dna {count}", {
+                s.name: joined(np.hstack([bases[s.name], local[s.name]]), rings[s.name],
+                               SS6_RING_WEIGHT) for s in scored}
+
+    table, widths, queries = score_candidates(candidates(), scored)
+    order = {name: rank for rank, name in enumerate(table)}
+    decide(table, queries, order, "ShapeDNA count", tuple(s.name for s in sources), "dna 30",
+           args.json, tie_key="order", widths=widths)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
