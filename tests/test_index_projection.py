@@ -68,8 +68,13 @@ def test_a_wide_partition_holds_principal_components_and_answers_exactly() -> No
     index = ShapeIndex(None, exact_max=100, nprobe=64, projected_dims=PROJECTED_DIMS)
     index.build_partition(KEY, chunks(vectors), expected=len(vectors))
     assert index.describe(KEY) == f"pca{PROJECTED_DIMS}-ivf-sq8"
-    # A code per vector holds 256 bytes instead of 608; the full vectors stay exact.
-    assert index.nbytes() < len(vectors) * (PROJECTED_DIMS + 40) + 1_000_000
+    # A code (and each of the sqrt(2000) = 44 centroids) holds 256 values instead of 608,
+    # at the price of the projection itself: a (256, 608) matrix and a mean.
+    whole = ShapeIndex(None, exact_max=100, nprobe=64)
+    whole.build_partition(KEY, chunks(vectors), expected=len(vectors))
+    saved = (len(vectors) + 4 * 44) * (608 - PROJECTED_DIMS) - 4 * (608 + PROJECTED_DIMS * 608)
+    assert whole.nbytes() - index.nbytes() == saved
+    # The full vectors stay exact.
     held, found = index.exact_vectors(KEY, [0, 1999])
     assert found.all() and np.array_equal(held, vectors[[0, 1999]])
     queries = structured(20, 7)
@@ -117,3 +122,18 @@ def test_the_duplicates_graph_of_a_projected_partition_compares_the_full_vectors
     np.testing.assert_allclose(
         graph.cosines[order], reference.cosines[reference_order], atol=1e-6
     )
+
+
+def test_a_flat_partition_that_outgrows_its_limit_is_compressed_with_a_projection() -> None:
+    vectors = structured(800, 12)
+    index = ShapeIndex(None, exact_max=600, nprobe=64, projected_dims=PROJECTED_DIMS)
+    for index_id, vector in enumerate(vectors[:600]):
+        index.add(index_id, KEY, vector)
+    assert index.describe(KEY) == "flat"
+    for index_id, vector in enumerate(vectors[600:], start=600):  # past the limit
+        index.add(index_id, KEY, vector)
+    assert index.describe(KEY) == f"pca{PROJECTED_DIMS}-ivf-sq8"
+    assert index.partition_size(KEY) == 800
+    for query in structured(10, 13):
+        exact = np.argsort(np.linalg.norm(vectors - query, axis=1), kind="stable")[:10]
+        assert top(index, query, 10) == exact.tolist()
