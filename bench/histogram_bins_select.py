@@ -41,7 +41,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import BASES, joined  # noqa: E402
+from local_features_select import BASES, Study, joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     decide,
@@ -91,23 +91,30 @@ def base_rows(folder: Path, cache: Path, blocks: tuple[str, ...], **change: obje
     return np.load(path)
 
 
+def ss6_recomputed(study: Study, cache: Path, local: dict[str, np.ndarray],
+                   rings: dict[str, np.ndarray], blocks: tuple[str, ...],
+                   changes: dict[str, dict[str, object]]
+                   ) -> Iterator[tuple[str, dict[str, np.ndarray]]]:
+    """Per candidate (``changes``: its name -> its settings change of ``blocks``), the
+    ``ss6`` rows of every scored source of ``study`` with ``blocks`` recomputed: the local
+    block ``local`` and the ring block ``rings`` joined as the service joins them."""
+    for name, change in changes.items():
+        bases = study.with_nonrigid({
+            source.name: base_rows(path, cache, blocks, **change)
+            for source, path in zip(study.sources, study.folders, strict=True)})
+        yield name, {s.name: joined(np.hstack([bases[s.name], local[s.name]]), rings[s.name],
+                                    SS6_RING_WEIGHT) for s in study.scored}
+
+
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv)
     sources, scored = study.sources, study.scored
     rule_sources = tuple(s.name for s in sources)
     local = study.with_nonrigid(default_local_blocks(sources, cache))
     rings = ring_blocks(study)
-
-    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
-        for bins in BINS:
-            bases = study.with_nonrigid({
-                source.name: base_rows(path, cache, BINNED, bins=bins)
-                for source, path in zip(sources, study.folders, strict=True)})
-            yield f"bins {bins}", {
-                s.name: joined(np.hstack([bases[s.name], local[s.name]]), rings[s.name],
-                               SS6_RING_WEIGHT) for s in scored}
-
-    table, widths, queries = score_candidates(candidates(), scored)
+    changes = {f"bins {bins}": {"bins": bins} for bins in BINS}
+    table, widths, queries = score_candidates(
+        ss6_recomputed(study, cache, local, rings, BINNED, changes), scored)
     order = {name: rank for rank, name in enumerate(table)}
     stored, _, _ = score_candidates(
         [("ss6 (stored blocks)", {s.name: ss6_rows(s, local[s.name], rings[s.name])

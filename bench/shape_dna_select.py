@@ -32,19 +32,15 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
-import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from histogram_bins_select import base_rows  # noqa: E402
-from local_features_select import joined  # noqa: E402
+from histogram_bins_select import ss6_recomputed  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    SS6_RING_WEIGHT,
     decide,
     default_local_blocks,
     ring_blocks,
@@ -57,23 +53,13 @@ COUNTS = (30, 15, 60)
 
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv)
-    sources, scored = study.sources, study.scored
-    local = study.with_nonrigid(default_local_blocks(sources, cache))
-    rings = ring_blocks(study)
-
-    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
-        for count in COUNTS:
-            bases = study.with_nonrigid({
-                source.name: base_rows(path, cache, ("dna",), dna_count=count)
-                for source, path in zip(sources, study.folders, strict=True)})
-            yield f"dna {count}", {
-                s.name: joined(np.hstack([bases[s.name], local[s.name]]), rings[s.name],
-                               SS6_RING_WEIGHT) for s in scored}
-
-    table, widths, queries = score_candidates(candidates(), scored)
+    local = study.with_nonrigid(default_local_blocks(study.sources, cache))
+    changes = {f"dna {count}": {"dna_count": count} for count in COUNTS}
+    table, widths, queries = score_candidates(
+        ss6_recomputed(study, cache, local, ring_blocks(study), ("dna",), changes), study.scored)
     order = {name: rank for rank, name in enumerate(table)}
-    decide(table, queries, order, "ShapeDNA count", tuple(s.name for s in sources), "dna 30",
-           args.json, tie_key="order", widths=widths)
+    decide(table, queries, order, "ShapeDNA count", tuple(s.name for s in study.sources),
+           "dna 30", args.json, tie_key="order", widths=widths)
     return 0
 
 
