@@ -9,8 +9,9 @@ descriptor's 2832 padded dimensions scan ~5x faster and take ~9x fewer bytes (RE
 "Search at catalogue scale"). What it costs depends on the catalogue:
 
 * the components are orthonormal rows, so the distance between two projections is never
-  larger than the distance between the vectors: what a projection drops can only make
-  far vectors look nearer, never push a near one out;
+  larger than the distance between the vectors: a true neighbour never looks farther than
+  it is, and is missed only when more than the candidates' count of far vectors look
+  nearer than it;
 * real descriptors are nearly low-rank: on the 696 models of the seven tuning sources,
   with the directions fitted without the source queried, the 20 nearest projections held
   the true 10 nearest neighbours for six sources and 99.9 % of them for capod
