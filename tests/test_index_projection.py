@@ -137,3 +137,11 @@ def test_a_flat_partition_that_outgrows_its_limit_is_compressed_with_a_projectio
     for query in structured(10, 13):
         exact = np.argsort(np.linalg.norm(vectors - query, axis=1), kind="stable")[:10]
         assert top(index, query, 10) == exact.tolist()
+
+
+def test_the_index_counts_its_partitions_by_kind() -> None:
+    index = ShapeIndex(None, exact_max=100, nprobe=8, projected_dims=PROJECTED_DIMS)
+    index.build_partition(KEY, chunks(structured(1000, 14)), expected=1000)
+    index.build_partition(("t", "narrow"), chunks(structured(50, 15)), expected=50)
+    index.build_partition(("u", "wide"), chunks(structured(1000, 16)), expected=1000)
+    assert index.kinds() == {f"pca{PROJECTED_DIMS}-ivf-sq8": 2, "flat": 1}

@@ -95,6 +95,8 @@ def create_app(
         )
         index.rebuild()
         observe_index(len(index))
+        log.info("index built: %d models, partitions by kind %s, payload %.0f MB",
+                 len(index), index.kinds(), index.nbytes() / 1e6)
         app.state.metrics = metrics_registry(QueueCollector(sessions), IndexCollector(sessions))
         app.state.services = Services(
             settings=settings,

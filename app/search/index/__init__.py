@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import threading
 import uuid
-from collections import defaultdict
+from collections import Counter, defaultdict
 from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
@@ -214,6 +214,11 @@ class ShapeIndex:
         the codes hold N principal components) or "empty"."""
         partition = self._partitions.get(key)
         return "empty" if partition is None else partition.kind
+
+    def kinds(self) -> dict[str, int]:
+        """How many partitions of each kind (``describe``) the index holds: what an
+        operator checks after changing the ``SHAPESEARCH_INDEX_*`` settings."""
+        return dict(Counter(partition.kind for partition in list(self._partitions.values())))
 
     def is_approximate(self, key: PartitionKey) -> bool:
         partition = self._partitions.get(key)
