@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import replace
 from pathlib import Path
 
@@ -41,7 +41,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import BASES, Study, joined  # noqa: E402
+from local_features_select import Study, joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     decide,
@@ -51,6 +51,7 @@ from profile_block_select import (  # noqa: E402
     ss6_rows,
     study_command,
 )
+from proportion_blocks_select import base_rows  # noqa: E402
 
 from core.descriptor import BLOCK_WEIGHTS, DescriptorSpec  # noqa: E402
 from core.settings import DescriptorSettings  # noqa: E402
@@ -67,27 +68,21 @@ def recomputed_spec(blocks: tuple[str, ...], **change: object) -> DescriptorSpec
     return DescriptorSpec.from_settings(replace(DescriptorSettings(), **weights, **change))
 
 
-def base_rows(folder: Path, cache: Path, blocks: tuple[str, ...], **change: object
-              ) -> np.ndarray:
-    """The ``ss4-noprop`` weighted blocks ``(m, d)`` of every model in ``folder``, with
-    ``blocks`` recomputed from its stored features under the settings ``change`` and the
-    others as stored; cached per source and change."""
+def recomputed_rows(folder: Path, cache: Path, blocks: tuple[str, ...], **change: object
+                    ) -> np.ndarray:
+    """``proportion_blocks_select.base_rows`` of ``folder`` with ``blocks`` recomputed
+    from each model's stored features under the settings ``change``; cached per source and
+    change."""
     tag = "-".join(f"{name}-{value}" for name, value in sorted(change.items()))
     path = cache / f"{tag}-{folder.name}.npy"
-    if path.exists():
-        return np.load(path)
-    spec = recomputed_spec(blocks, **change)
-    weights = BASES["ss4-noprop"]
-    rows = []
-    for file in sorted(folder.glob("*.npz")):
-        with np.load(file) as data:
-            made = spec.blocks(data["signature"].astype(np.float64), data["areas"],
+    if not path.exists():
+        spec = recomputed_spec(blocks, **change)
+
+        def made(data: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+            return spec.blocks(data["signature"].astype(np.float64), data["areas"],
                                data["eigenvalues"], data["points"].astype(np.float64))
-            stored = {key: data[f"blocks_{key}"] for key in weights
-                      if key not in blocks and weights[key] > 0}
-        rows.append(np.concatenate([weights[key] * (made[key] if key in blocks else stored[key])
-                                    for key in weights if weights[key] > 0]))
-    np.save(path, np.array(rows))
+
+        np.save(path, base_rows(folder, {}, made))
     return np.load(path)
 
 
@@ -100,7 +95,7 @@ def ss6_recomputed(study: Study, cache: Path, local: dict[str, np.ndarray],
     block ``local`` and the ring block ``rings`` joined as the service joins them."""
     for name, change in changes.items():
         bases = study.with_nonrigid({
-            source.name: base_rows(path, cache, blocks, **change)
+            source.name: recomputed_rows(path, cache, blocks, **change)
             for source, path in zip(study.sources, study.folders, strict=True)})
         yield name, {s.name: joined(np.hstack([bases[s.name], local[s.name]]), rings[s.name],
                                     SS6_RING_WEIGHT) for s in study.scored}

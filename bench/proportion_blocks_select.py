@@ -28,7 +28,7 @@ import argparse
 import itertools
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -50,14 +50,21 @@ SCALES = (0.0, 0.5, 1.0)
 SS6 = "ss6 (d2 x1, d1 x1)"
 
 
-def base_rows(folder: Path, scales: dict[str, float]) -> np.ndarray:
+def base_rows(folder: Path, scales: dict[str, float],
+              made: Callable[[Mapping[str, np.ndarray]], dict[str, np.ndarray]] | None = None
+              ) -> np.ndarray:
     """The ``ss4-noprop`` weighted blocks of every model in ``folder`` ``(m, d)``, each
-    block's weight scaled by ``scales[block]`` (1 if absent; a block at 0 is left out)."""
+    block's weight scaled by ``scales[block]`` (1 if absent; a block at 0 is left out).
+    ``made``: blocks made afresh from a model's stored features, in place of its stored
+    ones (``histogram_bins_select.recomputed_rows``)."""
     weights = {key: value * scales.get(key, 1.0) for key, value in BASES["ss4-noprop"].items()}
     rows = []
     for path in sorted(folder.glob("*.npz")):
         with np.load(path) as data:
-            rows.append(np.concatenate([weights[key] * data[f"blocks_{key}"]
+            blocks = {key: data[f"blocks_{key}"] for key in weights if weights[key] > 0}
+            if made is not None:
+                blocks.update(made(data))
+            rows.append(np.concatenate([weights[key] * blocks[key]
                                         for key in weights if weights[key] > 0]))
     return np.array(rows)
 
