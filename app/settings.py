@@ -428,6 +428,18 @@ class Settings(BaseSettings):
         return [origin.strip() for origin in self.cors_origins.split(",") if origin.strip()]
 
     @property
+    def index_options(self) -> dict[str, int]:
+        """The search index's options (``ShapeIndex``'s keyword arguments), one mapping
+        for the API processes and the duplicates reports alike."""
+        return {
+            "exact_max": self.index_exact_max,
+            "compact_min": self.index_compact_min,
+            "nprobe": self.index_nprobe,
+            "rerank_factor": self.index_rerank_factor,
+            "projected_dims": self.index_projected_dims,
+        }
+
+    @property
     def worker_count(self) -> int:
         """Describes run at once: ``workers``, or one per core when unset. Processes
         (``shapesearch worker``) scale better than the embedded worker's threads, part of a

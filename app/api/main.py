@@ -85,14 +85,7 @@ def create_app(
         pin_blas_threads()
         engine = migrated_engine(settings.resolved_database_url)
         sessions = make_session_factory(engine)
-        index = ShapeIndex(
-            sessions,
-            exact_max=settings.index_exact_max,
-            compact_min=settings.index_compact_min,
-            nprobe=settings.index_nprobe,
-            rerank_factor=settings.index_rerank_factor,
-            projected_dims=settings.index_projected_dims,
-        )
+        index = ShapeIndex(sessions, **settings.index_options)
         index.rebuild()
         observe_index(len(index))
         log.info("index built: %d models, partitions by kind %s, payload %.0f MB",

@@ -37,11 +37,7 @@ def run(*, min_score: float, output_format: str, tenant: str,
         size_tolerance=size_tolerance,
     )
     sessions = open_sessions(settings.resolved_database_url)
-    report = compute_report(
-        sessions, tenant, query, exact_max=settings.index_exact_max,
-        compact_min=settings.index_compact_min, nprobe=settings.index_nprobe,
-        projected_dims=settings.index_projected_dims,
-    )
+    report = compute_report(sessions, tenant, query, **settings.index_options)
     with sessions.begin() as session:
         report_id = store_report(session, tenant, report, job_id=None)
         groups = _named(session, tenant, report)

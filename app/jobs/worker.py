@@ -117,10 +117,7 @@ def duplicates_handler(settings: Settings, sessions: Any) -> ReportHandler:
             sessions,
             claim.tenant,
             DuplicatesQuery.from_params(claim.params or {}),
-            exact_max=settings.index_exact_max,
-            compact_min=settings.index_compact_min,
-            nprobe=settings.index_nprobe,
-            projected_dims=settings.index_projected_dims,
+            **settings.index_options,
         )
         steps = ", ".join(f"{step} {seconds:.1f}s" for step, seconds in report.timings.items())
         log.info("job %s: %d group(s) among %d models (%s)", claim.job_id,

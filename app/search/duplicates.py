@@ -103,15 +103,11 @@ def compute_report(
     sessions: sessionmaker[Session],
     tenant: str,
     query: DuplicatesQuery,
-    *,
-    exact_max: int,
-    compact_min: int,
-    nprobe: int,
-    projected_dims: int = 0,
+    **index_options: int,
 ) -> ComputedReport:
     """The report of ``tenant``'s ready models of ``query.descriptor_version``; the index
-    options are the service's (``SHAPESEARCH_INDEX_*``), so the partition is the one its
-    API processes search."""
+    options (``ShapeIndex``'s keyword arguments) are the service's
+    (``Settings.index_options``), so the partition is the one its API processes search."""
     clock = time.perf_counter()
     timings: dict[str, float] = {}
 
@@ -121,10 +117,7 @@ def compute_report(
         timings[step], clock = now - clock, now
 
     key = (tenant, query.descriptor_version)
-    index = ShapeIndex(
-        sessions, exact_max=exact_max, compact_min=compact_min, nprobe=nprobe,
-        projected_dims=projected_dims, only=key,
-    )
+    index = ShapeIndex(sessions, only=key, **index_options)
     index.rebuild()
     lap("load")
     graph = index.neighbour_graph(key, query.neighbours)
