@@ -1,13 +1,13 @@
-"""Benchmark: what the local and ring blocks of issue 24 cost per part, against ``ss4`` in
-one run.
+"""Benchmark: what the local, ring and caps blocks of issue 24 cost per part, against ``ss4``
+in one run.
 
 Every loadable part of the shared parts folder and a seeded sample of capod is described end
 to end (``core.pipeline.describe``) with the default before issue 24 (``ss4``: no local
-block), its first default (``ss5``: no ring block), the present default and the ``bendable``
-family, interleaved per part (so drifting machine load falls on all alike), ``--repeats``
-times; BLAS pinned to one thread. Prints per-kind medians of wall and CPU seconds, the
-ratios to ``ss4`` and the descriptor widths (index memory and exact-search time grow with
-the width)::
+block), its first default (``ss5``: no ring block), its second (``ss6``: no caps block), the
+present default and the ``bendable`` family, interleaved per part (so drifting machine load
+falls on all alike), ``--repeats`` times; BLAS pinned to one thread. Prints per-kind
+medians of wall and CPU seconds, the ratios to ``ss4`` and the descriptor widths (index
+memory and exact-search time grow with the width)::
 
     .venv/bin/python bench/descriptor_cost.py [--capod 12] [--repeats 3]
 """
@@ -26,7 +26,11 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 from core.errors import InvalidShapeError  # noqa: E402
 from core.evaluation.sources import SHARED  # noqa: E402
-from core.evaluation.variants import SS4_DESCRIPTOR, SS5_DESCRIPTOR  # noqa: E402
+from core.evaluation.variants import (  # noqa: E402
+    SS4_DESCRIPTOR,
+    SS5_DESCRIPTOR,
+    SS6_DESCRIPTOR,
+)
 from core.pipeline import describe  # noqa: E402
 from core.settings import DESCRIPTOR_FAMILIES, EngineSettings  # noqa: E402
 
@@ -34,6 +38,7 @@ SUFFIXES = {".stl", ".ply", ".obj", ".off"}
 KINDS = {
     "ss4": EngineSettings(descriptor=SS4_DESCRIPTOR),
     "ss5": EngineSettings(descriptor=SS5_DESCRIPTOR),
+    "ss6": EngineSettings(descriptor=SS6_DESCRIPTOR),
     "default": EngineSettings(),
     "bendable": EngineSettings(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
 }

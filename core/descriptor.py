@@ -21,14 +21,16 @@ translation and scale:
 - axes: per principal axis, an area-weighted histogram of the points' offsets from the
   centroid along it, over the RMS radius;
 - ring: the angular spectrum about the first and third principal axes per shell of
-  distance from the axis (what repeats around a turned part: teeth, bolt holes, hex heads).
+  distance from the axis (what repeats around a turned part: teeth, bolt holes, hex heads);
+- caps: each end's depth-radius profile along the first and third principal axes, in the
+  part's own radius (a head, a countersink, a hub or a thread's end, whatever the length).
 
 The local block (``core.local_features``) pools every point's whole signature, and for the
 rigid family its surface variation, over a vocabulary shipped in ``core/data``: the detail
 (a screw's head, a flange's hub, a gear's teeth) that per-scale histograms drown.
 
 Layout: ``[HKS | WKS | WKS slope | eigenvalue channel | D2 | spread | D1 | normals |
-symmetry | axes | ring | local]``, blocks of weight 0 left out.
+symmetry | axes | ring | caps | local]``, blocks of weight 0 left out.
 
 Everything that changes the vector is written into ``descriptor_version``: vectors with
 different versions must never be compared. That includes the installed versions of the
@@ -52,6 +54,7 @@ from core.extrinsic import (
     angular_spectrum,
     axis_offsets,
     centroid_distance_ratios,
+    end_profiles,
     normal_axis_cosines,
     pair_distance_ratios,
     reflection_symmetry,
@@ -74,7 +77,7 @@ __all__ = [
 ]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
-_LAYOUT = "ss6"  # ss5: the local block; ss6: the ring block (issue 24)
+_LAYOUT = "ss7"  # ss5: the local block; ss6: the ring block; ss7: the caps block (issue 24)
 
 #: The libraries whose upgrade can change a descriptor for unchanged code and settings
 #: (distribution names): the linear algebra and eigensolvers (numpy, scipy, qdldl), the
@@ -90,7 +93,7 @@ BLOCK_WEIGHTS: dict[str, str] = {
     "hks": "hks_weight", "wks": "wks_weight", "slope": "wks_slope_weight", "dna": "dna_weight",
     "d2": "d2_weight", "spread": "spread_weight", "d1": "d1_weight", "normals": "normal_weight",
     "symmetry": "symmetry_weight", "axes": "axis_weight", "ring": "ring_weight",
-    "local": "local_weight",
+    "caps": "caps_weight", "local": "local_weight",
 }
 
 #: Where the shipped vocabularies live (package data).
@@ -209,6 +212,25 @@ def ring_block(points: np.ndarray, areas: np.ndarray, weight: float = 1.0) -> np
     return weight * spectrum / np.sqrt(spectrum.size)
 
 
+def caps_block(
+    points: np.ndarray, areas: np.ndarray, bins: int, depth: float, weight: float = 1.0
+) -> np.ndarray:
+    """The caps block: ``core.extrinsic.end_profiles``' square root at unit norm, times
+    ``weight``, ``(4 * bins**2,) float``.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    areas : (n,) float
+    bins : int
+        Bins per coordinate of each end's histogram.
+    depth : float
+        How deep an end reaches, in the part's median radius.
+    weight : float
+    """
+    return weight * _unit_block(np.sqrt(end_profiles(points, areas, bins, depth)))
+
+
 @dataclass(frozen=True)
 class DescriptorSpec:
     """The signature grids and histogram layout of one database.
@@ -242,6 +264,9 @@ class DescriptorSpec:
     axis_edges: tuple[float, ...]
     axis_weight: float
     ring_weight: float = 0.0
+    caps_bins: int = 6
+    caps_depth: float = 1.0
+    caps_weight: float = 0.0
     local_weight: float = 0.0
     local_encoding: str = "vlad"
     local_vocabulary: str = ""
@@ -306,6 +331,9 @@ class DescriptorSpec:
             axis_edges=tuple(np.linspace(*settings.axis_range, settings.axis_bins + 1).tolist()),
             axis_weight=settings.axis_weight,
             ring_weight=settings.ring_weight,
+            caps_bins=settings.caps_bins,
+            caps_depth=settings.caps_depth,
+            caps_weight=settings.caps_weight,
             local_weight=settings.local_weight,
             local_encoding=settings.local_encoding,
             local_vocabulary=settings.local_vocabulary,
@@ -461,6 +489,10 @@ class DescriptorSpec:
             blocks["axes"] = self.axis_weight * _unit_block(np.sqrt(offsets))
         if self.ring_weight > 0:
             blocks["ring"] = ring_block(points, areas, self.ring_weight)
+        if self.caps_weight > 0:
+            blocks["caps"] = caps_block(
+                points, areas, self.caps_bins, self.caps_depth, self.caps_weight
+            )
         return blocks
 
     def _eigenvalue_channel(self, eigenvalues: np.ndarray) -> np.ndarray:
@@ -509,7 +541,7 @@ class DescriptorSpec:
         extrinsic = {
             "d2": self.d2_weight, "spr": self.spread_weight, "d1": self.d1_weight,
             "nrm": self.normal_weight, "sym": self.symmetry_weight, "ax": self.axis_weight,
-            "ring": self.ring_weight,
+            "ring": self.ring_weight, "caps": self.caps_weight,
         }
         if self.local_weight > 0:
             # The vocabulary's own digest: a refitted file is a new version.

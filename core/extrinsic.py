@@ -17,6 +17,9 @@ part's description does not depend on how it was placed or exported:
   symmetry over all planes; the principal planes are where parts have theirs);
 - ``angular_spectrum``: what repeats around the first and third principal axes (gear and
   sprocket teeth, bolt holes, hex heads and sockets), by shells of distance from the axis.
+- ``end_profiles``: how each end of the part looks, along the first and third principal
+  axes, in the part's own radius: a screw's head is the same one diameter deep whatever
+  the screw's length.
 
 ``core.descriptor`` turns them into histogram blocks.
 """
@@ -32,6 +35,7 @@ __all__ = [
     "angular_spectrum",
     "axis_offsets",
     "centroid_distance_ratios",
+    "end_profiles",
     "neighbourhood_normals",
     "normal_axis_cosines",
     "pair_distance_ratios",
@@ -60,6 +64,12 @@ ANGULAR_BANDS: tuple[tuple[int, int], ...] = ((1, 3), (3, 6), (6, 12), (12, 24),
 
 #: Shells of distance from the axis in ``angular_spectrum`` (equal shares of the area).
 ANGULAR_SHELLS = 3
+
+#: ``end_profiles``: the radial range of its histograms, in the part's median radius, and
+#: the area share beyond each end that may be stray points (a scan's outlier does not
+#: move an end).
+END_RADIAL_RANGE = 2.5
+END_QUANTILE = 0.005
 
 
 def principal_frame(
@@ -255,3 +265,75 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray) -> np.ndarray:
     power = np.abs(coefficients) ** 2
     return np.stack([np.sqrt(power[:, low - 1 : high - 1].mean(axis=1))
                      for low, high in ANGULAR_BANDS], axis=1)
+
+
+def end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float) -> np.ndarray:
+    """Each end's depth-radius profile in the part's own radius, ``(2, 2, bins, bins)``.
+
+    About each of the first and the third principal axis (the symmetry axis of a long and
+    of a flat turned part), ``z`` is the coordinate along it and ``r`` the distance from it,
+    both over ``R``, the area-weighted median of ``r``. The two ends lie at the area-weighted
+    ``END_QUANTILE`` and ``1 - END_QUANTILE`` quantiles of ``z``. For each end, the points
+    less than ``depth`` radii deep from it give the area-weighted joint histogram of (depth
+    in ``bins`` equal bins over ``[0, depth)``, ``r / R`` in ``bins`` equal bins over
+    ``[0, END_RADIAL_RANGE)``, values beyond in the last bin), summing to 1 (zeros when the
+    end holds no area). Measured from the end and in radii, not over the part's size, a
+    profile does not change with the part's length: a socket head, a countersink or a
+    thread's end looks the same on a screw of any length.
+
+    The ends come wider first (by their area-weighted mean ``r / R``): an axis' sign is
+    arbitrary, and a head is wider than a tip. Invariant to rotation, translation, uniform
+    scale and point order.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    areas : (n,) float
+        Non-negative, not all zero.
+    bins : int
+        Bins per coordinate.
+    depth : float
+        How deep an end reaches, in radii.
+
+    Returns
+    -------
+    profiles : (2, 2, bins, bins) float
+        Axis (first, third), end (wider first), depth bin, radius bin.
+    """
+    coordinates, _, _ = principal_frame(points, areas)
+    weights = areas / areas.sum()
+    profiles = np.zeros((2, 2, bins, bins))
+    for row, (along, across) in enumerate(((0, (1, 2)), (2, (0, 1)))):
+        z = coordinates[:, along]
+        r = np.hypot(coordinates[:, across[0]], coordinates[:, across[1]])
+        radius = _weighted_quantile(r, weights, 0.5)
+        radial = r / radius if radius > 0 else np.zeros_like(r)
+        scale = radius if radius > 0 else 1.0
+        low = _weighted_quantile(z, weights, END_QUANTILE)
+        high = _weighted_quantile(z, weights, 1.0 - END_QUANTILE)
+        ends = [_end_profile((high - z) / scale, radial, weights, bins, depth),
+                _end_profile((z - low) / scale, radial, weights, bins, depth)]
+        ends.sort(key=lambda end: -end[0])
+        profiles[row] = [histogram for _, histogram in ends]
+    return profiles
+
+
+def _end_profile(depth: np.ndarray, radial: np.ndarray, weights: np.ndarray, bins: int,
+                 reach: float) -> tuple[float, np.ndarray]:
+    """One end of ``end_profiles``: its area-weighted mean ``radial`` and its histogram."""
+    inside = (depth >= 0) & (depth < reach)
+    mass = weights[inside].sum()
+    row = np.clip((depth[inside] / reach * bins).astype(int), 0, bins - 1)
+    column = np.clip((radial[inside] / END_RADIAL_RANGE * bins).astype(int), 0, bins - 1)
+    histogram = np.bincount(row * bins + column, weights=weights[inside], minlength=bins * bins)
+    if mass <= 0:
+        return 0.0, histogram.reshape(bins, bins)
+    width = float(weights[inside] @ radial[inside] / mass)
+    return width, (histogram / histogram.sum()).reshape(bins, bins)
+
+
+def _weighted_quantile(values: np.ndarray, weights: np.ndarray, share: float) -> float:
+    """The value below which ``share`` of ``weights`` (summing to 1) lies."""
+    order = np.argsort(values, kind="stable")
+    cumulative = np.cumsum(weights[order])
+    return float(values[order][min(np.searchsorted(cumulative, share), len(values) - 1)])

@@ -143,6 +143,15 @@ class DescriptorSettings:
     # leave-one-source-out +0.009 mAP over the six tuning sources (+0.010 over seven, with
     # bd-vslot's parts, a source no setting was chosen on).
     ring_weight: float = 4.0
+    # Each end's depth-radius profile along the first and third principal axes, measured
+    # from the end in the part's median radius (core.extrinsic.end_profiles), so that a
+    # kind that comes in many lengths (screws, shafts, keys) keeps its head, countersink or
+    # hub alike: ``caps_bins`` per coordinate, ends ``caps_depth`` radii deep. Chosen by
+    # bench/end_caps_select.py (issue 24, docs/results.md): weight 1, 6 bins, 1 radius,
+    # leave-one-source-out +0.005 mAP over ``ss6`` on the seven tuning sources.
+    caps_weight: float = 1.0
+    caps_bins: int = 6
+    caps_depth: float = 1.0
     # Local signatures pooled over a shipped vocabulary (core.local_features): the file
     # core/data/<local_vocabulary>.npz; each point's features are its log HKS at every time
     # (``local_columns="hks"``; "hks+wks" adds its log WKS), then its surface variation at
@@ -162,7 +171,7 @@ class DescriptorSettings:
     #: The weights of the blocks computed from the points rather than the spectrum.
     EXTRINSIC_WEIGHTS: ClassVar[tuple[str, ...]] = (
         "d2_weight", "spread_weight", "d1_weight", "normal_weight", "symmetry_weight",
-        "axis_weight", "ring_weight",
+        "axis_weight", "ring_weight", "caps_weight",
     )
     #: Every block's weight.
     WEIGHTS: ClassVar[tuple[str, ...]] = (
@@ -205,6 +214,10 @@ class DescriptorSettings:
             )
         if self.d2_pairs < 100:
             raise SettingsError("d2_pairs must be at least 100", "d2_pairs")
+        if self.caps_bins < 2 or not self.caps_depth > 0:
+            raise SettingsError(
+                "caps_bins must be >= 2 and caps_depth > 0", "caps_bins", "caps_depth"
+            )
         if self.local_weight < 0:
             raise SettingsError("local_weight must be >= 0", "local_weight")
         if self.local_weight > 0:

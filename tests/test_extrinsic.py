@@ -15,6 +15,7 @@ from core.extrinsic import (
     angular_spectrum,
     axis_offsets,
     centroid_distance_ratios,
+    end_profiles,
     normal_axis_cosines,
     principal_frame,
     reflection_symmetry,
@@ -175,7 +176,7 @@ def test_angular_spectrum_ignores_point_order() -> None:
     )
 
 
-@pytest.mark.parametrize("measure", ["centroid", "normals", "symmetry", "axes", "ring"])
+@pytest.mark.parametrize("measure", ["centroid", "normals", "symmetry", "axes", "ring", "caps"])
 def test_measurements_ignore_rotation_translation_scale_and_normal_signs(measure: str) -> None:
     points = torus_points(1200, r=0.3) * np.array([1.0, 1.6, 1.0])  # no degenerate axes
     areas = np.random.default_rng(1).uniform(0.5, 1.5, 1200)
@@ -189,6 +190,83 @@ def test_measurements_ignore_rotation_translation_scale_and_normal_signs(measure
         after = normal_axis_cosines(moved, areas, flipped)
     else:
         measurement = {"symmetry": reflection_symmetry, "axes": axis_offsets,
-                       "ring": angular_spectrum}[measure]
+                       "ring": angular_spectrum,
+                       "caps": lambda p, a: end_profiles(p, a, 6, 1.0)}[measure]
         before, after = (measurement(p, areas) for p in (points, moved))
     np.testing.assert_allclose(after, before, atol=1e-8)
+
+
+def _closed_cylinder(radius: float, length: float, count: int = 6000):
+    mesh = trimesh.creation.cylinder(radius=radius, height=length, sections=96)
+    points, _ = trimesh.sample.sample_surface_even(mesh, count, seed=0)
+    return np.asarray(points), np.full(len(points), mesh.area / len(points))
+
+
+def test_end_profiles_of_a_long_cylinder_are_its_disc_and_its_wall() -> None:
+    # Radius 1, length 8: the median distance from the axis is the wall's, R = 1. One radius
+    # deep, an end holds its disc (area pi, depth 0, r/R in [0, 1]) and a band of wall
+    # (area 2 pi, r/R = 1, spread evenly over depth): a third and two thirds.
+    points, areas = _closed_cylinder(1.0, 8.0)
+    profiles = end_profiles(points, areas, 6, 1.0)
+    first_axis = profiles[0]
+    np.testing.assert_allclose(first_axis.sum(axis=(1, 2)), 1.0)
+    # r/R = 1 falls in bin 2 of 6 over [0, 2.5); the disc's outer ring (r > 0.83) too.
+    wall_column = first_axis[:, :, 2]
+    for end in first_axis:
+        # The first depth bin holds the disc and its share of wall (as in the other bins).
+        disc = end[0].sum() - end[1:, 2].mean()
+        assert disc == pytest.approx(1 / 3, abs=0.04)
+        # The wall's two thirds spread evenly over the six depth bins.
+        np.testing.assert_allclose(end[1:, 2], 2 / 3 / 6, atol=0.02)
+        assert end[:, 3:].sum() == pytest.approx(0.0, abs=1e-9)  # nothing beyond the wall
+    # Both ends alike (the cylinder is symmetric).
+    np.testing.assert_allclose(wall_column[0], wall_column[1], atol=0.02)
+
+
+def test_end_profiles_keep_the_wider_end_first_and_ignore_point_order_and_strays() -> None:
+    # A shank with a wider head at one end: about the first axis, the head's end comes first.
+    shank = trimesh.creation.cylinder(radius=0.5, height=6.0, sections=64)
+    head = trimesh.creation.cylinder(radius=0.8, height=0.6, sections=64)
+    head.apply_translation((0.0, 0.0, -3.3))
+    mesh = trimesh.util.concatenate([shank, head])
+    points, _ = trimesh.sample.sample_surface_even(mesh, 4000, seed=1)
+    points = np.asarray(points) @ random_rotation(np.random.default_rng(5)).T
+    areas = np.full(len(points), 1.0)
+    profiles = end_profiles(points, areas, 6, 1.0)
+    radial_centres = (np.arange(6) + 0.5) * 2.5 / 6
+    widths = [(end.sum(axis=0) * radial_centres).sum() for end in profiles[0]]
+    assert widths[0] > widths[1] + 0.3
+    order = np.random.default_rng(3).permutation(len(points))
+    np.testing.assert_array_equal(end_profiles(points[order], areas[order], 6, 1.0), profiles)
+    # A stray point on the axis a radius and a half beyond an end, with a point's area,
+    # does not move the end (it lies beyond the 0.5 % quantile): were the ends the extreme
+    # points, this end's window would shift past most of its head.
+    coordinates, _, axes = principal_frame(points, areas)
+    centroid = areas @ points / areas.sum()
+    far = coordinates[:, 0].max() + 1.5 * 0.5
+    stray = np.vstack([points, centroid + far * axes[:, 0]])
+    moved = end_profiles(stray, np.append(areas, 1.0), 6, 1.0)
+    assert np.abs(moved - profiles).max() < 0.01
+
+
+def test_screw_ends_do_not_change_with_length_but_with_the_head() -> None:
+    # pymadcad's standard screws: about the first axis, an M8 socket-head screw 16 long and
+    # one 48 long have nearly the same ends; a button head of the same length does not.
+    # Measured: 0.095 between the lengths, 0.82 to the button head (bench/end_caps_select.py
+    # chose the block that holds these profiles).
+    standard = pytest.importorskip(
+        "madcad.standard", reason="pymadcad (the test extra) is not installed"
+    )
+    from core.evaluation.sources.madcad_parts import _to_trimesh
+
+    def first_axis_ends(length: float, head: str) -> np.ndarray:
+        mesh = _to_trimesh(standard.screw(8, length, head=head))
+        points, _ = trimesh.sample.sample_surface_even(mesh, 3000, seed=0)
+        profiles = end_profiles(np.asarray(points), np.ones(len(points)), 6, 1.0)
+        return np.sqrt(profiles[0]).ravel()
+
+    socket_short, socket_long = first_axis_ends(16, "SH"), first_axis_ends(48, "SH")
+    button_long = first_axis_ends(48, "BH")
+    assert np.linalg.norm(socket_short - socket_long) < 0.25 * np.linalg.norm(
+        socket_long - button_long
+    )

@@ -30,6 +30,7 @@ __all__ = [
     "SPECTRAL_DESCRIPTOR",
     "SS4_DESCRIPTOR",
     "SS5_DESCRIPTOR",
+    "SS6_DESCRIPTOR",
     "VARIANTS",
     "resolve_variants",
 ]
@@ -62,14 +63,18 @@ SPECTRAL_DESCRIPTOR = replace(
     DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0, local_weight=0.0
 )
 
-#: The default of issue 12 (``ss4``): the present one without the local and ring blocks of
-#: issue 24, with the spread and axis-offset blocks it then had.
+#: The default of issue 12 (``ss4``): the present one without the local, ring and caps
+#: blocks of issue 24, with the spread and axis-offset blocks it then had.
 SS4_DESCRIPTOR = replace(
-    DescriptorSettings(), local_weight=0.0, ring_weight=0.0, spread_weight=1.0, axis_weight=0.5
+    DescriptorSettings(), local_weight=0.0, ring_weight=0.0, caps_weight=0.0,
+    spread_weight=1.0, axis_weight=0.5,
 )
 
-#: The first default of issue 24 (``ss5``): the present one without the ring block.
-SS5_DESCRIPTOR = replace(DescriptorSettings(), ring_weight=0.0)
+#: The first default of issue 24 (``ss5``): the present one without the ring and caps blocks.
+SS5_DESCRIPTOR = replace(DescriptorSettings(), ring_weight=0.0, caps_weight=0.0)
+
+#: The second default of issue 24 (``ss6``): the present one without the caps block.
+SS6_DESCRIPTOR = replace(DescriptorSettings(), caps_weight=0.0)
 
 
 def _engine(
@@ -126,10 +131,11 @@ def _variants() -> dict[str, EngineSettings]:
         "spectral": _engine(descriptor=spectral),
         "ss3": _engine(descriptor=replace(
             default.intrinsic(), d2_weight=1.0, spread_weight=1.0, local_weight=0.0)),
-        # Issue 24: the defaults before it (ss4) and before its ring block (ss5), and the
-        # descriptor family for bendable shapes.
+        # Issue 24: the defaults before it (ss4), before its ring block (ss5) and before
+        # its caps block (ss6), and the descriptor family for bendable shapes.
         "ss4": _engine(descriptor=SS4_DESCRIPTOR),
         "ss5": _engine(descriptor=SS5_DESCRIPTOR),
+        "ss6": _engine(descriptor=SS6_DESCRIPTOR),
         "bendable": _engine(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
         "default-no-local": _engine(descriptor=replace(default, local_weight=0.0)),
         **{
