@@ -307,8 +307,8 @@ class Settings(BaseSettings):
         default=500_000,
         ge=1,
         description="An index partition built (at start-up) with more models than this "
-        "stores 4-bit codes instead of 8-bit ones: half a byte per dimension, 1.4 GB at 10^6 "
-        "models of the 2817-dim default instead of 2.8 GB, with twice the candidates "
+        "stores 4-bit codes instead of 8-bit ones: half a byte per dimension, 1.5 GB at 10^6 "
+        "models of the 2961-dim default instead of 3.0 GB, with twice the candidates "
         "re-ranked exactly (recall@10 0.994 at 10^6; bench/search_scale.py).",
     )
     index_nprobe: int = Field(

@@ -21,8 +21,8 @@ the model's integer ``index_id``. A partition is
   distances are approximate: callers fetch ``rerank_candidates(key, k)`` and re-rank them
   exactly (``app.search.similarity``) against the full vectors, which the partition keeps in a
   memory-mapped file (``app.search.full_vectors``: page cache, not the process's own memory);
-* ``ivf-sq4``: the same with 4-bit codes (0.5 d bytes per vector: 1.4 GB at 10^6 models of
-  the 2817-dim default instead of 2.8 GB) for a partition built with more than
+* ``ivf-sq4``: the same with 4-bit codes (0.5 d bytes per vector: 1.5 GB at 10^6 models of
+  the 2961-dim default instead of 3.0 GB) for a partition built with more than
   ``compact_min`` vectors. Its estimates err more, so it returns twice the candidates for
   the exact re-rank (``rerank_candidates``); its scan costs about what the 8-bit one does
   (bench/search_scale.py, README).
