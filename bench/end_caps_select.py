@@ -65,7 +65,6 @@ from __future__ import annotations
 import itertools
 import os
 import sys
-from collections.abc import Iterator
 from functools import partial
 from pathlib import Path
 
@@ -75,18 +74,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import Study, joined  # noqa: E402
-from profile_block_select import (  # noqa: E402
-    SS6_RING_WEIGHT,
-    blocks_per_source,
-    decide,
-    default_local_blocks,
-    ring_blocks,
-    score_candidates,
-    ss6_rows,
-    study_command,
-    study_samples,
-)
+from profile_block_select import added_block_question, study_command  # noqa: E402
 
 from core.descriptor import caps_block  # noqa: E402
 from core.extrinsic import end_profiles, principal_frame  # noqa: E402
@@ -94,7 +82,6 @@ from core.extrinsic import end_profiles, principal_frame  # noqa: E402
 BINS = (4, 6)
 DEPTHS = (1.0, 2.0)
 WEIGHTS = (0.5, 1.0, 2.0)
-SS6 = "ss6"
 DISTINCT_RATIOS = (1.25, 1.5, 2.0)
 ROUND2_WEIGHTS = (1.0, 1.4)
 
@@ -117,69 +104,20 @@ def distinct_caps_block(points: np.ndarray, areas: np.ndarray, ratio: float) -> 
 
 
 def main(argv: list[str] | None = None) -> int:
-    second_round = "--round" in (argv := list(sys.argv[1:] if argv is None else argv))
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # ``--round 2`` anywhere on the line; study_command parses the rest.
+    second_round = "--round" in argv and argv[argv.index("--round") + 1:][:1] == ["2"]
     if second_round:
-        index = argv.index("--round")
-        if argv[index + 1] != "2":
-            raise SystemExit("--round takes 2")
-        del argv[index:index + 2]
+        del argv[argv.index("--round"):argv.index("--round") + 2]
     args, study, cache = study_command(__doc__, argv)
-    sources, scored = study.sources, study.scored
-    rule_sources = tuple(s.name for s in sources)
-
-    local = study.with_nonrigid(default_local_blocks(sources, cache))
-    rings = ring_blocks(study)
-    samples = study_samples(study)
-    raw = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name],
-                              SS6_RING_WEIGHT * rings[s.name]]) for s in scored}
     if second_round:
-        return round_two(study, samples, local, rings, raw, args.json)
-    caps: dict[tuple[int, float], dict[str, np.ndarray]] = {}
-    timings: dict[tuple[int, float], list[float]] = {}
-    for bins, cap in itertools.product(BINS, DEPTHS):
-        timings[bins, cap] = []
-        caps[bins, cap] = study.with_nonrigid(blocks_per_source(
-            samples, partial(caps_block, bins=bins, depth=cap), timings[bins, cap]))
-
-    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
-        yield SS6, {s.name: ss6_rows(s, local[s.name], rings[s.name]) for s in scored}
-        for ((bins, cap), block), weight in itertools.product(caps.items(), WEIGHTS):
-            yield (f"ss6 + caps B{bins} H{cap:g} w{weight:g}",
-                   {s.name: joined(raw[s.name], block[s.name], weight) for s in scored})
-
-    table, widths, queries = score_candidates(candidates(), scored)
-    cost = {f"B{b} H{h:g}": float(np.median(t)) for (b, h), t in timings.items()}
-    decide(table, queries, widths, "end caps", rule_sources, SS6, args.json, widths=widths,
-           extra={"cost_ms": cost})
-    print("caps block, median ms per model:", cost)
-    return 0
-
-
-def round_two(study: Study, samples: dict[str, list[tuple[np.ndarray, np.ndarray]]],
-              local: dict[str, np.ndarray], rings: dict[str, np.ndarray],
-              raw: dict[str, np.ndarray], json_path: Path | None) -> int:
-    """Round 2 (see the docstring): ``ss6`` and the distinctness-weighted block; ``local``,
-    ``rings`` and ``raw`` hold each source's local and ring blocks and ``ss6``'s raw rows."""
-    scored = study.scored
-    rule_sources = tuple(s.name for s in study.sources)
-    blocks, timings = {}, {}
-    for ratio in DISTINCT_RATIOS:
-        timings[ratio] = []
-        blocks[ratio] = study.with_nonrigid(blocks_per_source(
-            samples, partial(distinct_caps_block, ratio=ratio), timings[ratio]))
-
-    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
-        yield SS6, {s.name: ss6_rows(s, local[s.name], rings[s.name]) for s in scored}
-        for ratio, weight in itertools.product(DISTINCT_RATIOS, ROUND2_WEIGHTS):
-            yield (f"ss6 + caps B6 H1 rho{ratio:g} w{weight:g}",
-                   {s.name: joined(raw[s.name], blocks[ratio][s.name], weight)
-                    for s in scored})
-
-    table, widths, queries = score_candidates(candidates(), scored)
-    cost = {f"rho{r:g}": float(np.median(t)) for r, t in timings.items()}
-    decide(table, queries, widths, "end caps, round 2", rule_sources, SS6, json_path,
-           widths=widths, extra={"cost_ms": cost})
-    print("caps block (round 2), median ms per model:", cost)
+        grid = {f"caps B6 H1 rho{ratio:g}": partial(distinct_caps_block, ratio=ratio)
+                for ratio in DISTINCT_RATIOS}
+        added_block_question(study, cache, grid, ROUND2_WEIGHTS, "end caps, round 2", args.json)
+    else:
+        grid = {f"caps B{bins} H{depth:g}": partial(caps_block, bins=bins, depth=depth)
+                for bins, depth in itertools.product(BINS, DEPTHS)}
+        added_block_question(study, cache, grid, WEIGHTS, "end caps", args.json)
     return 0
 
 

@@ -207,6 +207,43 @@ def blocks_per_source(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]],
     return rows
 
 
+def added_block_question(study: Study, cache: Path,
+                         grid: dict[str, Callable[[np.ndarray, np.ndarray], np.ndarray]],
+                         weights: Iterable[float], title: str, json_path: Path | None) -> None:
+    """The question "ss6 and one more block", as the ring study's rule asks it.
+
+    ``grid`` maps a label to the block of a model's stored sample ``(points, areas)``; each
+    block joins ``ss6``'s weighted blocks at each of ``weights`` (candidates
+    ``"ss6 + <label> w<weight>"``, ``ss6`` alone the reference), the whole scaled to unit
+    norm once, as the service joins blocks. Prints the table, the rule's report and each
+    label's median milliseconds per model, and writes them to ``json_path``.
+    """
+    scored = study.scored
+    local = study.with_nonrigid(default_local_blocks(study.sources, cache))
+    rings = ring_blocks(study)
+    samples = study_samples(study)
+    blocks: dict[str, dict[str, np.ndarray]] = {}
+    timings: dict[str, list[float]] = {}
+    for label, block in grid.items():
+        timings[label] = []
+        blocks[label] = study.with_nonrigid(blocks_per_source(samples, block, timings[label]))
+    # ss6's raw weighted blocks: a new block joins them before the one unit scaling.
+    raw = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name],
+                              SS6_RING_WEIGHT * rings[s.name]]) for s in scored}
+
+    def candidates() -> Iterable[tuple[str, dict[str, np.ndarray]]]:
+        yield "ss6", {s.name: ss6_rows(s, local[s.name], rings[s.name]) for s in scored}
+        for (label, block), weight in itertools.product(blocks.items(), weights):
+            yield (f"ss6 + {label} w{weight:g}",
+                   {s.name: joined(raw[s.name], block[s.name], weight) for s in scored})
+
+    table, widths, queries = score_candidates(candidates(), scored)
+    cost = {label: float(np.median(spent)) for label, spent in timings.items()}
+    decide(table, queries, widths, title, tuple(s.name for s in study.sources), "ss6",
+           json_path, widths=widths, extra={"cost_ms": cost})
+    print(f"{title}, median ms per model:", {label: round(ms, 2) for label, ms in cost.items()})
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path)

@@ -39,7 +39,6 @@ from __future__ import annotations
 import itertools
 import os
 import sys
-from collections.abc import Iterator
 from functools import partial
 from pathlib import Path
 
@@ -50,23 +49,11 @@ import numpy as np  # noqa: E402
 from scipy.special import sph_harm_y  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import joined  # noqa: E402
-from profile_block_select import (  # noqa: E402
-    SS6_RING_WEIGHT,
-    blocks_per_source,
-    decide,
-    default_local_blocks,
-    ring_blocks,
-    score_candidates,
-    ss6_rows,
-    study_command,
-    study_samples,
-)
+from profile_block_select import added_block_question, study_command  # noqa: E402
 
 SHELLS = (4, 8)
 DEGREES = (8, 16)
 WEIGHTS = (1.0, 2.0, 4.0, 8.0)
-SS6 = "ss6"
 
 
 def sphere_block(points: np.ndarray, areas: np.ndarray, shells: int, degrees: int
@@ -109,37 +96,10 @@ def sphere_block(points: np.ndarray, areas: np.ndarray, shells: int, degrees: in
 
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv)
-    sources, scored = study.sources, study.scored
-    rule_sources = tuple(s.name for s in sources)
-
-    local = study.with_nonrigid(default_local_blocks(sources, cache))
-    rings = ring_blocks(study)
-    samples = study_samples(study)
-    spheres: dict[tuple[int, int], dict[str, np.ndarray]] = {}
-    timings: dict[tuple[int, int], list[float]] = {}
-    for shells, degrees in itertools.product(SHELLS, DEGREES):
-        timings[shells, degrees] = []
-        spheres[shells, degrees] = study.with_nonrigid(blocks_per_source(
-            samples, partial(sphere_block, shells=shells, degrees=degrees),
-            timings[shells, degrees]))
-    # ss6's raw weighted blocks: a new block joins them before the one unit scaling.
-    raw = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name],
-                              SS6_RING_WEIGHT * rings[s.name]]) for s in scored}
-
-    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
-        yield SS6, {s.name: ss6_rows(s, local[s.name], rings[s.name]) for s in scored}
-        for (shells, degrees), block in spheres.items():
-            for weight in WEIGHTS:
-                yield (f"ss6 + sphere S{shells} L{degrees} w{weight:g}",
-                       {s.name: joined(raw[s.name], block[s.name], weight) for s in scored})
-
-    table, widths, queries = score_candidates(candidates(), scored)
-    cost = {f"S{s} L{d}": float(np.median(t)) for (s, d), t in timings.items()}
-    decide(table, queries, widths, "sphere block", rule_sources, SS6, args.json, widths=widths,
-           extra={"cost_ms": cost})
-    print("sphere block, median ms per model:", cost)
+    grid = {f"sphere S{shells} L{degrees}": partial(sphere_block, shells=shells, degrees=degrees)
+            for shells, degrees in itertools.product(SHELLS, DEGREES)}
+    added_block_question(study, cache, grid, WEIGHTS, "sphere block", args.json)
     return 0
-
 
 
 if __name__ == "__main__":

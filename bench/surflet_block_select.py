@@ -39,10 +39,8 @@ extrinsic: the ``bendable`` family would leave it out.
 
 from __future__ import annotations
 
-import itertools
 import os
 import sys
-from collections.abc import Iterator
 from functools import partial
 from pathlib import Path
 
@@ -52,18 +50,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import joined  # noqa: E402
-from profile_block_select import (  # noqa: E402
-    SS6_RING_WEIGHT,
-    blocks_per_source,
-    decide,
-    default_local_blocks,
-    ring_blocks,
-    score_candidates,
-    ss6_rows,
-    study_command,
-    study_samples,
-)
+from profile_block_select import added_block_question, study_command  # noqa: E402
 
 from core.extrinsic import surface_normals  # noqa: E402
 
@@ -72,7 +59,6 @@ WEIGHTS = (0.5, 1.0, 2.0)
 PAIRS = 20000
 NEIGHBOURS = 12
 DISTANCE_RANGE = 2.5
-SS6 = "ss6"
 
 
 def surflet_block(points: np.ndarray, areas: np.ndarray, distance_bins: int,
@@ -118,35 +104,10 @@ def surflet_block(points: np.ndarray, areas: np.ndarray, distance_bins: int,
 
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv)
-    sources, scored = study.sources, study.scored
-    rule_sources = tuple(s.name for s in sources)
-
-    local = study.with_nonrigid(default_local_blocks(sources, cache))
-    rings = ring_blocks(study)
-    samples = study_samples(study)
-    surflets: dict[tuple[int, int], dict[str, np.ndarray]] = {}
-    timings: dict[tuple[int, int], list[float]] = {}
-    for resolution in RESOLUTIONS:
-        timings[resolution] = []
-        surflets[resolution] = study.with_nonrigid(blocks_per_source(
-            samples, partial(surflet_block, distance_bins=resolution[0],
-                             angle_bins=resolution[1]), timings[resolution]))
-    # ss6's raw weighted blocks: a new block joins them before the one unit scaling.
-    raw = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name],
-                              SS6_RING_WEIGHT * rings[s.name]]) for s in scored}
-
-    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
-        yield SS6, {s.name: ss6_rows(s, local[s.name], rings[s.name]) for s in scored}
-        for ((distance_bins, angle_bins), block), weight in itertools.product(
-                surflets.items(), WEIGHTS):
-            yield (f"ss6 + surflet D{distance_bins} A{angle_bins} w{weight:g}",
-                   {s.name: joined(raw[s.name], block[s.name], weight) for s in scored})
-
-    table, widths, queries = score_candidates(candidates(), scored)
-    cost = {f"D{d} A{a}": float(np.median(t)) for (d, a), t in timings.items()}
-    decide(table, queries, widths, "surflet block", rule_sources, SS6, args.json, widths=widths,
-           extra={"cost_ms": cost})
-    print("surflet block, median ms per model:", cost)
+    grid = {f"surflet D{distance_bins} A{angle_bins}":
+            partial(surflet_block, distance_bins=distance_bins, angle_bins=angle_bins)
+            for distance_bins, angle_bins in RESOLUTIONS}
+    added_block_question(study, cache, grid, WEIGHTS, "surflet block", args.json)
     return 0
 
 
