@@ -209,14 +209,20 @@ def blocks_per_source(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]],
 
 def added_block_question(study: Study, cache: Path,
                          grid: dict[str, Callable[[np.ndarray, np.ndarray], np.ndarray]],
-                         weights: Iterable[float], title: str, json_path: Path | None) -> None:
+                         weights: Iterable[float], title: str, json_path: Path | None, *,
+                         reference: str = "ss6", tie_order: dict[str, int] | None = None,
+                         measure: Callable[[dict[str, np.ndarray]], float] | None = None,
+                         ) -> dict[str, object]:
     """The question "ss6 and one more block", as the ring study's rule asks it.
 
     ``grid`` maps a label to the block of a model's stored sample ``(points, areas)``; each
     block joins ``ss6``'s weighted blocks at each of ``weights`` (candidates
-    ``"ss6 + <label> w<weight>"``, ``ss6`` alone the reference), the whole scaled to unit
-    norm once, as the service joins blocks. Prints the table, the rule's report and each
-    label's median milliseconds per model, and writes them to ``json_path``.
+    ``"ss6 + <label> w<weight>"``, ``ss6`` alone), the whole scaled to unit norm once, as
+    the service joins blocks. Prints the table, the rule's report against ``reference``
+    (ties by width, or by ``tie_order`` over the candidates it names: the rule's pool) and
+    each label's median milliseconds per model, and writes them to ``json_path``;
+    ``measure`` (a candidate's unit rows per source -> a number) is recorded per candidate.
+    Returns the rule's report.
     """
     scored = study.scored
     local = study.with_nonrigid(default_local_blocks(study.sources, cache))
@@ -237,11 +243,25 @@ def added_block_question(study: Study, cache: Path,
             yield (f"ss6 + {label} w{weight:g}",
                    {s.name: joined(raw[s.name], block[s.name], weight) for s in scored})
 
-    table, widths, queries = score_candidates(candidates(), scored)
+    measured: dict[str, float] = {}
+
+    def measured_candidates() -> Iterable[tuple[str, dict[str, np.ndarray]]]:
+        for name, vectors in candidates():
+            if measure is not None:
+                measured[name] = measure(vectors)
+            yield name, vectors
+
+    table, widths, queries = score_candidates(measured_candidates(), scored)
     cost = {label: float(np.median(spent)) for label, spent in timings.items()}
-    decide(table, queries, widths, title, tuple(s.name for s in study.sources), "ss6",
-           json_path, widths=widths, extra={"cost_ms": cost})
+    report = decide(table, queries, tie_order or widths, title,
+                    tuple(s.name for s in study.sources), reference, json_path,
+                    tie_key="width" if tie_order is None else "tie order", widths=widths,
+                    pool=None if tie_order is None else list(tie_order),
+                    extra={"cost_ms": cost, "measure": measured})
     print(f"{title}, median ms per model:", {label: round(ms, 2) for label, ms in cost.items()})
+    if measure is not None:
+        print(f"{title}, measure:", {name: round(value, 4) for name, value in measured.items()})
+    return report
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -383,13 +403,15 @@ Table = dict[str, dict[str, dict[str, float]]]
 def decide(table: Table, queries: dict[str, dict[str, np.ndarray]], tie_order: dict[str, int],
            title: str, sources: tuple[str, ...], reference: str, json_path: Path | None, *,
            tie_key: str = "width", widths: dict[str, int] | None = None, by_mean: bool = False,
-           extra: dict[str, object] | None = None) -> dict[str, object]:
+           extra: dict[str, object] | None = None, pool: list[str] | None = None
+           ) -> dict[str, object]:
     """A selector's closing step: the mean over ``sources``, the candidates' table (in
     ``table``'s order, or by mean), ``rule_report`` against ``reference`` with ties broken
-    by ``tie_order``, and all of it (with ``extra``) written to ``json_path``."""
+    by ``tie_order`` among ``pool`` (default: every candidate), and all of it (with
+    ``extra``) written to ``json_path``."""
     mean = {c: float(np.mean([table[c][s]["map"] for s in sources])) for c in table}
     print_table(table, mean, sorted(table, key=lambda c: -mean[c]) if by_mean else table, widths)
-    report = rule_report(table, tie_order, queries, mean, list(table), title, sources,
+    report = rule_report(table, tie_order, queries, mean, pool or list(table), title, sources,
                          reference=reference, tie_key=tie_key)
     if json_path:
         json_path.write_text(json.dumps({"table": table, "mean": mean, "tie_order": tie_order,

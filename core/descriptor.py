@@ -213,7 +213,8 @@ def ring_block(points: np.ndarray, areas: np.ndarray, weight: float = 1.0) -> np
 
 
 def caps_block(
-    points: np.ndarray, areas: np.ndarray, bins: int, depth: float, weight: float = 1.0
+    points: np.ndarray, areas: np.ndarray, bins: int, depth: float, weight: float = 1.0,
+    sharpness: float | None = None,
 ) -> np.ndarray:
     """The caps block: ``core.extrinsic.end_profiles``' square root at unit norm, times
     ``weight``, ``(4 * bins**2,) float``.
@@ -227,8 +228,11 @@ def caps_block(
     depth : float
         How deep an end reaches, in the part's median radius.
     weight : float
+    sharpness : float, optional
+        ``end_profiles``' axis kernel (``None``: along the principal axes themselves).
     """
-    return weight * _unit_block(np.sqrt(end_profiles(points, areas, bins, depth)))
+    profiles = end_profiles(points, areas, bins, depth, sharpness)
+    return weight * _unit_block(np.sqrt(profiles))
 
 
 @dataclass(frozen=True)

@@ -35,6 +35,7 @@ __all__ = [
     "angular_spectrum",
     "axis_offsets",
     "centroid_distance_ratios",
+    "END_DIRECTIONS",
     "end_profiles",
     "neighbourhood_normals",
     "normal_axis_cosines",
@@ -42,6 +43,7 @@ __all__ = [
     "principal_frame",
     "reflection_symmetry",
     "shell_spectrum",
+    "soft_axis_weights",
     "spread_profile",
     "surface_normals",
 ]
@@ -267,7 +269,8 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray) -> np.ndarray:
                      for low, high in ANGULAR_BANDS], axis=1)
 
 
-def end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float) -> np.ndarray:
+def end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float,
+                 sharpness: float | None = None) -> np.ndarray:
     """Each end's depth-radius profile in the part's own radius, ``(2, 2, bins, bins)``.
 
     About each of the first and the third principal axis (the symmetry axis of a long and
@@ -294,28 +297,108 @@ def end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float)
         Bins per coordinate.
     depth : float
         How deep an end reaches, in radii.
+    sharpness : float, optional
+        When given, each axis' profile is the kernel-weighted mean of the profiles along
+        ``END_DIRECTIONS`` (see ``soft_axis_weights``), so that an axis the shape does not
+        define (a square plate's first, a cube's every) is averaged over the directions it
+        could take instead of following the sampling. ``None``: along the axes themselves.
 
     Returns
     -------
     profiles : (2, 2, bins, bins) float
         Axis (first, third), end (wider first), depth bin, radius bin.
     """
+    if sharpness is not None:
+        return _soft_end_profiles(points, areas, bins, depth, sharpness)
     coordinates, _, _ = principal_frame(points, areas)
     weights = areas / areas.sum()
     profiles = np.zeros((2, 2, bins, bins))
     for row, (along, across) in enumerate(((0, (1, 2)), (2, (0, 1)))):
         z = coordinates[:, along]
         r = np.hypot(coordinates[:, across[0]], coordinates[:, across[1]])
-        radius = _weighted_quantile(r, weights, 0.5)
-        radial = r / radius if radius > 0 else np.zeros_like(r)
-        scale = radius if radius > 0 else 1.0
-        low = _weighted_quantile(z, weights, END_QUANTILE)
-        high = _weighted_quantile(z, weights, 1.0 - END_QUANTILE)
-        ends = [_end_profile((high - z) / scale, radial, weights, bins, depth),
-                _end_profile((z - low) / scale, radial, weights, bins, depth)]
-        ends.sort(key=lambda end: -end[0])
-        profiles[row] = [histogram for _, histogram in ends]
+        profiles[row] = _direction_ends(z, r, weights, bins, depth)
     return profiles
+
+
+def _hemisphere(count: int) -> np.ndarray:
+    """``count`` Fibonacci directions on the upper half sphere and the three axes,
+    ``(count + 3, 3) float``: a profile's ends come wider first, so ``d`` and ``-d`` agree."""
+    index = np.arange(count) + 0.5
+    height = index / count
+    ring = np.sqrt(1.0 - height**2)
+    angle = np.pi * (3.0 - np.sqrt(5.0)) * index
+    spiral = np.column_stack([ring * np.cos(angle), ring * np.sin(angle), height])
+    return np.vstack([np.eye(3), spiral])
+
+
+#: Directions of the principal frame that ``end_profiles(..., sharpness=...)`` averages over.
+END_DIRECTIONS: np.ndarray = _hemisphere(128)
+
+#: ``soft_axis_weights`` below this share of the largest are left out (they cannot change
+#: a histogram bin by more than the float error of the others' sum).
+_NEGLIGIBLE = 1e-4
+
+
+def soft_axis_weights(variances: np.ndarray, directions: np.ndarray,
+                      sharpness: float) -> np.ndarray:
+    """How much each direction stands for the first and the third principal axis.
+
+    An estimated eigenvector turns by about the covariance's error over its eigen-gap
+    (Davis and Kahan 1970), so a direction ``d`` of the principal frame stands for the first
+    axis with weight ``exp(-s |(l1 I - C) d|^2 / l1^2)`` and for the third with
+    ``exp(-s |(C - l3 I) d|^2 / l1^2)`` (``C = diag(l)``, ``s`` the sharpness): a
+    well-separated axis keeps all the weight on itself; an axis that shares its variance
+    with another spreads it over the plane they span; a cube's, over every direction. A
+    function of ``C``, not of the frame, so the spread does not follow the sampling.
+
+    Parameters
+    ----------
+    variances : (3,) float
+        Principal variances, largest first.
+    directions : (k, 3) float
+        Unit directions in the principal frame.
+    sharpness : float
+
+    Returns
+    -------
+    weights : (2, k) float
+        Rows for the first and the third axis, each summing to 1.
+    """
+    scale = max(float(variances[0]), np.finfo(float).tiny)
+    first = ((variances[0] - variances) / scale) ** 2 @ (directions**2).T
+    third = ((variances - variances[2]) / scale) ** 2 @ (directions**2).T
+    kernels = np.exp(-sharpness * np.vstack([first, third]))
+    return kernels / kernels.sum(axis=1, keepdims=True)
+
+
+def _soft_end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float,
+                       sharpness: float) -> np.ndarray:
+    """``end_profiles`` averaged over ``END_DIRECTIONS`` by ``soft_axis_weights``."""
+    coordinates, variances, _ = principal_frame(points, areas)
+    weights = areas / areas.sum()
+    kernels = soft_axis_weights(variances, END_DIRECTIONS, sharpness)
+    used = (kernels > _NEGLIGIBLE * kernels.max(axis=1, keepdims=True)).any(axis=0)
+    profiles = np.zeros((2, 2, bins, bins))
+    for direction, kernel in zip(END_DIRECTIONS[used], kernels[:, used].T, strict=True):
+        z = coordinates @ direction
+        r = np.linalg.norm(coordinates - z[:, None] * direction, axis=1)
+        ends = _direction_ends(z, r, weights, bins, depth)
+        profiles += kernel[:, None, None, None] * ends[None]
+    return profiles
+
+
+def _direction_ends(z: np.ndarray, r: np.ndarray, weights: np.ndarray, bins: int,
+                    depth: float) -> np.ndarray:
+    """The two ends' histograms along one direction, wider first, ``(2, bins, bins)``."""
+    radius = _weighted_quantile(r, weights, 0.5)
+    radial = r / radius if radius > 0 else np.zeros_like(r)
+    scale = radius if radius > 0 else 1.0
+    low = _weighted_quantile(z, weights, END_QUANTILE)
+    high = _weighted_quantile(z, weights, 1.0 - END_QUANTILE)
+    ends = [_end_profile((high - z) / scale, radial, weights, bins, depth),
+            _end_profile((z - low) / scale, radial, weights, bins, depth)]
+    ends.sort(key=lambda end: -end[0])
+    return np.stack([histogram for _, histogram in ends])
 
 
 def _end_profile(depth: np.ndarray, radial: np.ndarray, weights: np.ndarray, bins: int,
