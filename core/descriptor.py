@@ -23,7 +23,8 @@ translation and scale:
 - ring: the angular spectrum about the first and third principal axes per shell of
   distance from the axis (what repeats around a turned part: teeth, bolt holes, hex heads);
 - caps: each end's depth-radius profile along the first and third principal axes, in the
-  part's own radius (a head, a countersink, a hub or a thread's end, whatever the length).
+  part's own radius (a head, a countersink, a hub or a thread's end, whatever the length),
+  each axis averaged over the directions it could take when the shape does not define it.
 
 The local block (``core.local_features``) pools every point's whole signature, and for the
 rigid family its surface variation, over a vocabulary shipped in ``core/data``: the detail
@@ -77,7 +78,8 @@ __all__ = [
 ]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
-_LAYOUT = "ss7"  # ss5: the local block; ss6: the ring block; ss7: the caps block (issue 24)
+# ss5: the local block; ss6: the ring block; ss7: the caps block; ss8: its soft axes (issue 24)
+_LAYOUT = "ss8"
 
 #: The libraries whose upgrade can change a descriptor for unchanged code and settings
 #: (distribution names): the linear algebra and eigensolvers (numpy, scipy, qdldl), the
@@ -271,6 +273,7 @@ class DescriptorSpec:
     caps_bins: int = 6
     caps_depth: float = 1.0
     caps_weight: float = 0.0
+    caps_sharpness: float | None = None
     local_weight: float = 0.0
     local_encoding: str = "vlad"
     local_vocabulary: str = ""
@@ -338,6 +341,7 @@ class DescriptorSpec:
             caps_bins=settings.caps_bins,
             caps_depth=settings.caps_depth,
             caps_weight=settings.caps_weight,
+            caps_sharpness=settings.caps_sharpness,
             local_weight=settings.local_weight,
             local_encoding=settings.local_encoding,
             local_vocabulary=settings.local_vocabulary,
@@ -495,7 +499,8 @@ class DescriptorSpec:
             blocks["ring"] = ring_block(points, areas, self.ring_weight)
         if self.caps_weight > 0:
             blocks["caps"] = caps_block(
-                points, areas, self.caps_bins, self.caps_depth, self.caps_weight
+                points, areas, self.caps_bins, self.caps_depth, self.caps_weight,
+                self.caps_sharpness,
             )
         return blocks
 

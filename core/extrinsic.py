@@ -321,14 +321,19 @@ def end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float,
 
 
 def _hemisphere(count: int) -> np.ndarray:
-    """``count`` Fibonacci directions on the upper half sphere and the three axes,
-    ``(count + 3, 3) float``: a profile's ends come wider first, so ``d`` and ``-d`` agree."""
+    """The three axes and about ``count`` directions on the upper half sphere, ``(k, 3)
+    float``: a Fibonacci spiral's points in one octant and their mirrors in the first two
+    axes. A profile's ends come wider first, so ``d`` and ``-d`` agree; with the mirrors,
+    the set maps onto itself when an axis' sign (which ``principal_frame`` leaves to the
+    eigensolver) flips, so the average does not depend on it."""
     index = np.arange(count) + 0.5
     height = index / count
     ring = np.sqrt(1.0 - height**2)
     angle = np.pi * (3.0 - np.sqrt(5.0)) * index
     spiral = np.column_stack([ring * np.cos(angle), ring * np.sin(angle), height])
-    return np.vstack([np.eye(3), spiral])
+    octant = spiral[(spiral[:, 0] > 0) & (spiral[:, 1] > 0)]
+    mirrors = [octant * np.array([x, y, 1.0]) for x in (1.0, -1.0) for y in (1.0, -1.0)]
+    return np.vstack([np.eye(3), *mirrors])
 
 
 #: Directions of the principal frame that ``end_profiles(..., sharpness=...)`` averages over.

@@ -152,6 +152,12 @@ class DescriptorSettings:
     caps_weight: float = 1.0
     caps_bins: int = 6
     caps_depth: float = 1.0
+    # Each axis' profile averaged over the directions the axis could take, by a kernel that
+    # narrows as the axis' eigen-gap grows (core.extrinsic.soft_axis_weights), so that a
+    # part without a defined axis (a cube, a square plate) does not change its ends from one
+    # sampling to the next; None: along the principal axes themselves (``ss7``). Chosen by
+    # round 3 of bench/end_caps_select.py: 4096, leave-one-source-out +0.0025 over ``ss7``.
+    caps_sharpness: float | None = 4096.0
     # Local signatures pooled over a shipped vocabulary (core.local_features): the file
     # core/data/<local_vocabulary>.npz; each point's features are its log HKS at every time
     # (``local_columns="hks"``; "hks+wks" adds its log WKS), then its surface variation at
@@ -218,6 +224,8 @@ class DescriptorSettings:
             raise SettingsError(
                 "caps_bins must be >= 2 and caps_depth > 0", "caps_bins", "caps_depth"
             )
+        if self.caps_sharpness is not None and not self.caps_sharpness > 0:
+            raise SettingsError("caps_sharpness must be positive (or None)", "caps_sharpness")
         if self.local_weight < 0:
             raise SettingsError("local_weight must be >= 0", "local_weight")
         if self.local_weight > 0:

@@ -76,6 +76,9 @@ SS5_DESCRIPTOR = replace(DescriptorSettings(), ring_weight=0.0, caps_weight=0.0)
 #: The second default of issue 24 (``ss6``): the present one without the caps block.
 SS6_DESCRIPTOR = replace(DescriptorSettings(), caps_weight=0.0)
 
+#: The third default of issue 24 (``ss7``): the caps block along the principal axes alone.
+SS7_DESCRIPTOR = replace(DescriptorSettings(), caps_sharpness=None)
+
 
 def _engine(
     cutoff: CutoffSettings | None = None,
@@ -131,11 +134,13 @@ def _variants() -> dict[str, EngineSettings]:
         "spectral": _engine(descriptor=spectral),
         "ss3": _engine(descriptor=replace(
             default.intrinsic(), d2_weight=1.0, spread_weight=1.0, local_weight=0.0)),
-        # Issue 24: the defaults before it (ss4), before its ring block (ss5) and before
-        # its caps block (ss6), and the descriptor family for bendable shapes.
+        # Issue 24: the defaults before it (ss4), before its ring block (ss5), before its
+        # caps block (ss6) and before the caps block's soft axes (ss7), and the descriptor
+        # family for bendable shapes.
         "ss4": _engine(descriptor=SS4_DESCRIPTOR),
         "ss5": _engine(descriptor=SS5_DESCRIPTOR),
         "ss6": _engine(descriptor=SS6_DESCRIPTOR),
+        "ss7": _engine(descriptor=SS7_DESCRIPTOR),
         "bendable": _engine(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
         "default-no-local": _engine(descriptor=replace(default, local_weight=0.0)),
         **{
