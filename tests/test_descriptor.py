@@ -139,6 +139,13 @@ def test_a_descriptor_without_blocks_is_refused() -> None:
         ).validate()
 
 
+@pytest.mark.parametrize("sharpness", [0.0, -4096.0, float("nan")])
+def test_a_caps_sharpness_that_is_not_positive_is_refused(sharpness: float) -> None:
+    with pytest.raises(ValueError, match="caps_sharpness"):
+        DescriptorSettings(caps_sharpness=sharpness).validate()
+    DescriptorSettings(caps_sharpness=None).validate()  # along the principal axes: allowed
+
+
 def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
     base = EngineSettings()
     spec = DescriptorSpec.from_settings(base.descriptor)
