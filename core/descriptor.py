@@ -195,7 +195,8 @@ def _unit_block(block: np.ndarray) -> np.ndarray:
     return flat / norm if norm > 0 else flat
 
 
-def ring_block(points: np.ndarray, areas: np.ndarray, weight: float = 1.0) -> np.ndarray:
+def ring_block(points: np.ndarray, areas: np.ndarray, weight: float = 1.0,
+               shell_centres: tuple[float, float, float] | None = None) -> np.ndarray:
     """The ring block: ``core.extrinsic.angular_spectrum`` flattened, times ``weight``, over
     the square root of its length, ``(30,) float``.
 
@@ -209,8 +210,10 @@ def ring_block(points: np.ndarray, areas: np.ndarray, weight: float = 1.0) -> np
     weight : float
         The block's weight (applied first, so the service's vectors stay bit for bit what
         they were before this helper existed).
+    shell_centres : (3,) float, optional
+        ``angular_spectrum``'s soft shells (``None``: the area tertiles).
     """
-    spectrum = angular_spectrum(points, areas).ravel()
+    spectrum = angular_spectrum(points, areas, shell_centres).ravel()
     return weight * spectrum / np.sqrt(spectrum.size)
 
 

@@ -199,7 +199,8 @@ def reflection_symmetry(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
     return np.array([weights @ gap for gap in distances]) / radius
 
 
-def angular_spectrum(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
+def angular_spectrum(points: np.ndarray, areas: np.ndarray,
+                     shell_centres: tuple[float, float, float] | None = None) -> np.ndarray:
     """What repeats around the first and the third principal axis, ``(2, 3, 5) float``.
 
     The symmetry axis of a turned part is its first principal axis when it is long (a
@@ -221,6 +222,8 @@ def angular_spectrum(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
     points : (n, 3) float
     areas : (n,) float
         Non-negative, not all zero.
+    shell_centres : (3,) float, optional
+        Soft shells (see ``shell_spectrum``); ``None``: the area tertiles.
 
     Returns
     -------
@@ -233,11 +236,13 @@ def angular_spectrum(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
     # About the first axis the angle lies in the plane of the second and third, about the
     # third in that of the first and second; the coordinate along the axis does not enter.
     for row, (u, v) in enumerate(((1, 2), (0, 1))):
-        spectrum[row] = shell_spectrum(coordinates[:, u] - 1j * coordinates[:, v], weights)
+        spectrum[row] = shell_spectrum(coordinates[:, u] - 1j * coordinates[:, v], weights,
+                                       shell_centres)
     return spectrum
 
 
-def shell_spectrum(across: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def shell_spectrum(across: np.ndarray, weights: np.ndarray,
+                   centres: tuple[float, float, float] | None = None) -> np.ndarray:
     """The band powers of ``angular_spectrum`` about one axis, ``(ANGULAR_SHELLS, bands)``.
 
     Parameters
@@ -245,7 +250,15 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray) -> np.ndarray:
     across : (n,) complex
         Each point's position across the axis, ``x - i y`` in the plane normal to it.
     weights : (n,) float
-        Non-negative; shells are their weighted tertiles of distance from the axis.
+        Non-negative; by default the shells are their weighted tertiles of distance from
+        the axis.
+    centres : (3,) float, optional
+        Soft shells instead: a point at distance ``r`` from the axis, over the weighted
+        median distance, belongs to the shells by linear interpolation between these
+        centres (all to the first below the first centre, to the last beyond the last).
+        Tertiles cut through a wall whose points all lie at one distance, and which side
+        of the cut a point falls on then follows the axis' sampling noise; a membership
+        that changes continuously with ``r`` does not jump.
     """
     highest = max(high for _, high in ANGULAR_BANDS)
     radius = np.abs(across)
@@ -255,13 +268,19 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray) -> np.ndarray:
     powers = np.cumprod(np.repeat(unit[:, None], highest - 1, axis=1), axis=1)
     order = np.argsort(radius, kind="stable")
     share = np.cumsum(weights[order])
-    shells = np.empty(len(radius), dtype=np.int64)
-    shells[order] = np.minimum(
-        (ANGULAR_SHELLS * share / share[-1]).astype(np.int64), ANGULAR_SHELLS - 1
-    )
     # One product for all shells: each row holds the weights of one shell's points.
     by_shell = np.zeros((ANGULAR_SHELLS, len(radius)))
-    by_shell[shells, np.arange(len(radius))] = weights
+    if centres is None:
+        shells = np.empty(len(radius), dtype=np.int64)
+        shells[order] = np.minimum(
+            (ANGULAR_SHELLS * share / share[-1]).astype(np.int64), ANGULAR_SHELLS - 1
+        )
+        by_shell[shells, np.arange(len(radius))] = weights
+    else:
+        median = radius[order][min(np.searchsorted(share, 0.5 * share[-1]), len(radius) - 1)]
+        relative = radius / median if median > 0 else np.zeros_like(radius)
+        for shell, indicator in enumerate(np.eye(ANGULAR_SHELLS)):
+            by_shell[shell] = weights * np.interp(relative, centres, indicator)
     mass = by_shell.sum(axis=1)
     coefficients = (by_shell @ powers) / np.where(mass > 0, mass, 1.0)[:, None]
     power = np.abs(coefficients) ** 2
