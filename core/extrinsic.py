@@ -258,7 +258,10 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray,
         centres (all to the first below the first centre, to the last beyond the last).
         Tertiles cut through a wall whose points all lie at one distance, and which side
         of the cut a point falls on then follows the axis' sampling noise; a membership
-        that changes continuously with ``r`` does not jump.
+        that changes continuously with ``r`` does not jump. A soft shell's coefficients
+        are over its mass or a third of the whole, whichever is larger: a nearly empty
+        shell (the sliver of a wall just beyond a centre, lopsided by the same noise)
+        counts by its share, not as if it were a whole shell.
     """
     highest = max(high for _, high in ANGULAR_BANDS)
     radius = np.abs(across)
@@ -282,6 +285,8 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray,
         for shell, indicator in enumerate(np.eye(ANGULAR_SHELLS)):
             by_shell[shell] = weights * np.interp(relative, centres, indicator)
     mass = by_shell.sum(axis=1)
+    if centres is not None:
+        mass = np.maximum(mass, share[-1] / ANGULAR_SHELLS)
     coefficients = (by_shell @ powers) / np.where(mass > 0, mass, 1.0)[:, None]
     power = np.abs(coefficients) ** 2
     return np.stack([np.sqrt(power[:, low - 1 : high - 1].mean(axis=1))
