@@ -4,11 +4,12 @@ in one run.
 Every loadable part of the shared parts folder and a seeded sample of capod is described end
 to end (``core.pipeline.describe``) with the default before issue 24 (``ss4``: no local
 block), its first default (``ss5``: no ring block), its second (``ss6``: no caps block), its
-third (``ss7``: the caps block along the principal axes alone), the present default and the
-``bendable`` family, interleaved per part (so drifting machine load
-falls on all alike), ``--repeats`` times; BLAS pinned to one thread. Prints per-kind
-medians of wall and CPU seconds, the ratios to ``ss4`` and the descriptor widths (index
-memory and exact-search time grow with the width)::
+third (``ss7``: the caps block along the principal axes alone), its fourth (``ss8``: the
+ring block's shells the area tertiles), the present default and the ``bendable`` family,
+interleaved per part (so drifting machine load falls on all alike), ``--repeats`` times;
+BLAS pinned to one thread. Prints per-kind medians of wall and CPU seconds, the ratios to
+``ss4`` and the descriptor widths (index memory and exact-search time grow with the
+width)::
 
     .venv/bin/python bench/descriptor_cost.py [--capod 12] [--repeats 3]
 """
@@ -32,6 +33,7 @@ from core.evaluation.variants import (  # noqa: E402
     SS5_DESCRIPTOR,
     SS6_DESCRIPTOR,
     SS7_DESCRIPTOR,
+    SS8_DESCRIPTOR,
 )
 from core.pipeline import describe  # noqa: E402
 from core.settings import DESCRIPTOR_FAMILIES, EngineSettings  # noqa: E402
@@ -42,6 +44,7 @@ KINDS = {
     "ss5": EngineSettings(descriptor=SS5_DESCRIPTOR),
     "ss6": EngineSettings(descriptor=SS6_DESCRIPTOR),
     "ss7": EngineSettings(descriptor=SS7_DESCRIPTOR),
+    "ss8": EngineSettings(descriptor=SS8_DESCRIPTOR),
     "default": EngineSettings(),
     "bendable": EngineSettings(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
 }

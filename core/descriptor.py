@@ -20,7 +20,7 @@ translation and scale:
   images in its principal frame;
 - axes: per principal axis, an area-weighted histogram of the points' offsets from the
   centroid along it, over the RMS radius;
-- ring: the angular spectrum about the first and third principal axes per shell of
+- ring: the angular spectrum about the first and third principal axes per (soft) shell of
   distance from the axis (what repeats around a turned part: teeth, bolt holes, hex heads);
 - caps: each end's depth-radius profile along the first and third principal axes, in the
   part's own radius (a head, a countersink, a hub or a thread's end, whatever the length),
@@ -78,8 +78,9 @@ __all__ = [
 ]
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
-# ss5: the local block; ss6: the ring block; ss7: the caps block; ss8: its soft axes (issue 24)
-_LAYOUT = "ss8"
+# ss5: the local block; ss6: the ring block; ss7: the caps block; ss8: its soft axes; ss9: the
+# ring block's soft shells (issue 24)
+_LAYOUT = "ss9"
 
 #: The libraries whose upgrade can change a descriptor for unchanged code and settings
 #: (distribution names): the linear algebra and eigensolvers (numpy, scipy, qdldl), the
@@ -273,6 +274,7 @@ class DescriptorSpec:
     axis_edges: tuple[float, ...]
     axis_weight: float
     ring_weight: float = 0.0
+    ring_shells: tuple[float, float, float] | None = None
     caps_bins: int = 6
     caps_depth: float = 1.0
     caps_weight: float = 0.0
@@ -341,6 +343,7 @@ class DescriptorSpec:
             axis_edges=tuple(np.linspace(*settings.axis_range, settings.axis_bins + 1).tolist()),
             axis_weight=settings.axis_weight,
             ring_weight=settings.ring_weight,
+            ring_shells=settings.ring_shells,
             caps_bins=settings.caps_bins,
             caps_depth=settings.caps_depth,
             caps_weight=settings.caps_weight,
@@ -499,7 +502,7 @@ class DescriptorSpec:
             offsets = area_histograms(axis_offsets(points, areas), areas, edges)
             blocks["axes"] = self.axis_weight * _unit_block(np.sqrt(offsets))
         if self.ring_weight > 0:
-            blocks["ring"] = ring_block(points, areas, self.ring_weight)
+            blocks["ring"] = ring_block(points, areas, self.ring_weight, self.ring_shells)
         if self.caps_weight > 0:
             blocks["caps"] = caps_block(
                 points, areas, self.caps_bins, self.caps_depth, self.caps_weight,

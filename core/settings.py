@@ -143,6 +143,13 @@ class DescriptorSettings:
     # leave-one-source-out +0.009 mAP over the six tuning sources (+0.010 over seven, with
     # bd-vslot's parts, a source no setting was chosen on).
     ring_weight: float = 4.0
+    # The ring block's three shells, soft: a point at distance r from the axis, over the
+    # median distance, belongs to them by linear interpolation between these centres
+    # (core.extrinsic.shell_spectrum), so a wall at one distance is not cut by a tertile
+    # whose side follows the sampling; None: the area tertiles (``ss8``). Chosen by
+    # bench/ring_shells_select.py: leave-one-source-out +0.0000 over ``ss8`` (95 % -0.0008 ..
+    # +0.0009), re-sampled copies closer.
+    ring_shells: tuple[float, float, float] | None = (0.5, 1.0, 1.5)
     # Each end's depth-radius profile along the first and third principal axes, measured
     # from the end in the part's median radius (core.extrinsic.end_profiles), so that a
     # kind that comes in many lengths (screws, shafts, keys) keeps its head, countersink or
@@ -224,6 +231,12 @@ class DescriptorSettings:
             raise SettingsError(
                 "caps_bins must be >= 2 and caps_depth > 0", "caps_bins", "caps_depth"
             )
+        if self.ring_shells is not None and not (
+            len(self.ring_shells) == 3 and 0 < self.ring_shells[0] < self.ring_shells[1]
+            < self.ring_shells[2]
+        ):
+            raise SettingsError("ring_shells must be 3 increasing positive centres (or None)",
+                                "ring_shells")
         if self.caps_sharpness is not None and not self.caps_sharpness > 0:
             raise SettingsError("caps_sharpness must be positive (or None)", "caps_sharpness")
         if self.local_weight < 0:

@@ -146,6 +146,15 @@ def test_a_caps_sharpness_that_is_not_positive_is_refused(sharpness: float) -> N
     DescriptorSettings(caps_sharpness=None).validate()  # along the principal axes: allowed
 
 
+@pytest.mark.parametrize("centres", [(1.0, 0.5, 1.5), (0.0, 1.0, 2.0), (0.5, 1.0)])
+def test_ring_shells_that_are_not_three_increasing_positive_centres_are_refused(
+    centres: tuple[float, ...]
+) -> None:
+    with pytest.raises(ValueError, match="ring_shells"):
+        DescriptorSettings(ring_shells=centres).validate()  # type: ignore[arg-type]
+    DescriptorSettings(ring_shells=None).validate()  # the area tertiles: allowed
+
+
 def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
     base = EngineSettings()
     spec = DescriptorSpec.from_settings(base.descriptor)
@@ -193,9 +202,11 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(caps_depth=2.0),
         DescriptorSettings(caps_sharpness=None),
         DescriptorSettings(caps_sharpness=1024.0),
+        DescriptorSettings(ring_shells=None),
+        DescriptorSettings(ring_shells=(0.25, 1.0, 1.75)),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 41
+    assert len(versions) == 43
     assert max(len(version) for version in versions) <= VERSION_LENGTH
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)
 
@@ -283,10 +294,10 @@ def _extrinsic(
 # The caps block measures each end in a window one radius deep, a few per cent of the
 # points, and about an axis that a square plate does not define (its first axis turns between
 # an edge and a diagonal from one sampling to the next): it brings more sampling noise than
-# whole-part histograms. Measured at 1500 points, two samplings of a plate lie 0.41-0.43 of
-# the way to the nearest other shape with it (0.44-0.45 along the principal axes alone, ss7)
-# and under 0.25 without it (sphere 0.17, torus 0.09); on real parts the lowest copy score
-# (the README's score table, bench/score_calibration.py) is lower than without the block.
+# whole-part histograms. Measured at 1500 points (ss9), two samplings of a plate lie 0.45 of
+# the way to the nearest other shape with it and under 0.25 without it (square plate 0.13,
+# sphere 0.19, torus 0.06); on real parts the lowest copy score (the README's score table,
+# bench/score_calibration.py) is lower than without the block.
 @pytest.mark.parametrize(("caps_weight", "bound"), [(0.0, 0.25), (1.0, 0.5)])
 def test_two_samplings_of_one_shape_are_closer_than_two_shapes(
     caps_weight: float, bound: float

@@ -48,6 +48,7 @@ from core.evaluation.variants import (
     SS5_DESCRIPTOR,
     SS6_DESCRIPTOR,
     SS7_DESCRIPTOR,
+    SS8_DESCRIPTOR,
 )
 from core.pipeline import descriptor_from_eigenpairs
 from core.settings import DESCRIPTOR_FAMILIES, DescriptorSettings, EngineSettings
@@ -75,12 +76,14 @@ _DEFAULT = DescriptorSettings()
 #: Descriptor variant -> (descriptor settings, down-weight the boundary?).
 DESCRIPTORS: dict[str, tuple[DescriptorSettings, bool]] = {
     "default": (_DEFAULT, False),
-    # Issue 24: the defaults before it, before its ring block, before its caps block and
-    # before the caps block's soft axes, and the family for bendable shapes.
+    # Issue 24: the defaults before it, before its ring block, before its caps block,
+    # before the caps block's soft axes and before the ring block's soft shells, and the
+    # family for bendable shapes.
     "ss4": (SS4_DESCRIPTOR, False),
     "ss5": (SS5_DESCRIPTOR, False),
     "ss6": (SS6_DESCRIPTOR, False),
     "ss7": (SS7_DESCRIPTOR, False),
+    "ss8": (SS8_DESCRIPTOR, False),
     "bendable": (DESCRIPTOR_FAMILIES["bendable"], False),
     "boundary": (_DEFAULT, True),
     # ShapeDNA is a global spectrum: a partial surface's eigenvalues are not the whole's.

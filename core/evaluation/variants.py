@@ -73,11 +73,16 @@ SS4_DESCRIPTOR = replace(
 #: The first default of issue 24 (``ss5``): the present one without the ring and caps blocks.
 SS5_DESCRIPTOR = replace(DescriptorSettings(), ring_weight=0.0, caps_weight=0.0)
 
-#: The second default of issue 24 (``ss6``): the present one without the caps block.
-SS6_DESCRIPTOR = replace(DescriptorSettings(), caps_weight=0.0)
+#: The second default of issue 24 (``ss6``): the present one without the caps block, the
+#: ring block's shells the area tertiles.
+SS6_DESCRIPTOR = replace(DescriptorSettings(), caps_weight=0.0, ring_shells=None)
 
-#: The third default of issue 24 (``ss7``): the caps block along the principal axes alone.
-SS7_DESCRIPTOR = replace(DescriptorSettings(), caps_sharpness=None)
+#: The third default of issue 24 (``ss7``): the caps block along the principal axes alone
+#: and the ring block's shells the area tertiles.
+SS7_DESCRIPTOR = replace(DescriptorSettings(), caps_sharpness=None, ring_shells=None)
+
+#: The fourth default of issue 24 (``ss8``): the ring block's shells the area tertiles.
+SS8_DESCRIPTOR = replace(DescriptorSettings(), ring_shells=None)
 
 
 def _engine(
@@ -135,12 +140,13 @@ def _variants() -> dict[str, EngineSettings]:
         "ss3": _engine(descriptor=replace(
             default.intrinsic(), d2_weight=1.0, spread_weight=1.0, local_weight=0.0)),
         # Issue 24: the defaults before it (ss4), before its ring block (ss5), before its
-        # caps block (ss6) and before the caps block's soft axes (ss7), and the descriptor
-        # family for bendable shapes.
+        # caps block (ss6), before the caps block's soft axes (ss7) and before the ring
+        # block's soft shells (ss8), and the descriptor family for bendable shapes.
         "ss4": _engine(descriptor=SS4_DESCRIPTOR),
         "ss5": _engine(descriptor=SS5_DESCRIPTOR),
         "ss6": _engine(descriptor=SS6_DESCRIPTOR),
         "ss7": _engine(descriptor=SS7_DESCRIPTOR),
+        "ss8": _engine(descriptor=SS8_DESCRIPTOR),
         "bendable": _engine(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
         "default-no-local": _engine(descriptor=replace(default, local_weight=0.0)),
         **{
