@@ -16,10 +16,12 @@ part's description does not depend on how it was placed or exported:
   planes and its images under half-turns and inversion (Kazhdan et al. 2002 measure
   symmetry over all planes; the principal planes are where parts have theirs);
 - ``angular_spectrum``: what repeats around the first and third principal axes (gear and
-  sprocket teeth, bolt holes, hex heads and sockets), by shells of distance from the axis.
+  sprocket teeth, bolt holes, hex heads and sockets), by (optionally soft) shells of
+  distance from the axis.
 - ``end_profiles``: how each end of the part looks, along the first and third principal
   axes, in the part's own radius: a screw's head is the same one diameter deep whatever
-  the screw's length.
+  the screw's length; optionally each axis averaged over the directions it could take
+  (``soft_axis_weights``) when the shape does not define it.
 
 ``core.descriptor`` turns them into histogram blocks.
 """
@@ -31,11 +33,11 @@ from scipy.spatial import cKDTree
 
 __all__ = [
     "ANGULAR_BANDS",
+    "END_DIRECTIONS",
     "SIGN_FLIPS",
     "angular_spectrum",
     "axis_offsets",
     "centroid_distance_ratios",
-    "END_DIRECTIONS",
     "end_profiles",
     "neighbourhood_normals",
     "normal_axis_cosines",
