@@ -101,7 +101,6 @@ the same choice, +0.0025, copies 0.931).
 from __future__ import annotations
 
 import itertools
-import json
 import os
 import sys
 from functools import partial
@@ -114,7 +113,12 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import Study  # noqa: E402
-from profile_block_select import added_block_question, study_command  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    added_block_question,
+    lowest_copy_cosine,
+    stabilisation_ships,
+    study_command,
+)
 
 from core.descriptor import caps_block  # noqa: E402
 from core.extrinsic import end_profiles, principal_frame  # noqa: E402
@@ -145,13 +149,6 @@ def distinct_caps_block(points: np.ndarray, areas: np.ndarray, ratio: float) -> 
     return np.concatenate(parts) / np.sqrt(2.0)
 
 
-def lowest_copy_cosine(rows: np.ndarray, labels: np.ndarray) -> float:
-    """The lowest cosine between two unit rows ``(m, d)`` with one label."""
-    cosines = rows @ rows.T
-    same = (labels[:, None] == labels[None, :]) & ~np.eye(len(labels), dtype=bool)
-    return float(cosines[same].min())
-
-
 def third_round(study: Study, cache: Path, json_path: Path | None) -> None:
     """Round 3 (see the docstring): the soft block against ``ss7``, by the rule and the
     three conditions."""
@@ -166,13 +163,8 @@ def third_round(study: Study, cache: Path, json_path: Path | None) -> None:
         study, cache, grid, (1.0,), "end caps, round 3", json_path, reference=SS7,
         tie_order=tie_order, measure=lambda vectors: lowest_copy_cosine(vectors["parts"],
                                                                       np.asarray(labels)))
-    chosen = str(report["chosen"])
-    _, low, _ = report[f"minus_{SS7}"]  # type: ignore[misc]
-    copies = json.loads(json_path.read_text())["measure"] if json_path else {}
-    conditions = (chosen in soft, low > -0.005,
-                  not copies or copies[chosen] > copies[SS7])
-    print(f"round 3: choice {chosen}; soft {conditions[0]}, LOSO lower end {low:+.4f} > -0.005 "
-          f"{conditions[1]}, copies {conditions[2]}; ships: {all(conditions)}")
+    stabilisation_ships(report, soft, SS7, report["measure"], "round 3",  # type: ignore[arg-type]
+                        json_path)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -181,11 +173,10 @@ def main(argv: list[str] | None = None) -> int:
     chosen_round = argv[argv.index("--round") + 1] if "--round" in argv else "1"
     if "--round" in argv:
         del argv[argv.index("--round"):argv.index("--round") + 2]
-    second_round = chosen_round == "2"
     args, study, cache = study_command(__doc__, argv)
     if chosen_round == "3":
         third_round(study, cache, args.json)
-    elif second_round:
+    elif chosen_round == "2":
         grid = {f"caps B6 H1 rho{ratio:g}": partial(distinct_caps_block, ratio=ratio)
                 for ratio in DISTINCT_RATIOS}
         added_block_question(study, cache, grid, ROUND2_WEIGHTS, "end caps, round 2", args.json)

@@ -207,6 +207,41 @@ def blocks_per_source(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]],
     return rows
 
 
+def lowest_copy_cosine(rows: np.ndarray, labels: np.ndarray) -> float:
+    """The lowest cosine between two unit rows ``(m, d)`` with one label (copies of one
+    mesh, in the ``parts`` source)."""
+    cosines = rows @ rows.T
+    same = (labels[:, None] == labels[None, :]) & ~np.eye(len(labels), dtype=bool)
+    return float(cosines[same].min())
+
+
+#: A stabilisation may give back at most this much leave-one-source-out mAP (the lower end
+#: of its 95 % interval against the default it replaces).
+STABILISATION_MARGIN = -0.005
+
+
+def stabilisation_ships(report: dict[str, object], fixes: list[str], reference: str,
+                        copies: dict[str, float], title: str,
+                        json_path: Path | None) -> bool:
+    """The ship test of a change that steadies a block rather than adds one (the caps
+    block's soft axes, the ring block's soft shells): the rule chose one of ``fixes``, its
+    leave-one-source-out interval against ``reference`` starts above
+    ``STABILISATION_MARGIN``, and the copies' lowest cosine (``copies``) rises. Prints the
+    verdict and writes it into ``json_path``'s ``ships``."""
+    chosen = str(report["chosen"])
+    _, low, _ = report[f"minus_{reference}"]  # type: ignore[misc]
+    conditions = (chosen in fixes, low > STABILISATION_MARGIN,
+                  copies[chosen] > copies[reference])
+    ships = all(conditions)
+    print(f"{title}: choice {chosen}; a fix {conditions[0]}, LOSO lower end {low:+.4f} > "
+          f"{STABILISATION_MARGIN} {conditions[1]}, copies {copies[chosen]:.4f} > "
+          f"{copies[reference]:.4f} {conditions[2]}; ships: {ships}")
+    if json_path:
+        data = json.loads(json_path.read_text())
+        json_path.write_text(json.dumps({**data, "ships": ships}, indent=1))
+    return ships
+
+
 def added_block_question(study: Study, cache: Path,
                          grid: dict[str, Callable[[np.ndarray, np.ndarray], np.ndarray]],
                          weights: Iterable[float], title: str, json_path: Path | None, *,
@@ -222,7 +257,7 @@ def added_block_question(study: Study, cache: Path,
     (ties by width, or by ``tie_order`` over the candidates it names: the rule's pool) and
     each label's median milliseconds per model, and writes them to ``json_path``;
     ``measure`` (a candidate's unit rows per source -> a number) is recorded per candidate.
-    Returns the rule's report.
+    Returns the rule's report, with the measured numbers under ``"measure"``.
     """
     scored = study.scored
     local = study.with_nonrigid(default_local_blocks(study.sources, cache))
@@ -261,7 +296,7 @@ def added_block_question(study: Study, cache: Path,
     print(f"{title}, median ms per model:", {label: round(ms, 2) for label, ms in cost.items()})
     if measure is not None:
         print(f"{title}, measure:", {name: round(value, 4) for name, value in measured.items()})
-    return report
+    return {**report, "measure": measured}
 
 
 def main(argv: list[str] | None = None) -> int:

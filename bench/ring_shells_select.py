@@ -50,7 +50,6 @@ conditions as round 1.
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from collections.abc import Iterable
@@ -63,14 +62,15 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from end_caps_select import lowest_copy_cosine  # noqa: E402
 from local_features_select import joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     blocks_per_source,
     decide,
     default_local_blocks,
+    lowest_copy_cosine,
     score_candidates,
+    stabilisation_ships,
     study_command,
     study_samples,
 )
@@ -118,16 +118,9 @@ def main(argv: list[str] | None = None) -> int:
     report = decide(table, queries, tie_order, "ring shells", tuple(s.name for s in study.sources),
                     SS8, args.json, tie_key="tie order", widths=widths, pool=list(tie_order),
                     extra={"cost_ms": cost, "copies": copies})
-    chosen = str(report["chosen"])
-    _, low, _ = report[f"minus_{SS8}"]  # type: ignore[misc]
-    conditions = (chosen in soft, low > -0.005, copies[chosen] > copies[SS8])
     print("ring block, median ms per model:", {k: round(v, 2) for k, v in cost.items()})
     print("copies' lowest cosine:", {k: round(v, 4) for k, v in copies.items()})
-    print(f"ring shells: choice {chosen}; soft {conditions[0]}, LOSO lower end {low:+.4f} > "
-          f"-0.005 {conditions[1]}, copies {conditions[2]}; ships: {all(conditions)}")
-    if args.json:
-        data = json.loads(args.json.read_text())
-        args.json.write_text(json.dumps({**data, "ships": all(conditions)}, indent=1))
+    stabilisation_ships(report, soft, SS8, copies, "ring shells", args.json)
     return 0
 
 

@@ -146,9 +146,10 @@ class DescriptorSettings:
     # The ring block's three shells, soft: a point at distance r from the axis, over the
     # median distance, belongs to them by linear interpolation between these centres
     # (core.extrinsic.shell_spectrum), so a wall at one distance is not cut by a tertile
-    # whose side follows the sampling; None: the area tertiles (``ss8``). Chosen by
-    # bench/ring_shells_select.py: leave-one-source-out +0.0000 over ``ss8`` (95 % -0.0008 ..
-    # +0.0009), re-sampled copies closer.
+    # whose side follows the sampling; a shell holding less than a third of the area counts
+    # by its share; None: the area tertiles (``ss8``). Chosen by round 2 of
+    # bench/ring_shells_select.py: leave-one-source-out +0.0011 over ``ss8`` (95 % +0.0003 ..
+    # +0.0021), re-sampled copies closer.
     ring_shells: tuple[float, float, float] | None = (0.5, 1.0, 1.5)
     # Each end's depth-radius profile along the first and third principal axes, measured
     # from the end in the part's median radius (core.extrinsic.end_profiles), so that a
@@ -163,7 +164,7 @@ class DescriptorSettings:
     # narrows as the axis' eigen-gap grows (core.extrinsic.soft_axis_weights), so that a
     # part without a defined axis (a cube, a square plate) does not change its ends from one
     # sampling to the next; None: along the principal axes themselves (``ss7``). Chosen by
-    # round 3 of bench/end_caps_select.py: 4096, leave-one-source-out +0.0025 over ``ss7``.
+    # round 3 of bench/end_caps_select.py: 4096, leave-one-source-out +0.0024 over ``ss7``.
     caps_sharpness: float | None = 4096.0
     # Local signatures pooled over a shipped vocabulary (core.local_features): the file
     # core/data/<local_vocabulary>.npz; each point's features are its log HKS at every time

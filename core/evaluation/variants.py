@@ -31,6 +31,8 @@ __all__ = [
     "SS4_DESCRIPTOR",
     "SS5_DESCRIPTOR",
     "SS6_DESCRIPTOR",
+    "SS7_DESCRIPTOR",
+    "SS8_DESCRIPTOR",
     "VARIANTS",
     "resolve_variants",
 ]
