@@ -135,7 +135,7 @@ def load_vocabulary(name: str) -> Vocabulary:
 
 
 def area_histograms(
-    values: np.ndarray, areas: np.ndarray, edges: np.ndarray, soft: bool = False
+    values: np.ndarray, areas: np.ndarray, edges: np.ndarray
 ) -> np.ndarray:
     """Area-weighted histograms, one per column, with shared fixed bin edges.
 
@@ -146,11 +146,6 @@ def area_histograms(
         Non-negative weights.
     edges : (b + 1,) float
         Increasing bin edges; values outside go to the end bins.
-    soft : bool
-        Split each value's weight between the two bins whose centres enclose it, linearly
-        by its distance to each (all to the end bin beyond the end centres): the histogram
-        then changes continuously with the values, where a hard bin count jumps whenever a
-        value crosses an edge (which a re-sampling of the same surface does at random).
 
     Returns
     -------
@@ -158,30 +153,16 @@ def area_histograms(
         Each row sums to 1.
     """
     bins = edges.size - 1
-    columns = values.shape[1]
-    # Each column's bins after the previous columns', so one bincount fills them all.
-    offsets = bins * np.arange(columns)
-    if soft:
-        centres = (edges[:-1] + edges[1:]) / 2
-        position = np.interp(values, centres, np.arange(bins, dtype=float))
-        lower = np.minimum(np.floor(position).astype(np.intp), bins - 1)
-        upper_share = position - lower
-        upper = np.minimum(lower + 1, bins - 1)
-        weights = areas[:, None] * np.stack([1.0 - upper_share, upper_share])
-        index = np.stack([lower, upper]) + offsets
-    else:
-        # Clipping keeps outliers in the end bins instead of losing them.
-        index = np.clip(np.searchsorted(edges, values, side="right") - 1, 0, bins - 1) + offsets
-        weights = np.broadcast_to(areas[:, None], values.shape)
-    histograms = np.bincount(
-        index.ravel(), weights=weights.ravel(), minlength=bins * columns
-    ).reshape(columns, bins)
+    # Bin index of every value; clipping keeps outliers in the end bins instead of losing them.
+    index = np.clip(np.searchsorted(edges, values, side="right") - 1, 0, bins - 1)
+    histograms = np.zeros((values.shape[1], bins))
+    for column in range(values.shape[1]):
+        histograms[column] = np.bincount(index[:, column], weights=areas, minlength=bins)
     return histograms / np.maximum(histograms.sum(axis=1, keepdims=True), 1e-300)
 
 
 def distance_distribution(
-    points: np.ndarray, areas: np.ndarray, edges: np.ndarray, pairs: int, seed: int,
-    soft: bool = False,
+    points: np.ndarray, areas: np.ndarray, edges: np.ndarray, pairs: int, seed: int
 ) -> np.ndarray:
     """D2 shape distribution (Osada et al. 2002) of a surface given as weighted points.
 
@@ -199,8 +180,6 @@ def distance_distribution(
     pairs : int
     seed : int
         Seeds the pair draw: the same points always give the same histogram.
-    soft : bool
-        Soft bins (``area_histograms``).
 
     Returns
     -------
@@ -208,7 +187,7 @@ def distance_distribution(
         Sums to 1.
     """
     ratios = pair_distance_ratios(points, areas, pairs, seed)
-    return area_histograms(ratios[:, None], np.ones(pairs), edges, soft)[0]
+    return area_histograms(ratios[:, None], np.ones(pairs), edges)[0]
 
 
 def _unit_block(block: np.ndarray) -> np.ndarray:
@@ -294,7 +273,6 @@ class DescriptorSpec:
     symmetry_weight: float
     axis_edges: tuple[float, ...]
     axis_weight: float
-    soft_bins: bool = False
     ring_weight: float = 0.0
     ring_shells: tuple[float, float, float] | None = None
     caps_bins: int = 6
@@ -364,7 +342,6 @@ class DescriptorSpec:
             symmetry_weight=settings.symmetry_weight,
             axis_edges=tuple(np.linspace(*settings.axis_range, settings.axis_bins + 1).tolist()),
             axis_weight=settings.axis_weight,
-            soft_bins=settings.soft_bins,
             ring_weight=settings.ring_weight,
             ring_shells=settings.ring_shells,
             caps_bins=settings.caps_bins,
@@ -454,21 +431,16 @@ class DescriptorSpec:
         n_times = len(self.times)
         blocks: dict[str, np.ndarray] = {}
         if self.hks_weight > 0:
-            hks = area_histograms(
-                signature[:, :n_times], areas, np.asarray(self.hks_edges), self.soft_bins
-            )
+            hks = area_histograms(signature[:, :n_times], areas, np.asarray(self.hks_edges))
             blocks["hks"] = self.hks_weight * _unit_block(np.sqrt(hks))
         if self.energies:
             log_wks = signature[:, n_times:]
             if self.wks_weight > 0:
-                wks = area_histograms(
-                    log_wks, areas, np.asarray(self.wks_edges), self.soft_bins
-                )
+                wks = area_histograms(log_wks, areas, np.asarray(self.wks_edges))
                 blocks["wks"] = self.wks_weight * _unit_block(np.sqrt(wks))
             if self.slope_weight > 0:
                 slope = area_histograms(
-                    np.diff(log_wks, axis=1), areas, np.asarray(self.slope_edges),
-                    self.soft_bins,
+                    np.diff(log_wks, axis=1), areas, np.asarray(self.slope_edges)
                 )
                 blocks["slope"] = self.slope_weight * _unit_block(np.sqrt(slope))
         if self.dna_count and self.dna_weight > 0:
@@ -508,31 +480,26 @@ class DescriptorSpec:
         blocks: dict[str, np.ndarray] = {}
         if self.d2_weight > 0:
             d2 = distance_distribution(
-                points, areas, np.asarray(self.d2_edges), self.d2_pairs, self.d2_seed,
-                self.soft_bins,
+                points, areas, np.asarray(self.d2_edges), self.d2_pairs, self.d2_seed
             )
             blocks["d2"] = self.d2_weight * _unit_block(np.sqrt(d2))
         if self.spread_weight > 0:
             blocks["spread"] = self.spread_weight * spread_profile(points, areas)
         if self.d1_weight > 0:
             ratios = centroid_distance_ratios(points, areas)
-            d1 = area_histograms(
-                ratios[:, None], areas, np.asarray(self.d1_edges), self.soft_bins
-            )
+            d1 = area_histograms(ratios[:, None], areas, np.asarray(self.d1_edges))
             blocks["d1"] = self.d1_weight * _unit_block(np.sqrt(d1))
         if self.normal_weight > 0:
             normals = surface_normals(points, self.normal_neighbours)
             cosines = normal_axis_cosines(points, areas, normals)
-            facing = area_histograms(
-                cosines, areas, np.asarray(self.normal_edges), self.soft_bins
-            )
+            facing = area_histograms(cosines, areas, np.asarray(self.normal_edges))
             blocks["normals"] = self.normal_weight * _unit_block(np.sqrt(facing))
         if self.symmetry_weight > 0:
             # Raw distances, not unit norm: how symmetric a part is, not only in which way.
             blocks["symmetry"] = self.symmetry_weight * reflection_symmetry(points, areas)
         if self.axis_weight > 0:
             edges = np.asarray(self.axis_edges)
-            offsets = area_histograms(axis_offsets(points, areas), areas, edges, self.soft_bins)
+            offsets = area_histograms(axis_offsets(points, areas), areas, edges)
             blocks["axes"] = self.axis_weight * _unit_block(np.sqrt(offsets))
         if self.ring_weight > 0:
             blocks["ring"] = ring_block(points, areas, self.ring_weight, self.ring_shells)

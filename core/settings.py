@@ -97,11 +97,6 @@ class DescriptorSettings:
     # 0.1 % and 99.9 % quantiles of log scaled HKS on capod lie in about [-1.9, 2.4].
     hks_range: tuple[float, float] = (-2.0, 2.5)
     bins: int = 32
-    # Soft bins: each value split between the two nearest bin centres (the histogram blocks
-    # of ``core.descriptor.area_histograms``: HKS, WKS, slope, D2, D1, normals, axes), so
-    # that a re-sampling that moves a value across an edge moves the histogram a little,
-    # not by a whole count. False: hard bins. Measured by bench/soft_bins_select.py.
-    soft_bins: bool = False
     hks_weight: float = 0.5
     wks_energies: int = 16
     # Log-eigenvalue range: unit-area lambda_2 is about e^1.4..e^3, lambda_200 about e^7.7.

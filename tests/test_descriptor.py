@@ -35,25 +35,6 @@ def test_area_histograms_rows_sum_to_one() -> None:
     np.testing.assert_allclose(histograms.sum(axis=1), 1.0)
 
 
-def test_soft_bins_split_a_value_linearly_between_the_two_nearest_centres() -> None:
-    # Bin centres 0.5, 1.5, 2.5, 3.5. A value on a centre stays whole; 1.0 (halfway) splits
-    # in halves; 1.25 gives a quarter to the centre 0.5 and three quarters to 1.5; values
-    # beyond the end centres go whole to the end bins.
-    values = np.array([[0.5], [1.0], [1.25], [-3.0], [9.0]])
-    histograms = area_histograms(values, np.ones(5), np.linspace(0.0, 4.0, 5), soft=True)
-    np.testing.assert_allclose(histograms, [[2.75 / 5, 1.25 / 5, 0.0, 1.0 / 5]])
-
-
-def test_soft_bins_change_continuously_where_hard_bins_jump() -> None:
-    # A value crossing an edge (1.0) by 2e-6 moves a whole hard count, a soft 2e-6 share.
-    edges = np.linspace(0.0, 4.0, 5)
-    below, above = np.array([[1.0 - 1e-6]]), np.array([[1.0 + 1e-6]])
-    for soft, change in ((False, 1.0), (True, 2e-6)):
-        moved = area_histograms(above, np.ones(1), edges, soft) - area_histograms(
-            below, np.ones(1), edges, soft)
-        assert np.abs(moved).sum() == pytest.approx(2 * change, rel=1e-6)
-
-
 def fake_spectrum(n_points: int = 400, k: int = 60, seed: int = 0):
     rng = np.random.default_rng(seed)
     eigenvectors, _ = np.linalg.qr(rng.standard_normal((n_points, k)))
