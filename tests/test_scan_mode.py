@@ -242,6 +242,31 @@ def test_best_view_scoring_agrees_with_a_direct_computation(
             assert [m.model.index_id for m in filtered] == [i for i, _ in wanted[:4]]
 
 
+def test_a_filter_that_few_models_pass_widens_the_search_in_rounds(
+    sessions: sessionmaker[Session],
+) -> None:
+    # One model in 30 passes the filter: the first round's candidates hold fewer than k of
+    # them, so the search widens; every later round must still apply the size filter and
+    # distance (a loop variable once shadowed it with a partition's size).
+    rng = np.random.default_rng(21)
+    entries, rare = {}, set()
+    for number in range(300):
+        rows = unit(rng.normal(size=(4, 8)))
+        kind = "rare" if number % 30 == 0 else "common"
+        index_id = add_ready(sessions, rows[0], rows[1:], {"kind": kind})
+        entries[index_id] = rows
+        if kind == "rare":
+            rare.add(index_id)
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    query = unit(rng.normal(size=8))
+    expected = [(i, d) for i, d in brute_force(entries, query) if i in rare][:5]
+    found = scan_search(index, sessions, query, k=5, filters={"kind": "rare"}, pushdown_max=0)
+    assert [m.model.index_id for m in found] == [i for i, _ in expected]
+    for match, (_, distance) in zip(found, expected, strict=True):
+        assert match.distance == pytest.approx(distance, abs=1e-5)
+
+
 def box_points(n: int, seed: int = 0) -> np.ndarray:
     """Area-uniform samples of the surface of a 2 x 1.2 x 0.8 box, ``(n, 3)``."""
     rng = np.random.default_rng(seed)

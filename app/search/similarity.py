@@ -459,8 +459,8 @@ def _best_entries(
         # A model not seen yet is no nearer than the last hit of each partition not yet
         # exhausted (inf when both are): matches up to that bound are certain.
         bound = float("inf")
-        for hits, asked, size in zip((model_hits, view_hits), wanted, sizes, strict=True):
-            if len(hits) == asked and asked < size:
+        for hits, asked, held in zip((model_hits, view_hits), wanted, sizes, strict=True):
+            if len(hits) == asked and asked < held:
                 bound = min(bound, hits[-1][-1])
         ranked = sorted(matches.values(), key=lambda m: (m.distance, m.model.index_id))
         if min_score is not None:
