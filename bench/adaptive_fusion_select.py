@@ -56,17 +56,13 @@ from profile_block_select import (  # noqa: E402
     blocks_per_source,
     decide,
     default_local_blocks,
+    score_distances,
     study_command,
     study_samples,
 )
 
 from core.descriptor import caps_block, ring_block  # noqa: E402
-from core.evaluation.metrics import (  # noqa: E402
-    average_precision,
-    pairwise_distances,
-    ranked_relevance,
-    score_rankings,
-)
+from core.evaluation.metrics import pairwise_distances  # noqa: E402
 from core.settings import DescriptorSettings  # noqa: E402
 
 SS9 = "ss9"
@@ -136,16 +132,9 @@ def main(argv: list[str] | None = None) -> int:
     scored = study.scored
     rows = block_rows(study, cache)
     grid = [(SS9, 0.0, 0)] + [(f"adaptive gamma{g:g} K{k}", g, k) for g, k in GRID]
-    table: dict[str, dict[str, dict[str, float]]] = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    for name, gamma, neighbours in grid:
-        for s in scored:
-            distances = fused_distances(rows[s.name], gamma, neighbours)
-            relevance = ranked_relevance(distances, s.labels, s.labels,
-                                         np.eye(len(s.labels), dtype=bool))
-            table.setdefault(name, {})[s.name] = score_rankings(relevance)
-            queries.setdefault(name, {})[s.name] = np.array(
-                [average_precision(r) for r in relevance if r.any()])
+    table, queries = score_distances(
+        ((name, {s.name: fused_distances(rows[s.name], gamma, neighbours) for s in scored})
+         for name, gamma, neighbours in grid), scored)
     tie_order = {name: rank for rank, (name, _, _) in enumerate(grid)}
     decide(table, queries, tie_order, "adaptive fusion", tuple(s.name for s in study.sources),
            SS9, args.json, tie_key="tie order", widths=tie_order)

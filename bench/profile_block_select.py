@@ -99,6 +99,7 @@ from positional_features_select import (  # noqa: E402
 from rerank_select import _bootstrap  # noqa: E402
 
 from core.descriptor import ring_block  # noqa: E402
+from core.evaluation.metrics import average_precision, ranked_relevance, score_rankings  # noqa: E402
 from core.extrinsic import principal_frame  # noqa: E402
 from core.local_features import Vocabulary, encode_bof, encode_vlad  # noqa: E402
 
@@ -476,6 +477,25 @@ def score_candidates(candidates: Iterable[tuple[str, dict[str, np.ndarray]]],
         queries[name] = {s.name: per_query_ap(vectors[s.name], s.labels) for s in scored}
         widths[name] = int(vectors[scored[0].name].shape[1])
     return table, widths, queries
+
+
+def score_distances(candidates: Iterable[tuple[str, dict[str, np.ndarray]]],
+                    scored: list[Source]
+                    ) -> tuple[Table, dict[str, dict[str, np.ndarray]]]:
+    """``score_candidates`` for candidates that rank by their own distances rather than
+    rows: ``(name, {source: (m, m)})``, row ``q`` ranking every model for query ``q``
+    (its own entry is left out): the scores per source and each query's average
+    precision."""
+    table: Table = {}
+    queries: dict[str, dict[str, np.ndarray]] = {}
+    for name, distances in candidates:
+        for s in scored:
+            relevance = ranked_relevance(distances[s.name], s.labels, s.labels,
+                                         np.eye(len(s.labels), dtype=bool))
+            table.setdefault(name, {})[s.name] = score_rankings(relevance)
+            queries.setdefault(name, {})[s.name] = np.array(
+                [average_precision(r) for r in relevance if r.any()])
+    return table, queries
 
 
 def print_table(table: Table, mean: dict[str, float], rows: Iterable[str],

@@ -41,16 +41,12 @@ from profile_block_select import (  # noqa: E402
     decide,
     default_local_blocks,
     ring_blocks,
+    score_distances,
     ss6_rows,
     study_command,
 )
 
-from core.evaluation.metrics import (  # noqa: E402
-    average_precision,
-    pairwise_distances,
-    ranked_relevance,
-    score_rankings,
-)
+from core.evaluation.metrics import pairwise_distances  # noqa: E402
 
 NEIGHBOURS = (1, 2, 3, 5)
 ALPHAS = (0.0, 3.0)
@@ -90,16 +86,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = {s.name: ss6_rows(s, local[s.name], rings[s.name]) for s in scored}
 
     grid = [(SS6, 0, 0.0)] + [(f"qe n{n} alpha{a:g}", n, a) for n in NEIGHBOURS for a in ALPHAS]
-    table: dict[str, dict[str, dict[str, float]]] = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    for name, neighbours, alpha in grid:
-        for s in scored:
-            distances = expanded_distances(rows[s.name], neighbours, alpha)
-            relevance = ranked_relevance(distances, s.labels, s.labels,
-                                         np.eye(len(s.labels), dtype=bool))
-            table.setdefault(name, {})[s.name] = score_rankings(relevance)
-            queries.setdefault(name, {})[s.name] = np.array(
-                [average_precision(r) for r in relevance if r.any()])
+    table, queries = score_distances(
+        ((name, {s.name: expanded_distances(rows[s.name], neighbours, alpha) for s in scored})
+         for name, neighbours, alpha in grid), scored)
     cost = {name: neighbours for name, neighbours, _ in grid}
     decide(table, queries, cost, "query expansion", rule_sources, SS6, args.json,
            tie_key="neighbours", widths=cost)
