@@ -11,6 +11,7 @@ import multiprocessing.process
 import signal
 import socket
 import sys
+from collections.abc import Sequence
 from typing import Any
 
 import uvicorn
@@ -117,7 +118,7 @@ def _serve_processes(count: int, host: str, port: int, embedded_worker: bool) ->
         return 0 if asked_to_stop else 1
 
 
-def _terminate(processes: list[multiprocessing.process.BaseProcess]) -> None:
+def _terminate(processes: Sequence[multiprocessing.process.BaseProcess]) -> None:
     for process in processes:
         if process.is_alive():
             process.terminate()  # SIGTERM: uvicorn's graceful shutdown

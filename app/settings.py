@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 from dataclasses import replace
 from pathlib import Path
-from typing import Literal
+from typing import Literal, TypedDict
 
 import numpy as np
 from pydantic import Field, ValidationInfo, field_validator
@@ -20,13 +20,30 @@ from sqlalchemy.exc import ArgumentError
 
 from core.descriptor import DescriptorSpec
 from core.errors import SettingsError
-from core.settings import DESCRIPTOR_FAMILIES, CutoffSettings, EngineSettings
+from core.settings import (
+    DESCRIPTOR_FAMILIES,
+    CutoffMode,
+    CutoffSettings,
+    EngineSettings,
+    Laplacian,
+    Normalisation,
+)
 
 __all__ = ["ENGINE_VARIABLES", "Settings", "engine_settings", "variables_of"]
 
 MIB = 1024 * 1024
 # Engine defaults come from core, so that the service and ``shapesearch describe`` agree.
 _ENGINE = EngineSettings()
+
+
+class IndexOptions(TypedDict):
+    """``ShapeIndex``'s keyword arguments from the settings (``Settings.index_options``)."""
+
+    exact_max: int
+    compact_min: int
+    nprobe: int
+    rerank_factor: int
+    projected_dims: int
 
 
 class Settings(BaseSettings):
@@ -128,10 +145,10 @@ class Settings(BaseSettings):
         default=_ENGINE.min_points,
         description="Fewer usable points than this: the shape is refused.",
     )
-    laplacian: Literal["robust", "spcl"] = Field(
+    laplacian: Laplacian = Field(
         default=_ENGINE.laplacian, description="Point-cloud Laplacian: robust or spcl."
     )
-    normalisation: Literal["area", "bbox"] = Field(
+    normalisation: Normalisation = Field(
         default=_ENGINE.normalisation,
         description="Scale normalisation: unit surface area or unit bounding box.",
     )
@@ -146,7 +163,7 @@ class Settings(BaseSettings):
         description="Outlier filter cut: a cloud point whose mean distance to its 8 nearest "
         "neighbours exceeds this many times the median of that distance is dropped.",
     )
-    cutoff_mode: Literal["adaptive", "fixed"] = Field(
+    cutoff_mode: CutoffMode = Field(
         default=_ENGINE.cutoff.mode, description="adaptive (per-model eigenpair count) or fixed."
     )
     cutoff_xi: float = Field(
@@ -428,16 +445,16 @@ class Settings(BaseSettings):
         return [origin.strip() for origin in self.cors_origins.split(",") if origin.strip()]
 
     @property
-    def index_options(self) -> dict[str, int]:
+    def index_options(self) -> IndexOptions:
         """The search index's options (``ShapeIndex``'s keyword arguments), one mapping
         for the API processes and the duplicates reports alike."""
-        return {
-            "exact_max": self.index_exact_max,
-            "compact_min": self.index_compact_min,
-            "nprobe": self.index_nprobe,
-            "rerank_factor": self.index_rerank_factor,
-            "projected_dims": self.index_projected_dims,
-        }
+        return IndexOptions(
+            exact_max=self.index_exact_max,
+            compact_min=self.index_compact_min,
+            nprobe=self.index_nprobe,
+            rerank_factor=self.index_rerank_factor,
+            projected_dims=self.index_projected_dims,
+        )
 
     @property
     def worker_count(self) -> int:

@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 from dataclasses import replace
+from typing import Any
 
 from core.errors import InvalidShapeError
 from core.pipeline import Description, describe
@@ -24,7 +25,7 @@ def parse_cutoff(text: str) -> CutoffSettings:
     raise ValueError(f"--cutoff must be 'adaptive' or 'fixed:N', not {text!r}")
 
 
-def summary(description: Description, preview: int = 8) -> dict[str, object]:
+def summary(description: Description, preview: int = 8) -> dict[str, Any]:
     """The JSON-ready summary printed by the command."""
     cutoff = description.cutoff
     return {

@@ -450,4 +450,5 @@ def _weighted_quantile(values: np.ndarray, weights: np.ndarray, share: float) ->
     """The value below which ``share`` of ``weights`` (summing to 1) lies."""
     order = np.argsort(values, kind="stable")
     cumulative = np.cumsum(weights[order])
-    return float(values[order][min(np.searchsorted(cumulative, share), len(values) - 1)])
+    position = min(int(np.searchsorted(cumulative, share)), len(values) - 1)
+    return float(values[order][position])

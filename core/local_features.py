@@ -187,7 +187,7 @@ class Vocabulary:
     def digest(self) -> str:
         """Ten hex digits of SHA-256 over the vocabulary's exact content."""
         buffer = io.BytesIO()
-        np.savez(buffer, **self._arrays())
+        np.savez(buffer, **self._arrays())  # type: ignore[arg-type]  # numpy's stubs: ** could fill allow_pickle
         return hashlib.sha256(buffer.getvalue()).hexdigest()[:10]
 
     def _arrays(self) -> dict[str, np.ndarray]:
@@ -197,7 +197,7 @@ class Vocabulary:
         }
 
     def save(self, path: str | Path) -> None:
-        np.savez(path, **self._arrays())
+        np.savez(path, **self._arrays())  # type: ignore[arg-type]  # numpy's stubs: ** could fill allow_pickle
 
     @classmethod
     def load(cls, path: str | Path) -> Vocabulary:

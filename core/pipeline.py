@@ -214,7 +214,7 @@ def descriptor_from_eigenpairs(
     eigenvalues: np.ndarray,
     eigenvectors: np.ndarray,
     areas: np.ndarray,
-    points: np.ndarray,
+    points: np.ndarray | None,
     settings: EngineSettings,
     timings: dict[str, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, str]:
@@ -226,9 +226,10 @@ def descriptor_from_eigenpairs(
     eigenvectors : (n, k) float
     areas : (n,) float
         Diagonal of the mass matrix.
-    points : (n, 3) float
+    points : (n, 3) float or None
         The points the operators were built on, for the extrinsic blocks (which do not
-        depend on position or scale, so normalised or not gives the same vector).
+        depend on position or scale, so normalised or not gives the same vector); None
+        only for settings without them.
 
     Returns
     -------

@@ -7,7 +7,7 @@ in one place, ``validate()``, so every caller gets the same refusal for the same
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 
@@ -17,11 +17,21 @@ from core.io._outliers import OUTLIER_RATIO
 __all__ = [
     "DESCRIPTOR_FAMILIES",
     "MAX_VIEWS",
+    "CutoffMode",
     "CutoffSettings",
     "DescriptorSettings",
     "EngineSettings",
+    "Laplacian",
+    "Normalisation",
     "ViewSettings",
 ]
+
+
+#: The point-cloud Laplacians, scale normalisations and cutoff modes (checked by ``validate``
+#: too: callers outside a type checker may pass any string).
+Laplacian = Literal["robust", "spcl"]
+Normalisation = Literal["area", "bbox"]
+CutoffMode = Literal["adaptive", "fixed"]
 
 
 @dataclass(frozen=True)
@@ -32,7 +42,7 @@ class CutoffSettings:
     ``mode="fixed"`` computes exactly ``n`` eigenpairs (the baseline of the paper).
     """
 
-    mode: str = "adaptive"
+    mode: CutoffMode = "adaptive"
     xi: float = 1e-10
     # With unit area lambda_n ~ 4 pi n, so the criterion's n grows like 1 / t: t = 1e-3 asked
     # for thousands of eigenpairs (always clamped to n_max); t = 0.01 gives n ~ 160-250 on
@@ -199,7 +209,8 @@ class DescriptorSettings:
         A local block that measures surface variation is extrinsic too and goes off.
         """
         local = 0.0 if self.local_neighbours else self.local_weight
-        return replace(self, **dict.fromkeys(self.EXTRINSIC_WEIGHTS, 0.0), local_weight=local)
+        off: dict[str, Any] = dict.fromkeys(self.EXTRINSIC_WEIGHTS, 0.0)
+        return replace(self, **off, local_weight=local)
 
     def validate(self) -> None:
         if not self.hks_times or min(self.hks_times) <= 0:
@@ -356,8 +367,8 @@ class EngineSettings:
 
     max_points: int = 3000
     min_points: int = 100
-    laplacian: str = "robust"
-    normalisation: str = "area"
+    laplacian: Laplacian = "robust"
+    normalisation: Normalisation = "area"
     sample_seed: int = 0
     # Drop stray points of scanned clouds (meshes are never filtered); see core/io/_outliers.py.
     outlier_filter: bool = True

@@ -98,7 +98,7 @@ _SIMILAR_RESULTS = [{"model": _SUMMARY2, "distance": 0.4176, "score": 0.9564}]
 def _raised(problem: Problem) -> dict[str, Any]:
     """The problem+json body the service answers for ``problem`` (built by
     app/api/problems.py, so the type and the title are the service's own)."""
-    body: dict[str, Any] = json.loads(problem_response(problem.record).body)
+    body: dict[str, Any] = json.loads(bytes(problem_response(problem.record).body))
     return body
 
 

@@ -12,6 +12,7 @@ also turn the engine's errors (``core.errors``: an ``InvalidShapeError`` by its 
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from http import HTTPStatus
 from typing import Any
 
@@ -113,7 +114,7 @@ class Problem(StarletteHTTPException):
 
 
 def problem_response(
-    record: dict[str, Any], headers: dict[str, str] | None = None
+    record: dict[str, Any], headers: Mapping[str, str] | None = None
 ) -> JSONResponse:
     """The problem+json response of a problem ``record`` (``app.problems.problem``)."""
     return JSONResponse(

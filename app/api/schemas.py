@@ -244,7 +244,10 @@ def model_resource(model: Model, job: Job | None = None) -> ModelResource:
 
 
 def model_summary(model: Candidate) -> ModelSummary:
-    size = None if model.size is None else size_of(*model.size.to_json().values(), model.units)
+    shape = model.size
+    size = None if shape is None else size_of(
+        shape.length, shape.width, shape.height, shape.area, shape.volume, model.units
+    )
     return ModelSummary(
         id=model.id, external_id=model.external_id, name=model.name, metadata=model.meta or {},
         size=size,

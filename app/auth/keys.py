@@ -16,6 +16,7 @@ from sqlalchemy import delete, exists, select
 from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey
+from app.db.session import rows_changed
 
 __all__ = [
     "DEFAULT_TENANT",
@@ -74,5 +75,5 @@ def revoke_key(session: Session, prefix: str) -> int:
     if len(prefix) != _PREFIX_LEN:
         return 0
     result = session.execute(delete(ApiKey).where(ApiKey.prefix == prefix))
-    return int(result.rowcount or 0)
+    return rows_changed(result)
 

@@ -179,6 +179,11 @@ def _zip_items(archive: zipfile.ZipFile, max_bytes: int) -> Iterator[SourceItem]
         yield SourceItem(info.filename, info.file_size, read, refusal)
 
 
+def _returning(content: bytes) -> Callable[[], bytes]:
+    """A reader of content already read (a stream's member cannot be read again)."""
+    return lambda: content
+
+
 def _tar_items(archive: tarfile.TarFile, max_bytes: int) -> Iterator[SourceItem]:
     # stream mode ("r|*"): one pass, member by member, also through .tar.gz/.bz2/.xz where
     # going back to an earlier member would decompress from the start again. A member can
@@ -186,7 +191,9 @@ def _tar_items(archive: tarfile.TarFile, max_bytes: int) -> Iterator[SourceItem]
     # for the next item (the consumer holds at most 2 x concurrency of them).
     try:
         while (member := archive.next()) is not None:
-            archive.members.clear()  # stream mode would keep every header it has seen
+            # Stream mode would keep every header it has seen (TarFile.members, not in the
+            # stubs).
+            archive.members.clear()  # type: ignore[attr-defined]
             if not member.isfile() or not _wanted(member.name):
                 continue
             refusal = _refusal(member.name, member.size, max_bytes)
@@ -194,9 +201,10 @@ def _tar_items(archive: tarfile.TarFile, max_bytes: int) -> Iterator[SourceItem]
             if refusal is None:
                 extracted = archive.extractfile(member)
                 content = _capped(extracted.read, max_bytes) if extracted else b""
-            yield SourceItem(member.name, member.size, lambda content=content: content, refusal)
+            yield SourceItem(member.name, member.size, _returning(content), refusal)
     except (tarfile.TarError, *READ_ERRORS) as error:
-        raise ValueError(f"{archive.name}: the archive cannot be read on: {error}") from error
+        name = os.fsdecode(archive.name) if archive.name is not None else "the archive"
+        raise ValueError(f"{name}: the archive cannot be read on: {error}") from error
 
 
 @contextmanager

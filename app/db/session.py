@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import psycopg
-from sqlalchemy import Engine, create_engine, event
+from sqlalchemy import CursorResult, Engine, Result, create_engine, event
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.migrate import upgrade
 
-__all__ = ["make_engine", "make_session_factory", "migrated_engine", "open_sessions", "read_only"]
+__all__ = [
+    "make_engine", "make_session_factory", "migrated_engine", "open_sessions", "read_only",
+    "rows_changed",
+]
 
 
 def make_engine(url: str) -> Engine:
@@ -93,7 +96,7 @@ def read_only(engine: Engine) -> Engine:
 class _BinaryCursor(psycopg.Cursor[Any]):
     """A psycopg cursor that asks for binary results unless told otherwise."""
 
-    def execute(  # type: ignore[override]
+    def execute(
         self,
         query: Any,
         params: Any = None,
@@ -119,3 +122,9 @@ def _postgres_engine(url: str | URL, **options: Any) -> Engine:
         dbapi_connection.commit()
 
     return engine
+
+
+def rows_changed(result: Result[Any]) -> int:
+    """How many rows an UPDATE or DELETE changed: its cursor's ``rowcount`` (SQLAlchemy
+    types ``Session.execute``'s result without it)."""
+    return int(cast(CursorResult[Any], result).rowcount or 0)

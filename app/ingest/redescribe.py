@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import uuid
 
-from sqlalchemy import func, select
+from sqlalchemy import ColumnElement, func, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import Model
@@ -33,6 +33,7 @@ def enqueue_models(
 ) -> list[uuid.UUID]:
     """Queue a job per chosen model; returns the job ids. Default choice: every model not
     failed whose descriptor_version differs from ``current``."""
+    where: list[ColumnElement[bool]]
     if everything:
         where = [Model.id.is_not(None)]
     elif from_version is not None:

@@ -136,7 +136,7 @@ def latest_jobs(session: Session, model_ids: Iterable[uuid.UUID]) -> dict[uuid.U
     jobs = session.scalars(
         select(Job).where(Job.model_id.in_(ids)).order_by(Job.created_at, Job.id)
     ).all()
-    return {job.model_id: job for job in jobs}  # later rows win
+    return {job.model_id: job for job in jobs if job.model_id is not None}  # later rows win
 
 
 def create_model_rows(

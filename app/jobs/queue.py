@@ -35,6 +35,7 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.feed import record_event
 from app.db.models import Job, Model, Upload, utcnow
+from app.db.session import rows_changed
 from app.ingest.revisions import mark_revision_failed, promote, revision_content
 from app.jobs.lease import backoff_seconds, claim_next
 from app.problems import problem
@@ -147,7 +148,7 @@ class JobQueue:
             result = session.execute(
                 update(Job).where(self._held(claim)).values(leased_until=now + self.lease)
             )
-            return result.rowcount == 1
+            return rows_changed(result) == 1
 
     # --- ending a claim ---------------------------------------------------------------
 
@@ -157,19 +158,23 @@ class JobQueue:
         ``result`` holds the Model columns to write (descriptor, cutoff, ...). Returns False,
         writing nothing, when the claim no longer holds the job.
         """
+        model_id = claim.model_id
+        if model_id is None:
+            raise ValueError("complete() stores a model's description; a report's job ends "
+                             "with complete_report()")
         now = utcnow()
         with self.sessions.begin() as session:
             if not self._mark_done(session, claim, now):
                 return False
-            promote(session, claim.job_id, claim.model_id)  # a new revision's file, if any
+            promote(session, claim.job_id, model_id)  # a new revision's file, if any
             index_id, tenant = session.execute(
                 update(Model)
-                .where(Model.id == claim.model_id)
+                .where(Model.id == model_id)
                 .values(status="ready", error=None, updated_at=now, **result)
                 .returning(Model.index_id, Model.tenant)
             ).one()
             record_event(session, index_id, "ready", tenant)
-            record_model_event(session, claim.model_id, "model.ready", claim.job_id)
+            record_model_event(session, model_id, "model.ready", claim.job_id)
         return True
 
     def complete_report(self, claim: Claim, store: Callable[[Session], object]) -> bool:
@@ -188,7 +193,7 @@ class JobQueue:
             .where(self._held(claim))
             .values(status="done", leased_until=None, last_error=None, updated_at=now)
         )
-        return bool(done.rowcount == 1)
+        return rows_changed(done) == 1
 
     def fail(self, claim: Claim, error: dict[str, Any]) -> bool:
         """Give up on the job: the model is failed with ``error`` ({type, title, detail})."""
@@ -199,7 +204,7 @@ class JobQueue:
                 .where(self._held(claim))
                 .values(status="failed", leased_until=None, last_error=error, updated_at=now)
             )
-            if failed.rowcount != 1:
+            if rows_changed(failed) != 1:
                 return False
             if claim.model_id is None:
                 return True
@@ -239,7 +244,7 @@ class JobQueue:
                     **job_values,
                 )
             )
-            if queued.rowcount != 1:
+            if rows_changed(queued) != 1:
                 return False
             if claim.model_id is not None:
                 session.execute(

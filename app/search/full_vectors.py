@@ -100,7 +100,8 @@ class FullVectors:
             return
         self._rows.flush()
         os.fsync(self._file.fileno())
-        self._rows._mmap.madvise(mmap.MADV_DONTNEED)  # unmap this process's pages
+        # numpy keeps the mapping private (no typed accessor): unmap this process's pages.
+        self._rows._mmap.madvise(mmap.MADV_DONTNEED)  # type: ignore[attr-defined]
         if hasattr(os, "posix_fadvise"):  # Linux: out of the page cache too
             os.posix_fadvise(self._file.fileno(), 0, 0, os.POSIX_FADV_DONTNEED)
 

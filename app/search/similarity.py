@@ -154,7 +154,7 @@ def metadata_in_ranges(metadata: dict[str, Any], ranges: Ranges) -> bool:
 def _sql_ranges(connection: Connection, ranges: Ranges) -> ColumnElement[bool]:
     """A SQL condition true for every model whose metadata ``metadata_in_ranges``; a
     non-numeric value reads as NULL (a CASE, so no cast ever fails)."""
-    conditions = []
+    conditions: list[ColumnElement[bool]] = []
     postgres = connection.dialect.name == "postgresql"
     for key, (low, high) in ranges.items():
         if postgres:
@@ -459,9 +459,10 @@ def _best_entries(
         # A model not seen yet is no nearer than the last hit of each partition not yet
         # exhausted (inf when both are): matches up to that bound are certain.
         bound = float("inf")
-        for hits, asked, held in zip((model_hits, view_hits), wanted, sizes, strict=True):
+        hit_distances = ([d for _, d in model_hits], [d for _, _, d in view_hits])
+        for hits, asked, held in zip(hit_distances, wanted, sizes, strict=True):
             if len(hits) == asked and asked < held:
-                bound = min(bound, hits[-1][-1])
+                bound = min(bound, hits[-1])
         ranked = sorted(matches.values(), key=lambda m: (m.distance, m.model.index_id))
         if min_score is not None:
             ranked = [m for m in ranked if m.score >= min_score]

@@ -22,6 +22,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from standardwebhooks.webhooks import Webhook as Signer
 
 from app.db.models import Webhook, WebhookAttempt, WebhookDelivery, utcnow
+from app.db.session import rows_changed
 from app.jobs.lease import backoff_seconds, claim_next
 from app.observability.metrics import WEBHOOK_ATTEMPTS
 from app.webhooks.targets import TargetRefused, check_target, pinned
@@ -117,8 +118,8 @@ class Deliverer:
             elapsed = (time.perf_counter() - started) * 1000
             return _Outcome(None, f"{type(error).__name__}: {error}"[:2000], elapsed)
         elapsed = (time.perf_counter() - started) * 1000
-        error = None if 200 <= response.status_code < 300 else f"HTTP {response.status_code}"
-        return _Outcome(response.status_code, error, elapsed)
+        failure = None if 200 <= response.status_code < 300 else f"HTTP {response.status_code}"
+        return _Outcome(response.status_code, failure, elapsed)
 
     def finish(self, claimed: _Claimed, outcome: _Outcome) -> bool:
         """Log the attempt and settle the delivery; False if the lease was lost meanwhile."""
@@ -141,7 +142,7 @@ class Deliverer:
                 )
                 .values(leased_until=None, worker_id=None, updated_at=now, **values)
             )
-            if settled.rowcount != 1:
+            if rows_changed(settled) != 1:
                 return False
             session.add(
                 WebhookAttempt(

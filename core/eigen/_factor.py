@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import qdldl
@@ -28,6 +29,12 @@ __all__ = ["ShiftFactorisation", "factorise_shifted"]
 # Largest relative residual ||K x - b|| / ||b|| accepted from a factorisation. Well-placed
 # shifts give ~1e-12; a shift sitting on an eigenvalue or an unstable pivot gives much more.
 _RESIDUAL_LIMIT = 1e-8
+
+
+class Solves(Protocol):
+    """A factorisation: qdldl's ``Solver`` or SciPy's ``SuperLU``."""
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray: ...
 
 
 @dataclass
@@ -49,7 +56,7 @@ class ShiftFactorisation:
     """
 
     shift: float
-    lu: object
+    lu: Solves
     inertia: int | None
     residual: float
     seconds: float
@@ -61,7 +68,7 @@ class ShiftFactorisation:
         return LinearOperator((size, size), matvec=self.lu.solve, dtype=np.float64)
 
 
-def _relative_residual(matrix: sp.csc_matrix, lu: object) -> float:
+def _relative_residual(matrix: sp.csc_matrix, lu: Solves) -> float:
     """||K x - b|| / ||b|| for a fixed random b, a cheap check of the factorisation."""
     rhs = np.random.default_rng(12345).standard_normal(matrix.shape[0])
     solution = lu.solve(rhs)
@@ -70,7 +77,7 @@ def _relative_residual(matrix: sp.csc_matrix, lu: object) -> float:
     return float(np.linalg.norm(matrix @ solution - rhs) / np.linalg.norm(rhs))
 
 
-def _symmetric_ldl(matrix: sp.csc_matrix) -> tuple[object, int | None]:
+def _symmetric_ldl(matrix: sp.csc_matrix) -> tuple[Solves, int | None]:
     """No-pivot LDL^T with an AMD ordering, and the inertia it gives."""
     ldl = qdldl.Solver(matrix)  # raises RuntimeError on an exactly zero pivot
     diagonal = ldl.factors()[1]
@@ -105,6 +112,7 @@ def factorise_shifted(
     """
     start = time.perf_counter()
     matrix = sp.csc_matrix(stiffness - shift * mass)
+    lu: Solves | None
     try:
         lu, inertia = _symmetric_ldl(matrix)
         residual = _relative_residual(matrix, lu)
@@ -120,6 +128,7 @@ def factorise_shifted(
         raise SolverError(
             f"factorisation of L - {shift:.6g} M is inaccurate (residual {residual:.1e})"
         )
+    assert lu is not None  # a finite residual came from a factorisation
     return ShiftFactorisation(
         shift=float(shift),
         lu=lu,

@@ -12,6 +12,7 @@ ARPACK's orthogonalisation cost, which grows faster than linearly with k, in che
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -234,7 +235,7 @@ class SpectralSolver:
 
     solver_calls_: int = 0
     factorisations_: int = 0
-    bands_: tuple[BandRecord, ...] | list[BandRecord] = ()
+    bands_: Sequence[BandRecord] = ()  # a list from the first solve on
 
     def __init__(
         self,
@@ -308,7 +309,8 @@ class SpectralSolver:
         self._store(np.empty(0), np.empty((self._size, 0)))
         self.solver_calls_ = 0
         self.factorisations_ = 0
-        self.bands_: list[BandRecord] = []
+        self._bands: list[BandRecord] = []
+        self.bands_ = self._bands
 
     def _store(self, eigenvalues: np.ndarray, eigenvectors: np.ndarray) -> None:
         eigenvalues.flags.writeable = False
@@ -338,7 +340,7 @@ class SpectralSolver:
             raise SolverError("dense eigen-decomposition returned non-finite values")
         self._store(values, _m_normalised(vectors, self.mass))
         self._lower = float("inf")
-        self.bands_.append(
+        self._bands.append(
             BandRecord(shift=float("nan"), count=values.size, seconds=time.perf_counter() - start)
         )
 
@@ -358,6 +360,9 @@ class SpectralSolver:
         while not attempt.done(lower):
             self._attempt_band(attempt, lower)
         factor, split = attempt.factor, attempt.split
+        # done() holds only after an attempt that set all four.
+        assert factor is not None and split is not None
+        assert attempt.values is not None and attempt.vectors is not None
         new_values = attempt.values[split.start : split.stop]
         new_vectors = _orthogonal_to(
             attempt.vectors[:, split.start : split.stop], self.eigenvectors_, self.mass
@@ -370,7 +375,7 @@ class SpectralSolver:
         # Later shifts all lie above the bound, so factorisations below it are never used
         # again; at 50k points each holds tens of MB.
         self._factors = {shift: f for shift, f in self._factors.items() if shift > self._lower}
-        self.bands_.append(
+        self._bands.append(
             BandRecord(
                 shift=factor.shift,
                 count=int(new_values.size),

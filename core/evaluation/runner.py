@@ -110,7 +110,7 @@ def _band_table(solver: Any) -> list[tuple[int, float]]:
     """
     table: list[tuple[int, float]] = []
     for band in getattr(solver, "bands_", []) or []:
-        record = band if isinstance(band, dict) else vars(band)
+        record: dict[str, Any] = band if isinstance(band, dict) else vars(band)
         seconds = float(record.get("seconds", record.get("time", 0.0)))
         end = None
         for key in ("total", "stop", "end", "count_after", "n_total"):
@@ -194,7 +194,7 @@ class EigenStore:
         extra = {} if self.points is None else {"points": self.points}
         np.savez(
             partial,
-            **extra,
+            **extra,  # type: ignore[arg-type]  # numpy's stubs: ** could fill allow_pickle
             eigenvalues=self.eigenvalues,
             eigenvectors=self.eigenvectors,
             areas=self.areas,

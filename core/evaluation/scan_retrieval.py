@@ -286,7 +286,7 @@ def run(
     out.mkdir(parents=True, exist_ok=True)
     (out / "scan_retrieval.json").write_text(json.dumps(record, indent=1))
     # Every descriptor, for analyses after the fact: key "<kind>|<descriptor>|<model>".
-    np.savez_compressed(out / "scan_retrieval_descriptors.npz", **{
+    np.savez_compressed(out / "scan_retrieval_descriptors.npz", **{  # type: ignore[arg-type]
         f"{kind}|{name}|{model}": vector
         for kind, by_model in described.items() for model, entry in by_model.items()
         for name, vector in entry.descriptors.items()

@@ -409,7 +409,7 @@ def scan_of_kind(points: np.ndarray, rng: np.random.Generator, kind: str) -> np.
                 seen[hidden_point_removal(points, viewpoint)] = True
             return points[seen]
     if kind.startswith("view") and "of" in kind:
-        index, _, count = kind[4:].partition("of")
-        if index.isdigit() and count.isdigit() and int(index) < int(count):
-            return virtual_view(points, int(index), int(count))
+        view, _, views = kind[4:].partition("of")
+        if view.isdigit() and views.isdigit() and int(view) < int(views):
+            return virtual_view(points, int(view), int(views))
     raise ValueError(f"unknown scan kind {kind!r}; known: {', '.join(SCAN_KINDS)}")

@@ -11,6 +11,7 @@ deployment setting; the eval pins it so the figures do not move when it changes)
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from core.settings import (
     CutoffSettings,
     DescriptorSettings,
     EngineSettings,
+    Laplacian,
 )
 
 __all__ = [
@@ -87,10 +89,16 @@ SS7_DESCRIPTOR = replace(DescriptorSettings(), caps_sharpness=None, ring_shells=
 SS8_DESCRIPTOR = replace(DescriptorSettings(), ring_shells=None)
 
 
+def _without(settings: DescriptorSettings, weight: str) -> DescriptorSettings:
+    """``settings`` with the block weighed by ``weight`` off."""
+    off: dict[str, Any] = {weight: 0.0}
+    return replace(settings, **off)
+
+
 def _engine(
     cutoff: CutoffSettings | None = None,
     descriptor: DescriptorSettings | None = None,
-    laplacian: str = "robust",
+    laplacian: Laplacian = "robust",
     points: int = EVAL_POINTS,
 ) -> EngineSettings:
     return EngineSettings(
@@ -153,7 +161,7 @@ def _variants() -> dict[str, EngineSettings]:
         "default-no-local": _engine(descriptor=replace(default, local_weight=0.0)),
         **{
             f"default-no-{name.removesuffix('_weight')}": _engine(
-                descriptor=replace(default, **{name: 0.0})
+                descriptor=_without(default, name)
             )
             for name in DescriptorSettings.EXTRINSIC_WEIGHTS
         },

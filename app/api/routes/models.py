@@ -179,7 +179,7 @@ async def list_models(
     )
 
 
-def _model_page(services: Services, query: Select[tuple[Model]], limit: int) -> ModelList:
+def _model_page(services: Services, query: Select[Model], limit: int) -> ModelList:
     with services.sessions() as session:
         rows = session.scalars(query).all()
         page = rows[:limit]
@@ -250,7 +250,9 @@ def delete_model(
 ) -> Response:
     model_uuid = parse_model_id(model_id)
     with services.sessions.begin() as session:
-        if lock_models(session, Model.id == model_uuid, Model.tenant == tenant):
+        if model_uuid is not None and lock_models(
+            session, Model.id == model_uuid, Model.tenant == tenant
+        ):
             record_model_event(session, model_uuid, "model.deleted")  # commits with the delete
         # The upload and the job go with it (ON DELETE CASCADE).
         index_id = session.scalar(
@@ -307,7 +309,7 @@ def ready_query(
     ``scan_descriptor``) of the tenant's ready model ``model_id``: only what a similarity
     query needs, not the whole row; 404 or 409."""
     parsed = parse_model_id(model_id)
-    model = None
+    model: Any = None
     if parsed is not None:
         model = connection.execute(
             select(
@@ -386,7 +388,9 @@ def _similar_by_index(
     not apply (scan mode's own descriptor, a model the index does not hold) or the model
     changed since the index saw it: then the database decides, with its 404 or 409."""
     parsed = parse_model_id(model_id)
-    located = None if parsed is None or mode != "shape" else services.index.locate(tenant, parsed)
+    if parsed is None or mode != "shape":
+        return None
+    located = services.index.locate(tenant, parsed)
     if located is None:
         return None
     index_id, key = located

@@ -162,11 +162,11 @@ def upsert_model(
                 if units is not None:
                     model.units = units
                 model.updated_at = utcnow()
-                job = _describe_if_new(session, model, upload)
-                response.status_code = 200 if job is None else 202
+                pending = _describe_if_new(session, model, upload)
+                response.status_code = 200 if pending is None else 202
                 session.flush()
                 return model_resource(
-                    model, job or latest_jobs(session, [model.id]).get(model.id)
+                    model, pending or latest_jobs(session, [model.id]).get(model.id)
                 )
         except IntegrityError:
             continue

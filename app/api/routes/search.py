@@ -34,7 +34,6 @@ from app.ingest.sandbox import SandboxCrash
 from app.search.similarity import find_similar
 from app.search.sizing import extents_mm
 from core.errors import InvalidShapeError
-from core.size import SIZE_FIELDS
 
 __all__ = ["router"]
 
@@ -100,7 +99,9 @@ def search_by_upload(
             cutoff=cutoff,
             descriptor_version=described["descriptor_version"],
             format=upload.format,
-            size=size_of(*(described[f"size_{name}"] for name in SIZE_FIELDS), units),
+            size=size_of(described["size_length"], described["size_width"],
+                         described["size_height"], described["size_area"],
+                         described["size_volume"], units),
         ),
         results=similar_results(matches, described["descriptor_version"]),
     )

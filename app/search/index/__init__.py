@@ -50,10 +50,11 @@ import threading
 import uuid
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Iterator, Sequence
+from typing import Any, cast
 
 import numpy as np
 from sqlalchemy import ColumnElement, func, null, select, true
-from sqlalchemy.orm import Session, sessionmaker
+from sqlalchemy.orm import QueryableAttribute, Session, sessionmaker
 
 from app.db.models import FeedState, IndexEvent, Model
 from app.search.index._builder import Builder
@@ -86,8 +87,11 @@ __all__ = [
 _Added = tuple[int, PartitionKey, np.ndarray, "np.ndarray | None", "uuid.UUID | None"]
 
 _EVENT_BATCH = 5000
+_Column = QueryableAttribute[Any] | ColumnElement[Any]
+#: A row of ``_INDEXED``: index_id, tenant, descriptor_version, descriptor, views, id.
+_Row = tuple[int, str, str, bytes, "bytes | None", uuid.UUID]
 # What the index holds of a model: the rows a rebuild streams and a sync reads.
-_INDEXED = (
+_INDEXED: tuple[_Column, ...] = (
     Model.index_id,
     Model.tenant,
     Model.descriptor_version,
@@ -355,11 +359,11 @@ class ShapeIndex:
             if key is not None:
                 gone[key].append(index_id)
                 gone[views_key(key)].extend(view_ids(index_id, self._views_of.pop(index_id, 0)))
-        for key, ids in gone.items():
+        for key, gone_ids in gone.items():
             partition = self._partitions.get(key)
-            if partition is not None and ids:
+            if partition is not None and gone_ids:
                 with partition.lock.writing():
-                    partition.remove(np.asarray(ids, dtype=np.int64))
+                    partition.remove(np.asarray(gone_ids, dtype=np.int64))
         fresh: dict[PartitionKey, list[tuple[int, np.ndarray]]] = defaultdict(list)
         for index_id, key, vector, views, model_id in added:
             if index_id in self._partition_of:  # re-adding replaces, views and all
@@ -466,21 +470,21 @@ class ShapeIndex:
         tenant, version = self.only
         return (Model.tenant == tenant) & (Model.descriptor_version == version)
 
-    def _indexed(self) -> tuple[object, ...]:
+    def _indexed(self) -> tuple[_Column, ...]:
         """The columns read of each model: with ``only``, no views (never used there, and
         up to 16 times the descriptor's bytes)."""
         if self.only is None:
             return _INDEXED
         return tuple(null() if column is Model.view_descriptors else column for column in _INDEXED)
 
-    def _ready_rows(self) -> Iterator[tuple[int, str, str, bytes, bytes | None, uuid.UUID]]:
+    def _ready_rows(self) -> Iterator[_Row]:
         """Every ready descriptor with its views, ``_ROW_CHUNK`` rows per query (keyset on
         index_id)."""
         assert self.sessions is not None
         last = -1
         while True:
             with self.sessions() as session:
-                rows = session.execute(
+                rows = cast(list[_Row], session.execute(
                     select(*self._indexed())
                     .where(
                         Model.index_id > last,
@@ -491,11 +495,11 @@ class ShapeIndex:
                     )
                     .order_by(Model.index_id)
                     .limit(_ROW_CHUNK)
-                ).all()
+                ).all())
             if not rows:
                 return
             yield from rows
-            last = rows[-1].index_id
+            last = rows[-1][0]
 
     def sync(self) -> int:
         """Apply the change-feed events newer than ``revision``; returns how many."""
@@ -514,7 +518,7 @@ class ShapeIndex:
                         return applied
                     latest = {event.index_id: event.kind for event in events}  # last one wins
                     wanted = [i for i, kind in latest.items() if kind == "ready"]
-                    rows = (
+                    rows = cast(list[_Row], (
                         session.execute(
                             select(*self._indexed()).where(
                                 Model.index_id.in_(wanted),
@@ -524,7 +528,7 @@ class ShapeIndex:
                         ).all()
                         if wanted
                         else []
-                    )
+                    ))
                 # Models deleted meanwhile are simply not found; their views go with them.
                 self._apply(latest, [_added(*row) for row in rows if row[3] and row[2]])
                 self.revision = int(events[-1].revision)

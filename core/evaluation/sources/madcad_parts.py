@@ -21,10 +21,16 @@ _DIAMETERS = (3, 4, 5, 6, 8, 10, 12, 16, 20, 24)
 _SCREW_RATIOS = (1.6, 2.5, 3.3, 4.0, 5.0, 2.0, 3.0, 6.0, 2.2, 4.5)
 
 
+def _call(function: str, *args: Any, **kwargs: Any) -> Callable[[Any], Any]:
+    """``standard.<function>(*args, **kwargs)``, for the module ``standard`` given later
+    (pymadcad is imported only when a part is built)."""
+    return lambda standard: getattr(standard, function)(*args, **kwargs)
+
+
 def _screws(head: str) -> Iterator[tuple[str, Callable[[Any], Any]]]:
     for d, ratio in zip(_DIAMETERS, _SCREW_RATIOS, strict=True):
         length = float(round(d * ratio))
-        yield f"M{d}x{length:g}", lambda s, d=d, length=length: s.screw(d, length, head=head)
+        yield f"M{d}x{length:g}", _call("screw", d, length, head=head)
 
 
 def _kinds() -> dict[str, Callable[[], Iterator[tuple[str, Callable[[Any], Any]]]]]:
@@ -34,35 +40,32 @@ def _kinds() -> dict[str, Callable[[], Iterator[tuple[str, Callable[[Any], Any]]
         "screw_button_head": lambda: _screws("BH"),
         "screw_flat_head": lambda: _screws("VH"),
         "screw_hex_head": lambda: _screws("HH"),
-        "hex_nut": lambda: ((f"M{d}", lambda s, d=d: s.nut(d)) for d in _DIAMETERS),
-        "washer": lambda: ((f"M{d}", lambda s, d=d: s.washer(d)) for d in _DIAMETERS),
+        "hex_nut": lambda: ((f"M{d}", _call("nut", d)) for d in _DIAMETERS),
+        "washer": lambda: ((f"M{d}", _call("washer", d)) for d in _DIAMETERS),
         "ball_bearing": lambda: (
-            (f"d{d}", lambda s, d=d: s.bearing(d, circulating="ball", detail=True))
+            (f"d{d}", _call("bearing", d, circulating="ball", detail=True))
             for d in bearings
         ),
         "roller_bearing": lambda: (
-            (f"d{d}", lambda s, d=d: s.bearing(d, circulating="roller", detail=True))
+            (f"d{d}", _call("bearing", d, circulating="roller", detail=True))
             for d in bearings
         ),
         "thrust_bearing": lambda: (
-            (f"d{d}", lambda s, d=d: s.bearing_thrust(d, 2.2 * d, 0.6 * d, detail=True))
+            (f"d{d}", _call("bearing_thrust", d, 2.2 * d, 0.6 * d, detail=True))
             for d in bearings
         ),
         "compression_spring": lambda: (
-            (f"L{length}d{d}", lambda s, length=length, d=d:
-             s.coilspring_compression(length, d, 0.1 * d))
+            (f"L{length}d{d}", _call("coilspring_compression", length, d, 0.1 * d))
             for length, d in zip((20, 30, 40, 25, 50, 60, 35, 45, 80, 30),
                                  (8, 10, 10, 12, 12, 15, 8, 20, 20, 16), strict=True)
         ),
         "tension_spring": lambda: (
-            (f"L{length}d{d}", lambda s, length=length, d=d:
-             s.coilspring_tension(length, d, 0.1 * d))
+            (f"L{length}d{d}", _call("coilspring_tension", length, d, 0.1 * d))
             for length, d in zip((30, 40, 50, 35, 60, 70, 45, 55, 90, 40),
                                  (8, 10, 10, 12, 12, 15, 8, 20, 20, 16), strict=True)
         ),
         "slide_bearing": lambda: (
-            (f"d{d}h{h}", lambda s, d=d, h=h, shoulder=shoulder:
-             s.slidebearing(d, h, shoulder=shoulder))
+            (f"d{d}h{h}", _call("slidebearing", d, h, shoulder=shoulder))
             for d, h, shoulder in zip(bearings, (8, 10, 20, 12, 30, 20, 25, 40, 30, 45),
                                       (None, 2, None, 3, None, 4, None, 5, None, 6),
                                       strict=True)
