@@ -27,7 +27,9 @@ the model's integer ``index_id``. A partition is
   the exact re-rank (``rerank_candidates``); its scan costs about what the 8-bit one does
   (bench/search_scale.py, README).
 
-With ``projected_dims`` (off by default), an IVF partition's codes hold the leading principal
+An IVF partition's codes leave out the dimensions constant over its training sample: they
+would add the same to every estimate (``_partition``). With ``projected_dims`` (off by
+default), an IVF partition's codes hold the leading principal
 components of its vectors instead of every dimension (``_projection``): a shorter scan and
 smaller codes, the same exact re-rank, at a recall that depends on the catalogue.
 

@@ -1,6 +1,14 @@
 """One FAISS partition: flat while small, IVF with scalar-quantised codes when compressed
 (the full vectors then live in a memory-mapped file, ``app.search.full_vectors``; on request
-the codes hold the vectors' leading principal components, ``_projection``)."""
+the codes hold the vectors' leading principal components, ``_projection``).
+
+The codes leave out every dimension that is constant over the training sample. Such a
+dimension adds one and the same amount to every estimated distance, so it cannot change
+which candidates a query gets: FAISS's scalar quantiser trains a zero range for it and
+decodes every vector's value there to the same constant, whatever was added later. Real
+descriptors have many: histogram bins at the ends of their ranges that no shape reaches
+(100 of the default's 2961 dimensions on all 695 models of the seven tuning sources), so the
+codes shrink by their bytes and the scan by their work, with the same candidates."""
 
 from __future__ import annotations
 
@@ -43,6 +51,8 @@ class Partition:
         self.bits = 32  # float32 while flat
         self.full: FullVectors | None = None  # the full vectors, once compressed
         self.projection: Projection | None = None  # what the codes hold, when not all
+        # The dimensions the codes hold when some are constant over the training sample.
+        self.varying: np.ndarray | None = None
         self.lock = ReadWriteLock()
 
     @property
@@ -66,9 +76,12 @@ class Partition:
         float32``; moves what is held."""
         nlist = int(np.clip(math.sqrt(expected), 16, 4096))
         nlist = min(nlist, max(1, len(sample) // 4))
+        padded = self.pad(sample)
         if Projection.worthwhile(len(sample), self.padded, self.projected_dims):
-            self.projection = Projection.fit(self.pad(sample), self.projected_dims)
-        coded = self.padded if self.projection is None else self.projection.dims
+            self.projection = Projection.fit(padded, self.projected_dims)
+        else:
+            self.varying = _varying_dimensions(padded)
+        coded = self.coded_dims
         quantizer = faiss.IndexFlatL2(coded)
         ivf = faiss.IndexIVFScalarQuantizer(
             quantizer, coded, nlist, _QUANTIZERS[bits], faiss.METRIC_L2
@@ -84,7 +97,7 @@ class Partition:
             ids = faiss.vector_to_array(held.id_map).astype(np.int64)
             vectors = held.index.reconstruct_n(0, held.ntotal)  # padded already
             full.put(ids.tolist(), vectors)
-            ivf.add_with_ids(self._projected(vectors), ids)
+            ivf.add_with_ids(self._coded(vectors), ids)
         self.index, self.bits, self.full = ivf, bits, full
 
     def nbytes(self) -> int:
@@ -102,13 +115,29 @@ class Partition:
         padded[:, : vectors.shape[1]] = vectors
         return padded
 
+    @property
+    def coded_dims(self) -> int:
+        """Dimensions of what the index holds: every (padded) one, the principal components,
+        or the varying ones padded to a multiple of 16."""
+        if self.projection is not None:
+            return self.projection.dims
+        if self.varying is not None:
+            return -(-len(self.varying) // 16) * 16
+        return self.padded
+
     def codable(self, vectors: np.ndarray) -> np.ndarray:
         """``vectors : (m, dim) float`` as the index takes them: padded, then projected
-        when the codes hold principal components."""
-        return self._projected(self.pad(vectors))
+        when the codes hold principal components, or cut to the varying dimensions."""
+        return self._coded(self.pad(vectors))
 
-    def _projected(self, padded: np.ndarray) -> np.ndarray:
-        return padded if self.projection is None else self.projection.apply(padded)
+    def _coded(self, padded: np.ndarray) -> np.ndarray:
+        if self.projection is not None:
+            return self.projection.apply(padded)
+        if self.varying is None:
+            return padded
+        coded = np.zeros((len(padded), self.coded_dims), dtype=np.float32)
+        coded[:, : len(self.varying)] = padded[:, self.varying]
+        return coded
 
     def add(self, ids: np.ndarray, vectors: np.ndarray) -> None:
         if self.full is not None:  # first: when its disk is full, nothing is added
@@ -157,3 +186,12 @@ class Partition:
             every = faiss.SearchParametersIVF(nprobe=self.index.nlist)
             squared, ids = self.index.search(coded, k, params=every)
         return squared, ids
+
+
+def _varying_dimensions(sample: np.ndarray) -> np.ndarray | None:
+    """The columns of ``sample : (m, d)`` that are not constant, or None when leaving out
+    the rest would not shorten the codes (fewer than 16: the codes are padded to 16)."""
+    varying = np.flatnonzero(sample.max(axis=0) > sample.min(axis=0))
+    if len(varying) == 0 or -(-len(varying) // 16) * 16 >= sample.shape[1]:
+        return None  # (nothing varies: codes of every dimension, as for a tiny sample)
+    return varying
