@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import os
 import sys
-from functools import partial
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -53,17 +52,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import BASES, Study, nonrigid_rows  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
-    blocks_per_source,
     decide,
     default_local_blocks,
+    default_ring_and_caps,
     score_distances,
     study_command,
-    study_samples,
 )
 
-from core.descriptor import caps_block, ring_block  # noqa: E402
 from core.evaluation.metrics import pairwise_distances  # noqa: E402
-from core.settings import DescriptorSettings  # noqa: E402
 
 SS9 = "ss9"
 #: (gamma, K) in the tie order after ``ss9``.
@@ -74,14 +70,8 @@ def block_rows(study: Study, cache: Path) -> dict[str, list[np.ndarray]]:
     """Per source (capod-nonrigid included), ``ss9``'s unit rows cut into its blocks: the
     ``ss4-noprop`` base's eight, the local block, the ring and caps blocks, ``(m, d_b)``
     each; their concatenation is the service's descriptor."""
-    settings = DescriptorSettings()
     local = study.with_nonrigid(default_local_blocks(study.sources, cache))
-    samples = study_samples(study)
-    caps = study.with_nonrigid(blocks_per_source(samples, partial(
-        caps_block, bins=settings.caps_bins, depth=settings.caps_depth,
-        weight=settings.caps_weight, sharpness=settings.caps_sharpness), []))
-    ring = study.with_nonrigid(blocks_per_source(
-        samples, partial(ring_block, shell_centres=settings.ring_shells), []))
+    ring, caps = default_ring_and_caps(study)
     weights = BASES["ss4-noprop"]
     rows: dict[str, list[np.ndarray]] = {}
     for source, folder in zip(study.sources, study.folders, strict=True):

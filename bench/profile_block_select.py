@@ -98,10 +98,11 @@ from positional_features_select import (  # noqa: E402
 )
 from rerank_select import _bootstrap  # noqa: E402
 
-from core.descriptor import ring_block  # noqa: E402
+from core.descriptor import caps_block, ring_block  # noqa: E402
 from core.evaluation.metrics import average_precision, ranked_relevance, score_rankings  # noqa: E402
 from core.extrinsic import principal_frame  # noqa: E402
 from core.local_features import Vocabulary, encode_bof, encode_vlad  # noqa: E402
+from core.settings import DescriptorSettings  # noqa: E402
 
 NORMALISATIONS = ("rms", "own")
 BINS = (6, 8, 12)
@@ -184,6 +185,20 @@ def ring_blocks(study: Study) -> dict[str, np.ndarray]:
     """The service's ring block of every model of ``study``, ``(m, 30)`` per source,
     capod-nonrigid included."""
     return study.with_nonrigid(blocks_per_source(study_samples(study), ring_block, []))
+
+
+def default_ring_and_caps(study: Study) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The service's ring block (at weight 1) and caps block (at its weight) of every model
+    of ``study`` as the default settings make them (``ss9``: soft shells, soft axes), per
+    source, capod-nonrigid included."""
+    settings = DescriptorSettings()
+    samples = study_samples(study)
+    ring = study.with_nonrigid(blocks_per_source(
+        samples, partial(ring_block, shell_centres=settings.ring_shells), []))
+    caps = study.with_nonrigid(blocks_per_source(samples, partial(
+        caps_block, bins=settings.caps_bins, depth=settings.caps_depth,
+        weight=settings.caps_weight, sharpness=settings.caps_sharpness), []))
+    return ring, caps
 
 
 def ss6_rows(source: Source, local: np.ndarray, ring: np.ndarray) -> np.ndarray:

@@ -57,7 +57,6 @@ import sys
 import time
 from collections.abc import Iterable
 from dataclasses import replace
-from functools import partial
 from pathlib import Path
 from unittest.mock import patch
 
@@ -70,18 +69,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import BASES, Study, joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
-    blocks_per_source,
     decide,
     default_local_blocks,
+    default_ring_and_caps,
     lowest_copy_cosine,
     score_candidates,
     stabilisation_ships,
     study_command,
-    study_samples,
 )
 
 import core.descriptor  # noqa: E402
-from core.descriptor import DescriptorSpec, caps_block, ring_block  # noqa: E402
+from core.descriptor import DescriptorSpec  # noqa: E402
 from core.descriptor import area_histograms as hard_area_histograms  # noqa: E402
 from core.settings import DescriptorSettings  # noqa: E402
 
@@ -173,11 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     if gaps.max() > 1e-3 or moved > 1e-4:
         raise SystemExit("the recomputed base is not the stored one: stop before scoring")
     local = study.with_nonrigid(default_local_blocks(study.sources, cache))
-    samples = study_samples(study)
-    caps = study.with_nonrigid(blocks_per_source(
-        samples, partial(caps_block, bins=6, depth=1.0, sharpness=4096.0), []))
-    ring = study.with_nonrigid(blocks_per_source(
-        samples, partial(ring_block, shell_centres=(0.5, 1.0, 1.5)), []))
+    ring, caps = default_ring_and_caps(study)
     print("blocks done", flush=True)
     labels = np.asarray(next(s.labels for s in scored if s.name == "parts"))
     copies: dict[str, float] = {}

@@ -27,7 +27,6 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Iterable
-from functools import partial
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -38,15 +37,13 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    blocks_per_source,
     decide,
     default_local_blocks,
+    default_ring_and_caps,
     score_candidates,
     study_command,
-    study_samples,
 )
 
-from core.descriptor import caps_block, ring_block  # noqa: E402
 from core.settings import DescriptorSettings  # noqa: E402
 
 SS9 = "ss9"
@@ -64,12 +61,7 @@ def main(argv: list[str] | None = None) -> int:
     assert (settings.caps_weight, settings.ring_weight) == GRID[0], "ss9 is not the default"
     scored = study.scored
     local = study.with_nonrigid(default_local_blocks(study.sources, cache))
-    samples = study_samples(study)
-    caps = study.with_nonrigid(blocks_per_source(samples, partial(
-        caps_block, bins=settings.caps_bins, depth=settings.caps_depth,
-        sharpness=settings.caps_sharpness), []))
-    ring = study.with_nonrigid(blocks_per_source(
-        samples, partial(ring_block, shell_centres=settings.ring_shells), []))
+    ring, caps = default_ring_and_caps(study)
     print("blocks done", flush=True)
 
     def candidates() -> Iterable[tuple[str, dict[str, np.ndarray]]]:
