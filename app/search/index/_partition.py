@@ -5,10 +5,13 @@ the codes hold the vectors' leading principal components, ``_projection``).
 The codes leave out every dimension that is constant over the training sample. Such a
 dimension adds one and the same amount to every estimated distance, so it cannot change
 which candidates a query gets: FAISS's scalar quantiser trains a zero range for it and
-decodes every vector's value there to the same constant, whatever was added later. Real
-descriptors have many: histogram bins at the ends of their ranges that no shape reaches
-(100 of the default's 2961 dimensions on all 695 models of the seven tuning sources), so the
-codes shrink by their bytes and the scan by their work, with the same candidates."""
+decodes every vector's value there to the same constant, whatever was added later (the
+estimates a search returns leave that amount out: zero for a query that is constant there
+too, and otherwise smaller estimates, which only make the scan-mode search's bound more
+cautious). Real descriptors have many: histogram bins at the ends of their ranges that no
+shape reaches (100 of the default's 2961 dimensions on all 695 models of the seven tuning
+sources), so the codes shrink by their bytes and the scan by their work, with the same
+candidates."""
 
 from __future__ import annotations
 
