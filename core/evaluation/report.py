@@ -160,7 +160,7 @@ def markdown_report(record: dict[str, Any]) -> str:
     return "\n".join(parts) + "\n"
 
 
-def _pyplot():
+def _pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")

@@ -16,6 +16,8 @@ points are scaled, and a diagonal positive mass ``M`` that scales like area, so 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -29,7 +31,7 @@ METHODS = ("robust", "spcl")
 
 
 def build_laplacian(
-    points: np.ndarray, method: str = "robust", **options
+    points: np.ndarray, method: str = "robust", **options: Any
 ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
     """Stiffness and mass matrices of a point cloud.
 
