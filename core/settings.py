@@ -7,7 +7,7 @@ in one place, ``validate()``, so every caller gets the same refusal for the same
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal, get_args
 
 import numpy as np
 
@@ -34,6 +34,11 @@ Normalisation = Literal["area", "bbox"]
 CutoffMode = Literal["adaptive", "fixed"]
 
 
+def _one_of(kind: Any) -> str:
+    """A ``Literal``'s values for a refusal: ``'a' or 'b'``."""
+    return " or ".join(repr(value) for value in get_args(kind))
+
+
 @dataclass(frozen=True)
 class CutoffSettings:
     """How many eigenpairs a model gets.
@@ -55,9 +60,9 @@ class CutoffSettings:
     n: int = 300
 
     def validate(self) -> None:
-        if self.mode not in ("adaptive", "fixed"):
+        if self.mode not in get_args(CutoffMode):
             raise SettingsError(
-                f"cutoff mode must be 'adaptive' or 'fixed', not {self.mode!r}", "mode"
+                f"cutoff mode must be {_one_of(CutoffMode)}, not {self.mode!r}", "mode"
             )
         if not 0 < self.xi < 1:
             raise SettingsError("cutoff xi must lie in (0, 1)", "xi")
@@ -382,16 +387,17 @@ class EngineSettings:
             raise SettingsError("min_points must be at least 10", "min_points")
         if self.max_points < self.min_points:
             raise SettingsError("max_points must be >= min_points", "max_points", "min_points")
-        if self.laplacian not in ("robust", "spcl"):
+        if self.laplacian not in get_args(Laplacian):
             raise SettingsError(
-                f"laplacian must be 'robust' or 'spcl', not {self.laplacian!r}", "laplacian"
+                f"laplacian must be {_one_of(Laplacian)}, not {self.laplacian!r}", "laplacian"
             )
         if not self.outlier_ratio > 1.0:
             raise SettingsError(
                 "outlier_ratio must be > 1 (in median neighbour spacings)", "outlier_ratio"
             )
-        if self.normalisation not in ("area", "bbox"):
-            raise SettingsError("normalisation must be 'area' or 'bbox'", "normalisation")
+        if self.normalisation not in get_args(Normalisation):
+            raise SettingsError(f"normalisation must be {_one_of(Normalisation)}",
+                                "normalisation")
         for section in ("cutoff", "descriptor", "views"):
             try:
                 getattr(self, section).validate()

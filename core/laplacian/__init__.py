@@ -16,7 +16,7 @@ points are scaled, and a diagonal positive mass ``M`` that scales like area, so 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, get_args
 
 import numpy as np
 import scipy.sparse as sp
@@ -24,10 +24,11 @@ import scipy.sparse as sp
 from core.errors import SolverError
 from core.laplacian.robust import robust_laplacian_matrices
 from core.laplacian.spcl import spcl_matrices
+from core.settings import Laplacian
 
 __all__ = ["METHODS", "build_laplacian"]
 
-METHODS = ("robust", "spcl")
+METHODS: tuple[str, ...] = get_args(Laplacian)
 
 
 def build_laplacian(
