@@ -265,6 +265,25 @@ def stabilisation_ships(report: dict[str, object], fixes: list[str], reference: 
     return ships
 
 
+def stabilisation_decision(table: Table, widths: dict[str, int],
+                           queries: dict[str, dict[str, np.ndarray]], fixes: list[str],
+                           reference: str, copies: dict[str, float],
+                           timings: dict[str, list[float]], title: str,
+                           sources: tuple[str, ...], json_path: Path | None) -> bool:
+    """The closing step of a stabilisation study: the rule over ``sources`` with ties to
+    ``fixes`` first (in their order) and ``reference`` last, the blocks' median milliseconds
+    per model (``timings``) and the copies' lowest cosines printed and written with it,
+    then ``stabilisation_ships``."""
+    tie_order = {name: rank for rank, name in enumerate([*fixes, reference])}
+    cost = {name: float(np.median(spent)) for name, spent in timings.items()}
+    report = decide(table, queries, tie_order, title, sources, reference, json_path,
+                    tie_key="tie order", widths=widths, pool=list(tie_order),
+                    extra={"cost_ms": cost, "copies": copies})
+    print(f"{title}, median ms per model:", {k: round(v, 2) for k, v in cost.items()})
+    print("copies' lowest cosine:", {k: round(v, 4) for k, v in copies.items()})
+    return stabilisation_ships(report, fixes, reference, copies, title, json_path)
+
+
 def added_block_question(study: Study, cache: Path,
                          grid: dict[str, Callable[[np.ndarray, np.ndarray], np.ndarray]],
                          weights: Iterable[float], title: str, json_path: Path | None, *,

@@ -66,11 +66,10 @@ from local_features_select import joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     blocks_per_source,
-    decide,
     default_local_blocks,
     lowest_copy_cosine,
     score_candidates,
-    stabilisation_ships,
+    stabilisation_decision,
     study_command,
     study_samples,
 )
@@ -112,15 +111,9 @@ def main(argv: list[str] | None = None) -> int:
             yield name, rows
 
     table, widths, queries = score_candidates(candidates(), scored)
-    soft = [label(centres) for centres in CENTRES]
-    tie_order = {name: rank for rank, name in enumerate([*soft, SS8])}
-    cost = {name: float(np.median(spent)) for name, spent in timings.items()}
-    report = decide(table, queries, tie_order, "ring shells", tuple(s.name for s in study.sources),
-                    SS8, args.json, tie_key="tie order", widths=widths, pool=list(tie_order),
-                    extra={"cost_ms": cost, "copies": copies})
-    print("ring block, median ms per model:", {k: round(v, 2) for k, v in cost.items()})
-    print("copies' lowest cosine:", {k: round(v, 4) for k, v in copies.items()})
-    stabilisation_ships(report, soft, SS8, copies, "ring shells", args.json)
+    stabilisation_decision(table, widths, queries, [label(centres) for centres in CENTRES], SS8,
+                           copies, timings, "ring shells",
+                           tuple(s.name for s in study.sources), args.json)
     return 0
 
 

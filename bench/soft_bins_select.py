@@ -69,12 +69,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import BASES, Study, joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
-    decide,
     default_local_blocks,
     default_ring_and_caps,
     lowest_copy_cosine,
     score_candidates,
-    stabilisation_ships,
+    stabilisation_decision,
     study_command,
 )
 
@@ -185,14 +184,8 @@ def main(argv: list[str] | None = None) -> int:
             yield name, rows
 
     table, widths, queries = score_candidates(candidates(), scored)
-    tie_order = {SOFT: 0, SS9: 1}
-    cost = {name: float(np.median(spent)) for name, spent in timings.items()}
-    report = decide(table, queries, tie_order, "soft bins", tuple(s.name for s in study.sources),
-                    SS9, args.json, tie_key="tie order", widths=widths, pool=list(tie_order),
-                    extra={"cost_ms": cost, "copies": copies})
-    print("histogram blocks, median ms per model:", {k: round(v, 2) for k, v in cost.items()})
-    print("copies' lowest cosine:", {k: round(v, 4) for k, v in copies.items()})
-    stabilisation_ships(report, [SOFT], SS9, copies, "soft bins", args.json)
+    stabilisation_decision(table, widths, queries, [SOFT], SS9, copies, timings, "soft bins",
+                           tuple(s.name for s in study.sources), args.json)
     return 0
 
 
