@@ -4,8 +4,8 @@ The raw score ``1 - d^2/4`` of two unit descriptors crowds near 1: two different
 part often score 0.95, so ``0.98`` reads "near-identical" when it is not (README, "What a
 score means"). The calibrated score of a pair is the share of pairs of *different kinds* of
 part that score lower, measured on the tuning sources (third-party parts, real meshes and
-our generator; ``bench/score_calibration.py --write``). A calibrated score of 0.99 means only
-1 % of different-kind pairs score as high: a threshold on it is a false-match rate, the same
+our generator; ``bench/selection/score_calibration.py --write``). A calibrated score of 0.99 means
+only 1 % of different-kind pairs score as high: a threshold on it is a false-match rate, the same
 for every descriptor it is measured for.
 
 The table holds the quantiles of the different-kind scores of one descriptor layout, named

@@ -102,8 +102,8 @@ class DescriptorSettings:
     Weights were chosen on the generated parts' *tune* split together with capod (issue 12,
     docs/results.md "third pass"): the mean of six mAPs (clean, and merged and single-view
     scans in scan mode, on both sets) subject to capod clean mAP >= 0.93
-    (``bench/descriptor_weights.py``). On the held-out parts *test* split, scored once after
-    the choice: NN 0.904 -> 0.950, mAP 0.577 -> 0.637 against the previous default (``ss3``:
+    (``bench/selection/descriptor_weights.py``). On the held-out parts *test* split, scored once
+    after the choice: NN 0.904 -> 0.950, mAP 0.577 -> 0.637 against the previous default (``ss3``:
     D2 and spread only).
     """
 
@@ -135,7 +135,7 @@ class DescriptorSettings:
     d2_seed: int = 0
     # Off since issue 24, like ``axis_weight``: the principal extents' spread split one kind
     # of part by its proportions (a screw of one head type by its length); the rule of
-    # bench/local_features_select.py chose the default without both (``ss4-noprop``).
+    # bench/selection/local_features_select.py chose the default without both (``ss4-noprop``).
     spread_weight: float = 0.0
     # D1: distances from the centroid over their mean; 3 is far beyond any part's tail.
     d1_weight: float = 1.0
@@ -154,8 +154,8 @@ class DescriptorSettings:
     # What repeats around the first and third principal axes (teeth, bolt holes, hex heads:
     # core.extrinsic.angular_spectrum), 30 values scaled to norm <= 1 but not to unit norm
     # (a part with nothing repeating has a small block, and that is information). Chosen by
-    # the second round of bench/profile_block_select.py (issue 24, docs/results.md): weight 4,
-    # leave-one-source-out +0.009 mAP over the six tuning sources (+0.010 over seven, with
+    # the second round of bench/selection/profile_block_select.py (issue 24, docs/results.md):
+    # weight 4, leave-one-source-out +0.009 mAP over the six tuning sources (+0.010 over seven, with
     # bd-vslot's parts, a source no setting was chosen on).
     ring_weight: float = 4.0
     # The ring block's three shells, soft: a point at distance r from the axis, over the
@@ -163,14 +163,14 @@ class DescriptorSettings:
     # (core.extrinsic.shell_spectrum), so a wall at one distance is not cut by a tertile
     # whose side follows the sampling; a shell holding less than a third of the area counts
     # by its share; None: the area tertiles (``ss8``). Chosen by round 2 of
-    # bench/ring_shells_select.py: leave-one-source-out +0.0011 over ``ss8`` (95 % +0.0003 ..
-    # +0.0021), re-sampled copies closer.
+    # bench/selection/ring_shells_select.py: leave-one-source-out +0.0011 over ``ss8`` (95 % +0.0003
+    # .. +0.0021), re-sampled copies closer.
     ring_shells: tuple[float, float, float] | None = (0.5, 1.0, 1.5)
     # Each end's depth-radius profile along the first and third principal axes, measured
     # from the end in the part's median radius (core.extrinsic.end_profiles), so that a
     # kind that comes in many lengths (screws, shafts, keys) keeps its head, countersink or
     # hub alike: ``caps_bins`` per coordinate, ends ``caps_depth`` radii deep. Chosen by
-    # bench/end_caps_select.py (issue 24, docs/results.md): weight 1, 6 bins, 1 radius,
+    # bench/selection/end_caps_select.py (issue 24, docs/results.md): weight 1, 6 bins, 1 radius,
     # leave-one-source-out +0.005 mAP over ``ss6`` on the seven tuning sources.
     caps_weight: float = 1.0
     caps_bins: int = 6
@@ -179,13 +179,14 @@ class DescriptorSettings:
     # narrows as the axis' eigen-gap grows (core.extrinsic.soft_axis_weights), so that a
     # part without a defined axis (a cube, a square plate) does not change its ends from one
     # sampling to the next; None: along the principal axes themselves (``ss7``). Chosen by
-    # round 3 of bench/end_caps_select.py: 4096, leave-one-source-out +0.0024 over ``ss7``.
+    # round 3 of bench/selection/end_caps_select.py: 4096, leave-one-source-out +0.0024 over
+    # ``ss7``.
     caps_sharpness: float | None = 4096.0
     # Local signatures pooled over a shipped vocabulary (core.local_features): the file
     # core/data/<local_vocabulary>.npz; each point's features are its log HKS at every time
     # (``local_columns="hks"``; "hks+wks" adds its log WKS), then its surface variation at
     # ``local_neighbours`` (none: intrinsic, unchanged by bending). Chosen by the rule of
-    # bench/local_features_select.py over six sources (docs/results.md, issue 24): VLAD on
+    # bench/selection/local_features_select.py over six sources (docs/results.md, issue 24): VLAD on
     # 64 words of the 16 log HKS values and the surface variation at 10 and 30 neighbours,
     # at weight 1 next to the other weighted blocks.
     local_weight: float = 1.0
@@ -301,8 +302,8 @@ def _bendable() -> DescriptorSettings:
 #: The descriptor families a database can hold (``SHAPESEARCH_DESCRIPTOR_FAMILY``):
 #: ``parts`` (the default) for rigid parts, where how the surface sits in space tells kinds
 #: apart; ``bendable`` for shapes that bend or articulate (hoses, cables, springs, hands,
-#: people), where only what bending keeps may count. Chosen by bench/local_features_select.py
-#: (docs/results.md, issue 24).
+#: people), where only what bending keeps may count. Chosen by
+#: bench/selection/local_features_select.py (docs/results.md, issue 24).
 DESCRIPTOR_FAMILIES: dict[str, DescriptorSettings] = {
     "parts": DescriptorSettings(),
     "bendable": _bendable(),

@@ -297,7 +297,7 @@ def _extrinsic(
 # whole-part histograms. Measured at 1500 points (ss9), two samplings of a plate lie 0.45 of
 # the way to the nearest other shape with it and under 0.25 without it (square plate 0.13,
 # sphere 0.19, torus 0.06); on real parts the lowest copy score (the README's score table,
-# bench/score_calibration.py) is lower than without the block.
+# bench/selection/score_calibration.py) is lower than without the block.
 @pytest.mark.parametrize(("caps_weight", "bound"), [(0.0, 0.25), (1.0, 0.5)])
 def test_two_samplings_of_one_shape_are_closer_than_two_shapes(
     caps_weight: float, bound: float
@@ -353,7 +353,7 @@ def test_extrinsic_blocks_need_the_points() -> None:
 
 
 def test_unit_blocks_reweighted_give_the_descriptor_of_those_weights() -> None:
-    # What the weight search (bench/descriptor_weights.py) relies on: the blocks of a spec
+    # What the weight search (bench/selection/descriptor_weights.py) relies on: the blocks of a spec
     # with every weight 1, scaled by w and joined, are the descriptor of weights w.
     ones = DescriptorSpec.from_settings(
         DescriptorSettings(**dict.fromkeys(BLOCK_WEIGHTS.values(), 1.0))

@@ -262,8 +262,8 @@ def test_end_profiles_keep_the_wider_end_first_and_ignore_point_order_and_strays
 def test_screw_ends_do_not_change_with_length_but_with_the_head() -> None:
     # pymadcad's standard screws: about the first axis, an M8 socket-head screw 16 long and
     # one 48 long have nearly the same ends; a button head of the same length does not.
-    # Measured: 0.095 between the lengths, 0.82 to the button head (bench/end_caps_select.py
-    # chose the block that holds these profiles).
+    # Measured: 0.095 between the lengths, 0.82 to the button head
+    # (bench/selection/end_caps_select.py chose the block that holds these profiles).
     standard = pytest.importorskip(
         "madcad.standard", reason="pymadcad (the test extra) is not installed"
     )

@@ -38,7 +38,7 @@ def test_bendable_family_keeps_a_bent_copy_near_itself(bendable_shapes) -> None:
         return float(np.linalg.norm(vectors[a] - vectors[b]))
 
     others = ("box", "torus", "cone")
-    # Measured (bench/families_check.py): 0.05 against >= 0.32 to the other shapes; 0.09
+    # Measured (bench/selection/families_check.py): 0.05 against >= 0.32 to the other shapes; 0.09
     # against >= 0.30 for the finger.
     assert distance("straight", "bent") < 0.3 * min(distance("straight", o) for o in others)
     assert distance("finger", "finger-bent") < 0.5 * min(distance("finger", o) for o in others)
@@ -79,8 +79,8 @@ def test_screw_head_type_counts_more_than_size() -> None:
     def distance(a: str, b: str) -> float:
         return float(np.linalg.norm(vectors[a] - vectors[b]))
 
-    # Measured (bench/families_check.py, ss9): 0.055 to the smaller socket head, 0.38 to the
-    # button head, 0.059 to itself sampled again; ss4, before the local block: 0.040, 0.26,
+    # Measured (bench/selection/families_check.py, ss9): 0.055 to the smaller socket head, 0.38 to
+    # the button head, 0.059 to itself sampled again; ss4, before the local block: 0.040, 0.26,
     # 0.045. Both tell the head types apart.
     assert distance("socket-M10x25", "socket-M6x15") < 0.5 * distance(
         "socket-M10x25", "button-M10x25"

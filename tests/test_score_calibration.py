@@ -25,7 +25,8 @@ def test_it_is_the_empirical_share_below_and_never_decreases() -> None:
 
 
 def test_the_default_descriptor_is_calibrated_whatever_its_library_digest() -> None:
-    # Fails when the default descriptor changes without `bench/score_calibration.py --write`.
+    # Fails when the default descriptor changes without `bench/selection/score_calibration.py
+    # --write`.
     version = descriptor_version(EngineSettings())
     calibration = calibration_for(version)
     assert calibration is not None

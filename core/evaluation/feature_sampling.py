@@ -14,7 +14,7 @@ later stage weighs points by the area they stand for (the Laplacian's lumped mas
 denser edge gets finer resolution, not more weight, in the area-weighted blocks.
 
 Used by the evaluation's ``Sampling`` (``feature_share``) and by
-``bench/extraction_select.py``, which decides by the leave-one-source-out rule whether the
+``bench/selection/extraction_select.py``, which decides by the leave-one-source-out rule whether the
 service should sample this way.
 """
 

@@ -15,13 +15,13 @@ its distance to ``q'``. ``alpha`` 0 is the plain average (AQE).
 
 The grid, written before any score of it was seen: ``ss6`` (no expansion) and ``n`` in
 {1, 2, 3, 5} x ``alpha`` in {0, 3}: 9 candidates. The rule and the ship condition are the
-ring study's (``bench/profile_block_select.py``): mAP per source, mean over the seven
+ring study's (``bench/selection/profile_block_select.py``): mAP per source, mean over the seven
 sources, ties within 0.002 to the smaller ``n`` (fewer stored vectors read per query),
 leave-one-source-out with a paired bootstrap against ``ss6``; ship only if the LOSO mean is
 above ``ss6``'s by more than 0.002 with the 95 % interval above zero. Nothing here is fitted,
 so leaving a source out only changes which ``n, alpha`` the others choose.
 
-    nice -n 10 .venv/bin/python bench/query_expansion_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/query_expansion_select.py /work/study \\
         --json /work/study/query_expansion.json
 """
 

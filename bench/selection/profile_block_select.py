@@ -51,7 +51,7 @@ The rule (as ``positional_features_select``'s):
    best, the narrower vector.
 3. Leave-one-source-out: for each source ``s``, the candidate chosen on the other five, scored
    on ``s``; its mean against ``ss5`` alone, with a paired bootstrap over queries (the helper of
-   ``bench/rerank_select.py``).
+   ``bench/selection/rerank_select.py``).
 4. Ship only if the LOSO mean is above ``ss5``'s by more than the tie margin (0.002) and the
    bootstrap's 95 % interval lies above zero.
 
@@ -67,7 +67,7 @@ when the study ran, seven since bd-vslot's parts (``vslot``) joined the tuning s
 seven-source re-run is a check of the choice on a source it was not made on, written down
 before it ran; it changes nothing by itself (item 4 still decides).
 
-    nice -n 10 .venv/bin/python bench/profile_block_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/profile_block_select.py /work/study \\
         --json /work/study/profile.json
 """
 
@@ -247,7 +247,7 @@ def stabilisation_ships(report: dict[str, object], fixes: list[str], reference: 
     ``ships``.
 
     The upper end was added after soft bins passed the first three conditions with an
-    interval wholly below zero (``bench/soft_bins_select.py``, disclosed there); the two
+    interval wholly below zero (``bench/selection/soft_bins_select.py``, disclosed there); the two
     shipped stabilisations pass it.
     """
     chosen = str(report["chosen"])
@@ -431,7 +431,8 @@ def default_local_blocks(sources: list[Source], cache: Path, point_pooling: bool
     source ``(m, b)``, each source encoded by words fitted on the other sources; cached in
     ``cache`` per source and the sources fitted on. ``point_pooling`` pools every point with
     the same weight instead of the area it stands for; ``features`` and ``encoding``
-    (``"bof"``) make the bendable family's block instead (``bench/extraction_select.py``)."""
+    (``"bof"``) make the bendable family's block instead
+    (``bench/selection/extraction_select.py``)."""
     encode = encode_vlad if encoding == "vlad" else encode_bof
     local: dict[str, np.ndarray] = {}
     for source in sources:

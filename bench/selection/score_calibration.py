@@ -16,7 +16,8 @@ the quantiles of the different-kind scores as the default descriptor's calibrati
 (``core/data/score-calibration.json``, read by ``core.score_calibration``) and prints how the
 calibrated score separates the three groups::
 
-    .venv/bin/python bench/score_calibration.py /work/tuning [--sources parts madcad ...] [--write]
+    .venv/bin/python bench/selection/score_calibration.py /work/tuning \\
+        [--sources parts madcad ...] [--write]
 """
 
 from __future__ import annotations

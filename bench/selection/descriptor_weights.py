@@ -19,7 +19,7 @@ The caches come from one scan-retrieval run per set (describing what is missing)
 
 Then::
 
-    .venv/bin/python bench/descriptor_weights.py --set parts PARTS/tune OUT_TUNE \\
+    .venv/bin/python bench/selection/descriptor_weights.py --set parts PARTS/tune OUT_TUNE \\
         --set capod /work/shared/datasets/capod OUT_CAPOD [--report PARTS/test OUT_TEST]
 
 ``--report`` scores the chosen setting and the previous default on a held-out set, after the
@@ -40,7 +40,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 
 from core.cutoff import make_cutoff  # noqa: E402
 from core.descriptor import BLOCK_WEIGHTS, DescriptorSpec  # noqa: E402

@@ -1,22 +1,22 @@
 """Issue 24: settings of the extraction stage (sampling, budget, cutoff), chosen or declined.
 
 Five questions, each a set of study folders that differ in one setting of the extraction
-(``bench/local_features_extract.py``) and nothing else, scored by one rule.
+(``bench/selection/local_features_extract.py``) and nothing else, scored by one rule.
 
 **1. Feature-aware sampling**, the last candidate of the issue's item 3.
 
 Measurement only (the service's sampling does not change unless the rule ships it). The issue
 lists three ways to make the descriptor see the small regions that tell standard parts apart:
 a vocabulary of local signatures (shipped: the VLAD block), a finer re-rank (declined,
-``bench/rerank_select.py``) and *feature-aware sampling that gives edges and small features
-points within the budget*, measured here. At 3000 uniform points a hex socket or a hub fillet
-gets the few dozen points its area earns; ``core.evaluation.feature_sampling`` draws the same
+``bench/selection/rerank_select.py``) and *feature-aware sampling that gives edges and small
+features points within the budget*, measured here. At 3000 uniform points a hex socket or a hub
+fillet gets the few dozen points its area earns; ``core.evaluation.feature_sampling`` draws the same
 budget from a four times denser uniform sample with weights that rise with the surface
 variation, so edges and curved features get more of it, flat faces less.
 
-Each sampling is one study folder made by ``bench/local_features_extract.py`` (same sources,
-same seeds, same rotations; only the sampler differs), and every candidate is ``ss6`` as the
-service builds it (``ss4-noprop`` blocks, the VLAD block of ``hks+sv`` on 64 words at weight 1,
+Each sampling is one study folder made by ``bench/selection/local_features_extract.py`` (same
+sources, same seeds, same rotations; only the sampler differs), and every candidate is ``ss6`` as
+the service builds it (``ss4-noprop`` blocks, the VLAD block of ``hks+sv`` on 64 words at weight 1,
 each source encoded by words fitted on the other sources *of the same sampling*, the ring
 block at weight 4). Every block and the Laplacian's mass weigh points by the area they stand
 for, so denser edges buy resolution, not weight; the second axis asks whether they should also
@@ -29,19 +29,19 @@ The grid, written before any score of it was seen:
 
 Six candidates; ``share 0, area`` is ``ss6`` (on the command line the first study given is the
 reference, and the order given is the order of cost). The rule
-(``bench/profile_block_select.py``'s): mAP per source (leave-one-out within it; capod-nonrigid
-scored apart); the choice is the best mean over every source of the study, ties within 0.002 to
-the cheaper (uniform sampling skips the dense sample and its neighbour search; area pooling is
-what ships); leave-one-source-out with a paired bootstrap over queries against ``ss6``; ship
-only if the LOSO mean is above ``ss6``'s by more than 0.002 and the 95 % interval lies above
+(``bench/selection/profile_block_select.py``'s): mAP per source (leave-one-out within it;
+capod-nonrigid scored apart); the choice is the best mean over every source of the study, ties
+within 0.002 to the cheaper (uniform sampling skips the dense sample and its neighbour search; area
+pooling is what ships); leave-one-source-out with a paired bootstrap over queries against ``ss6``;
+ship only if the LOSO mean is above ``ss6``'s by more than 0.002 and the 95 % interval lies above
 zero.
 
-    .venv/bin/python bench/local_features_extract.py /work/tuning /work/study
-    .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-f0.5 \\
+    .venv/bin/python bench/selection/local_features_extract.py /work/tuning /work/study
+    .venv/bin/python bench/selection/local_features_extract.py /work/tuning /work/study-f0.5 \\
         --feature-share 0.5
-    .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-f0.8 \\
+    .venv/bin/python bench/selection/local_features_extract.py /work/tuning /work/study-f0.8 \\
         --feature-share 0.8
-    nice -n 10 .venv/bin/python bench/extraction_select.py "share 0=/work/study" \\
+    nice -n 10 .venv/bin/python bench/selection/extraction_select.py "share 0=/work/study" \\
         "share 0.5=/work/study-f0.5" "share 0.8=/work/study-f0.8" --json /work/study/sampling.json
 
 A second question, written after the first run (which declined: see docs/results.md) and
@@ -50,9 +50,9 @@ Grid: 3000 points (the reference) and 4000 (the cost limit of issue 24, 1.5x tod
 leaves room for about that), each with both poolings; the same rule and condition, and a
 budget ships only if ``bench/descriptor_cost.py`` also finds it within 1.5x of ``ss4``.
 
-    .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-p4000 \\
+    .venv/bin/python bench/selection/local_features_extract.py /work/tuning /work/study-p4000 \\
         --max-points 4000
-    nice -n 10 .venv/bin/python bench/extraction_select.py "3000 points=/work/study" \\
+    nice -n 10 .venv/bin/python bench/selection/extraction_select.py "3000 points=/work/study" \\
         "4000 points=/work/study-p4000" --json /work/study/budget.json
 
 **3. The adaptive cutoff's t**, written after the first two runs (both declined) and before
@@ -67,9 +67,9 @@ are shared with the reference study (``OUT/cache`` a link to ``/work/study/cache
 every ``t`` describes the same Laplacians.
 
     for t in 0.02 0.005; do mkdir -p /work/study-t$t; ln -s /work/study/cache /work/study-t$t/cache
-        .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-t$t \\
+        .venv/bin/python bench/selection/local_features_extract.py /work/tuning /work/study-t$t \\
             --cutoff-t $t; done
-    nice -n 10 .venv/bin/python bench/extraction_select.py "t 0.02=/work/study-t0.02" \\
+    nice -n 10 .venv/bin/python bench/selection/extraction_select.py "t 0.02=/work/study-t0.02" \\
         "t 0.01=/work/study" "t 0.005=/work/study-t0.005" --reference "t 0.01" \\
         --poolings area --json /work/study/cutoff.json
 
@@ -80,7 +80,7 @@ rule (issue 24's rule 4: the mean over the non-rigid sources, bendable and capod
 ``t`` 0.02 ships for the engine only if this rule does not find it below 0.01 by more than
 the tie margin on those sources; otherwise ``t`` stays 0.01 for both.
 
-    nice -n 10 .venv/bin/python bench/extraction_select.py "t 0.02=/work/study-t0.02" \\
+    nice -n 10 .venv/bin/python bench/selection/extraction_select.py "t 0.02=/work/study-t0.02" \\
         "t 0.01=/work/study" "t 0.005=/work/study-t0.005" --reference "t 0.01" \\
         --poolings area --family bendable --json /work/study/cutoff-bendable.json
 
@@ -98,9 +98,9 @@ non-rigid sources) against 1; each ships only if its condition holds and
 the reference study (the same cutoff), so every scale describes the same spectra.
 
     for f in 0.5 2; do mkdir -p /work/study-h$f; ln -s /work/study/cache /work/study-h$f/cache
-        .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-h$f \\
+        .venv/bin/python bench/selection/local_features_extract.py /work/tuning /work/study-h$f \\
             --hks-scale $f; done
-    nice -n 10 .venv/bin/python bench/extraction_select.py "times x1=/work/study" \\
+    nice -n 10 .venv/bin/python bench/selection/extraction_select.py "times x1=/work/study" \\
         "times x0.5=/work/study-h0.5" "times x2=/work/study-h2" --reference "times x1" \\
         --poolings area [--family bendable] --json /work/study/times[-bendable].json
 
@@ -118,9 +118,9 @@ sources against 2, the ``bendable`` family by its own rule (``--family bendable`
 eigenpairs are shared with the reference study.
 
     for w in 1 4; do mkdir -p /work/study-w$w; ln -s /work/study/cache /work/study-w$w/cache
-        .venv/bin/python bench/local_features_extract.py /work/tuning /work/study-w$w \\
+        .venv/bin/python bench/selection/local_features_extract.py /work/tuning /work/study-w$w \\
             --wks-sigma $w; done
-    nice -n 10 .venv/bin/python bench/extraction_select.py "wks 2=/work/study" \\
+    nice -n 10 .venv/bin/python bench/selection/extraction_select.py "wks 2=/work/study" \\
         "wks 1=/work/study-w1" "wks 4=/work/study-w4" --reference "wks 2" \\
         --poolings area [--family bendable] --json /work/study/wks[-bendable].json
 """

@@ -2,28 +2,28 @@
 
 Measurement only (the service's descriptor does not change in this step; a choice that
 ships by the rule is adopted in a later step, with its tests and the score calibration).
-Why, disclosed: written after the heat-kernel times held (``bench/extraction_select.py``,
+Why, disclosed: written after the heat-kernel times held (``bench/selection/extraction_select.py``,
 question 4), as the next setting of the descriptor chosen on capod alone (issue 4): the
 ``bins`` of the HKS, WKS, WKS-slope, D2 and D1 histograms (32). Fewer bins pool more, more
 bins resolve a small share of the surface that sits at other signature values.
 
 The ``parts`` family's vectors as ``ss6`` joins them, the five binned blocks recomputed from
 each model's stored features (signature, areas, eigenvalues, points, as
-``bench/local_features_extract.py`` saved them) by ``DescriptorSpec`` with ``bins`` changed,
-every other block as stored; the local block (each source encoded by words fitted on the
+``bench/selection/local_features_extract.py`` saved them) by ``DescriptorSpec`` with ``bins``
+changed, every other block as stored; the local block (each source encoded by words fitted on the
 other sources) and the ring block at weight 4 as the service joins them. The 32-bin
 reference is recomputed the same way (the stored signature is float32), so every candidate
 is made alike; its mean is printed next to the stored ``ss6``'s as a check.
 
 The grid, written before any score of it was seen: ``bins`` in {32 (the service's), 16, 64},
 ties in that order. The rule and the ship condition are the ring study's
-(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(``bench/selection/profile_block_select.py``): mAP per source, mean over the seven sources
 (capod-nonrigid scored apart), leave-one-source-out with a paired bootstrap against 32; ship
 only if the LOSO mean is above 32's by more than 0.002 with the 95 % interval above zero and
 ``bench/descriptor_cost.py`` finds it within 1.5x of ``ss4``. The ``bendable`` family is not
 part of this question (it would keep 32 whatever this finds, until asked by its own rule).
 
-    nice -n 10 .venv/bin/python bench/histogram_bins_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/histogram_bins_select.py /work/study \\
         --json /work/study/bins.json
 """
 

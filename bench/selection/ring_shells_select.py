@@ -27,7 +27,7 @@ They ship only if (1) the rule's choice over the seven sources is a soft-shell c
 end is above -0.005, and (3) the lowest cosine between two copies of one mesh in the
 ``parts`` source is higher than ``ss8``'s.
 
-    nice -n 10 .venv/bin/python bench/ring_shells_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/ring_shells_select.py /work/study \\
         --json /work/study/ring_shells.json
 
 **Round 1's result, and why it was not adopted (disclosed).** With each soft shell's

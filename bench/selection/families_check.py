@@ -5,7 +5,7 @@ knuckles turned, against a box, a torus and a cone (``parts`` and ``bendable`` f
 pymadcad's standard socket-head and button-head screws of two sizes (``ss4``, the default
 before issue 24, and the default ``parts`` family)::
 
-    .venv/bin/python bench/families_check.py
+    .venv/bin/python bench/selection/families_check.py
 """
 
 from __future__ import annotations

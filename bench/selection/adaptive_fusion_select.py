@@ -22,8 +22,8 @@ of the blocks' squared distances is the squared distance of the rows).
 
 The grid, written before any score of it was seen: ``ss9`` and ``gamma`` in {0.5, 1, 2} x
 ``K`` in {10, 5}: 7 candidates. The rule and the ship condition are the ring study's
-(``bench/profile_block_select.py``): mAP per source, leave-one-out within each source, mean
-over the seven sources (capod-nonrigid scored apart), ties within 0.002 in the order ``ss9``,
+(``bench/selection/profile_block_select.py``): mAP per source, leave-one-out within each source,
+mean over the seven sources (capod-nonrigid scored apart), ties within 0.002 in the order ``ss9``,
 then smaller ``gamma``, then ``K`` 10 before 5; leave-one-source-out with a paired bootstrap
 against ``ss9``; ship only if the LOSO mean is above ``ss9``'s by more than 0.002 with the
 95 % interval above zero. Nothing here is fitted: leaving a source out only changes which
@@ -33,7 +33,7 @@ each block's median per query: a choice that ships here is adopted only in a for
 scales (the block distances of the index's candidates against a per-block reference), and
 that form is measured the same way first.
 
-    nice -n 10 .venv/bin/python bench/adaptive_fusion_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/adaptive_fusion_select.py /work/study \\
         --json /work/study/adaptive_fusion.json
 """
 

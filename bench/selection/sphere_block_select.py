@@ -24,13 +24,13 @@ block). A shell with fewer than 3 points gives zeros.
 The grid, written before any score of it was seen: ``ss6`` (the reference) and ``ss6`` with
 the ``sphere`` block added at shells ``S`` in {4, 8} x degrees ``L`` in {8, 16} x weight in
 {1, 2, 4, 8}: 17 candidates. The rule and the ship condition are the ring study's
-(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(``bench/selection/profile_block_select.py``): mAP per source, mean over the seven sources
 (capod-nonrigid scored apart), ties within 0.002 to the narrower vector, leave-one-source-out
 with a paired bootstrap against ``ss6``; ship only if the LOSO mean is above ``ss6``'s by
 more than 0.002 with the 95 % interval above zero. The block is extrinsic: the ``bendable``
 family would leave it out.
 
-    nice -n 10 .venv/bin/python bench/sphere_block_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/sphere_block_select.py /work/study \\
         --json /work/study/sphere.json
 """
 

@@ -46,7 +46,7 @@ neutral; ``stabilisation_ships`` now also asks that the interval's upper end be 
 as a setting of the service; it lives here now, patched into ``core.descriptor`` for the
 run, so that no unused setting changes every database's version digest.
 
-    nice -n 10 .venv/bin/python bench/soft_bins_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/soft_bins_select.py /work/study \\
         --json /work/study/soft_bins.json
 """
 

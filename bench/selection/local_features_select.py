@@ -1,6 +1,6 @@
 """Stage 2 of the engineering-parts study (issue 24): choose the descriptor by a fixed rule.
 
-Reads the per-model features of ``bench/local_features_extract.py`` and scores every
+Reads the per-model features of ``bench/selection/local_features_extract.py`` and scores every
 candidate descriptor on every source, leave-one-out within the source (PSB conventions,
 ``core.evaluation.metrics``).
 
@@ -30,7 +30,7 @@ The rule, written down before any score was seen:
    (``bendable`` and capod's Human, Hand, Dog, Horse, Spider classes), kept only if its
    mean over all sources is not below ``spectral``'s.
 
-    .venv/bin/python bench/local_features_select.py OUT [--json RESULT.json]
+    .venv/bin/python bench/selection/local_features_select.py OUT [--json RESULT.json]
 """
 
 from __future__ import annotations

@@ -6,8 +6,8 @@ principal axes, and the ring block's (4) in its round 2 with area tertiles; sinc
 axes (``ss8``) and soft shells (``ss9``) took sampling noise out of both (a re-sampled copy's
 lowest cosine 0.901 -> 0.938 in the ``parts`` source). A block that carries less noise may
 deserve more weight: the weights that balanced signal against noise were measured on the
-noisier blocks. The block weights study (``bench/block_weights_select.py``) asked the other
-blocks at ``ss6``, before the caps block existed.
+noisier blocks. The block weights study (``bench/selection/block_weights_select.py``) asked the
+other blocks at ``ss6``, before the caps block existed.
 
 The pool, written before any score of it was seen: caps weight {1, 1.5, 2} x ring weight
 {4, 6}, every other block as ``ss9`` (caps 1, ring 4 is ``ss9``): 6 candidates, one width.
@@ -18,7 +18,7 @@ is ``ss9`` first, then the smaller change (caps 1.5 before ring 6, before both, 
 mean above ``ss9``'s mean by more than the tie margin, the bootstrap's lower end above zero.
 The bendable family has neither block and is not asked.
 
-    nice -n 10 .venv/bin/python bench/stabilised_weights_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/stabilised_weights_select.py /work/study \\
         --json /work/study/stabilised_weights.json
 """
 

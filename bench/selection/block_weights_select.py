@@ -3,11 +3,12 @@
 Measurement only (the service's descriptor does not change in this step; a choice that
 ships by the rule is adopted in a later step, with its tests and the score calibration).
 Why, disclosed: issue 24 says every setting was chosen on capod and on our own generator.
-The weights of ``ss6``'s extrinsic blocks come from ``bench/descriptor_weights.py`` (issue
+The weights of ``ss6``'s extrinsic blocks come from ``bench/selection/descriptor_weights.py`` (issue
 12, on our generated parts and capod, scans included), its spectral weights from ``ss3``
 (capod); only some were looked at again by the leave-one-source-out rule since (D2 and D1
-in ``bench/proportion_blocks_select.py``, the ring block's weight in
-``bench/profile_block_select.py``, the local block's weight with the base before the ring).
+in ``bench/selection/proportion_blocks_select.py``, the ring block's weight in
+``bench/selection/profile_block_select.py``, the local block's weight with the base before the
+ring).
 
 The grid, written before any score of it was seen: ``ss6`` as the service builds it (the
 ``ss4-noprop`` blocks, the VLAD block of ``hks+sv`` at 64 words, each source encoded by a
@@ -15,13 +16,13 @@ vocabulary fitted on the other sources, the ring block at weight 4), and one blo
 with its weight halved or doubled, for the blocks not yet re-weighed by the rule with the
 ring in place: ``hks``, ``wks``, ``slope``, ``dna``, ``normals``, ``symmetry`` and the local
 block: 15 candidates. The rule and the ship condition are the ring study's
-(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(``bench/selection/profile_block_select.py``): mAP per source, mean over the seven sources
 (capod-nonrigid scored apart), leave-one-source-out with a paired bootstrap against ``ss6``;
 ship only if the LOSO mean is above ``ss6``'s by more than 0.002 with the 95 % interval above
 zero. Every candidate has the same width, so ties within 0.002 go to ``ss6`` (the tie key is
 the number of weights changed, 0 or 1).
 
-    nice -n 10 .venv/bin/python bench/block_weights_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/block_weights_select.py /work/study \\
         --json /work/study/block_weights.json
 """
 

@@ -22,13 +22,13 @@ zeros. Invariant to rotation, translation, uniform scale and point order, like t
 The grid, written before any score of it was seen: ``ss6`` (the reference); ``ss6`` with the
 ring block replaced by ``halves`` at weight {2, 4, 8}; ``ss6`` with ``halves`` added (the ring
 kept at 4) at weight {1, 2, 4}. Seven candidates. The rule and the ship condition are the
-ring study's (``bench/profile_block_select.py``): mAP per source, mean over the seven
+ring study's (``bench/selection/profile_block_select.py``): mAP per source, mean over the seven
 sources (capod-nonrigid scored apart), ties within 0.002 to the narrower vector,
 leave-one-source-out with a paired bootstrap against ``ss6``; ship only if the LOSO mean is
 above ``ss6``'s by more than 0.002 with the 95 % interval above zero. The block is extrinsic:
 the ``bendable`` family would leave it out.
 
-    nice -n 10 .venv/bin/python bench/ring_halves_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/ring_halves_select.py /work/study \\
         --json /work/study/ring_halves.json
 """
 

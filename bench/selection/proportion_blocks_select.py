@@ -5,20 +5,20 @@ pymadcad's screws (a tuning source) ``spectral`` + normals + symmetry + the loca
 button, hex and socket heads 0.83 / 0.96 / 0.82 mAP against ``ss6``'s 0.65 / 0.76 / 0.69, and
 the blocks in between are D2 and D1 (``core.extrinsic``): their histograms, over their mean,
 follow a part's length-to-diameter ratio, so one kind of screw in many lengths spreads out. The
-earlier selector (``bench/local_features_select.py``) tried bases with both or neither.
+earlier selector (``bench/selection/local_features_select.py``) tried bases with both or neither.
 
 The grid, written before any score of it was seen: ``ss6`` as the service builds it (the
 ``ss4-noprop`` blocks, the VLAD block of ``hks+sv`` at 64 words and weight 1, each source
 encoded by a vocabulary fitted on the other sources, and the ring block at weight 4) with the
 D2 weight and the D1 weight each scaled by {0, 0.5, 1}: nine candidates, ``ss6`` is (1, 1).
 
-The rule (``bench/profile_block_select.py``'s): mAP per source, leave-one-out within it; the
-mean over the rule's sources (every source of the study; capod-nonrigid is scored apart), ties
+The rule (``bench/selection/profile_block_select.py``'s): mAP per source, leave-one-out within it;
+the mean over the rule's sources (every source of the study; capod-nonrigid is scored apart), ties
 within 0.002 to the narrower vector; leave-one-source-out with a paired bootstrap over queries
 against ``ss6``; ship only if the LOSO mean is above ``ss6``'s by more than 0.002 and the 95 %
 interval lies above zero.
 
-    nice -n 10 .venv/bin/python bench/proportion_blocks_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/proportion_blocks_select.py /work/study \\
         --json /work/study/proportion.json
 """
 

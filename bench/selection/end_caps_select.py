@@ -31,13 +31,13 @@ translation, uniform scale and point order.
 The grid, written before any score of it was seen: ``ss6`` (the reference) and ``ss6`` with
 the ``caps`` block added at ``B`` in {4, 6} x ``H`` in {1, 2} x weight in {0.5, 1, 2}: 13
 candidates. The rule and the ship condition are the ring study's
-(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(``bench/selection/profile_block_select.py``): mAP per source, mean over the seven sources
 (capod-nonrigid scored apart), ties within 0.002 to the narrower vector,
 leave-one-source-out with a paired bootstrap against ``ss6``; ship only if the LOSO mean is
 above ``ss6``'s by more than 0.002 with the 95 % interval above zero. The block is extrinsic:
 the ``bendable`` family would leave it out.
 
-    nice -n 10 .venv/bin/python bench/end_caps_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/end_caps_select.py /work/study \\
         --json /work/study/end_caps.json
 
 **Round 2, written after round 1's result and before any score of it (disclosed as such).**
@@ -94,7 +94,7 @@ up to 0.017, found by the invariance test written to adopt it); the set now hold
 octant's spiral and its mirrors, and the figures above are the re-run's (the first run's:
 the same choice, +0.0025, copies 0.931).
 
-    nice -n 10 .venv/bin/python bench/end_caps_select.py /work/study --round 3 \\
+    nice -n 10 .venv/bin/python bench/selection/end_caps_select.py /work/study --round 3 \\
         --json /work/study/end_caps_round3.json
 """
 

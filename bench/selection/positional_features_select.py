@@ -1,8 +1,8 @@
 """Issue 24 follow-up: do positional or multi-scale local features generalise across sources?
 
 Measurement only (nothing under ``core/``, ``app/`` or ``tests/`` changes). Reads the per-model
-features of ``bench/local_features_extract.py`` (the same ``OUT`` as
-``bench/local_features_select.py``, whose loading, bases and scoring it reuses) and asks
+features of ``bench/selection/local_features_extract.py`` (the same ``OUT`` as
+``bench/selection/local_features_select.py``, whose loading, bases and scoring it reuses) and asks
 whether extra per-point columns, added to today's local features before the VLAD pooling,
 help a source that the choice did not see.
 
@@ -57,14 +57,14 @@ candidate and does not change the rule's figures above):
    candidate the rule picks within the base and that feature set on the five, scored on ``s``:
    item 5's per-feature-set figure with the feature set itself chosen without ``s``.
 7. Noise: a paired bootstrap over queries (within each source, 2000 draws, seed 0; the helper
-   of ``bench/rerank_select.py``) of the LOSO mean's difference to the today-only LOSO.
+   of ``bench/selection/rerank_select.py``) of the LOSO mean's difference to the today-only LOSO.
 
 Cost: per model, the milliseconds to compute ``rad``, ``ax``, ``sv4`` and today's sv (10, 30)
 from the stored points (one thread; the extra cost of ``sv4`` is its time less today's);
 medians over models. Per-model columns and encoded blocks are cached under
 ``OUT/positional_cache``.
 
-    nice -n 10 .venv/bin/python bench/positional_features_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/positional_features_select.py /work/study \\
         --json /work/study/positional.json
 """
 

@@ -30,13 +30,13 @@ is scored with capod's fold.
 
 The grid, written before any score of it was seen: ``ss6`` (reference, ``r`` 0) and
 ``r`` in {4, 8, 16, 32, 64, 128} x ``beta`` in {0, 0.5}: 13 candidates. The rule and the
-ship condition are the ring study's (``bench/profile_block_select.py``): mAP per source, mean
-over the seven sources, ties within 0.002 to the lower rank (the smaller data file), rule
+ship condition are the ring study's (``bench/selection/profile_block_select.py``): mAP per source,
+mean over the seven sources, ties within 0.002 to the lower rank (the smaller data file), rule
 applied leave-one-source-out with a paired bootstrap against ``ss6``; ship only if the LOSO
 mean is above ``ss6``'s by more than 0.002 with the 95 % interval above zero. The bendable
 family (intrinsic blocks only) is not part of this question.
 
-    nice -n 10 .venv/bin/python bench/nuisance_projection_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/nuisance_projection_select.py /work/study \\
         --json /work/study/nuisance.json
 """
 

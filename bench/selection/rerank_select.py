@@ -1,9 +1,9 @@
 """Issue 24 follow-up: does a finer re-rank of the top candidates generalise across sources?
 
 Measurement only (nothing under ``core/`` or ``app/`` changes). Reads the per-model features
-of ``bench/local_features_extract.py`` (the same ``OUT`` as ``bench/local_features_select.py``)
-and scores a two-stage retrieval on every source, leave-one-out within the source (PSB
-conventions, ``core.evaluation.metrics``).
+of ``bench/selection/local_features_extract.py`` (the same ``OUT`` as
+``bench/selection/local_features_select.py``) and scores a two-stage retrieval on every source,
+leave-one-out within the source (PSB conventions, ``core.evaluation.metrics``).
 
 First stage: the default ``ss5`` vectors (base ``ss4-noprop`` blocks joined with the VLAD of
 per-point ``hks+sv`` features over 64 words at weight 1, unit rows), the vocabulary that
@@ -55,7 +55,7 @@ Cost: median milliseconds per query to compute ``d_fine`` for ``K`` candidates f
 subsamples (one thread), and the bytes per model to store them (``POINTS`` x columns float16,
 plus the areas).
 
-    .venv/bin/python bench/rerank_select.py /work/study \\
+    .venv/bin/python bench/selection/rerank_select.py /work/study \\
         --selection /work/study/sel.json --json /work/study/rerank.json
 """
 

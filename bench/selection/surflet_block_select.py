@@ -27,13 +27,13 @@ point order).
 The grid, written before any score of it was seen: ``ss6`` (the reference) and ``ss6`` with
 the ``surflet`` block added at (``D``, ``A``) in {(4, 3), (6, 4)} x weight in {0.5, 1, 2}:
 7 candidates. The rule and the ship condition are the ring study's
-(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(``bench/selection/profile_block_select.py``): mAP per source, mean over the seven sources
 (capod-nonrigid scored apart), ties within 0.002 to the narrower vector,
 leave-one-source-out with a paired bootstrap against ``ss6``; ship only if the LOSO mean is
 above ``ss6``'s by more than 0.002 with the 95 % interval above zero. The block is
 extrinsic: the ``bendable`` family would leave it out.
 
-    nice -n 10 .venv/bin/python bench/surflet_block_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/surflet_block_select.py /work/study \\
         --json /work/study/surflet.json
 """
 

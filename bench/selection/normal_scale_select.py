@@ -3,8 +3,8 @@
 Measurement only (the service's descriptor does not change in this step; a choice that
 ships by the rule is adopted in a later step, with its tests, the scan tables and the score
 calibration). Why, disclosed: the per-block diagnostic behind the query-adaptive fusion
-(``bench/adaptive_fusion_select.py``) found that no block tells py-gearworks' spur, helical
-and herringbone gears apart (each of the three near 0.3 mAP with every block alone, the
+(``bench/selection/adaptive_fusion_select.py``) found that no block tells py-gearworks' spur,
+helical and herringbone gears apart (each of the three near 0.3 mAP with every block alone, the
 normals block included), although a helical gear's tooth flanks lean against its axis by
 ``|cos| ~ sin(helix angle)`` and a spur gear's do not. The normals block
 (``normal_weight`` 0.5) histograms the ``|cos|`` between each point's normal and the
@@ -34,7 +34,7 @@ The grid, written before any score of it was seen: ``normal_neighbours`` in {12,
 x ``normal_weight`` in {0.5, 1.0}: 8 candidates, ``ss9`` (12, 0.5) first, ties within 0.002
 broken in the order (12, 0.5), (8, 0.5), (6, 0.5), (16, 0.5), (12, 1), (8, 1), (6, 1),
 (16, 1): the service's, then its neighbourhood before its weight, nearer to 12 first. The
-rule and the ship condition are the ring study's (``bench/profile_block_select.py``): mAP
+rule and the ship condition are the ring study's (``bench/selection/profile_block_select.py``): mAP
 per source, leave-one-out within each source, mean over the seven sources (capod-nonrigid
 scored apart), leave-one-source-out with a paired bootstrap against ``ss9``; ship only if
 the LOSO mean is above ``ss9``'s by more than 0.002 with the 95 % interval above zero.
@@ -42,7 +42,7 @@ Adoption would also need the scan-mode tables (merged and single-view scans, whe
 noise that small neighbourhoods see is largest) not to fall by more than 0.01 mAP on any
 source; they are measured only if the rule ships a choice.
 
-    nice -n 10 .venv/bin/python bench/normal_scale_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/normal_scale_select.py /work/study \\
         --json /work/study/normal_scale.json
 """
 

@@ -2,7 +2,7 @@
 
 Measurement only (the service's descriptor does not change in this step; a choice that
 ships by the rule is adopted in a later step, with its tests and the score calibration).
-Why, disclosed: written after the WKS band width held (``bench/extraction_select.py``,
+Why, disclosed: written after the WKS band width held (``bench/selection/extraction_select.py``,
 question 5), as the next setting of the descriptor chosen on capod alone: the ``dna`` block
 (Reuter et al. 2006, on Weyl's scale: ``log(lambda_j / 4 pi j)`` of the first ``dna_count``
 non-zero eigenvalues, centred), 30 values at weight 0.2. Fewer values keep the coarse
@@ -10,7 +10,7 @@ spectrum only; more reach eigenvalues that tell finer, repeated features apart (
 threads, holes on a circle), and are noisier.
 
 The ``parts`` family's vectors as ``ss6`` joins them, the ``dna`` block recomputed from each
-model's stored eigenvalues (``bench/local_features_extract.py`` keeps those up to the
+model's stored eigenvalues (``bench/selection/local_features_extract.py`` keeps those up to the
 adaptive cutoff; a shorter spectrum repeats its last value, as the service does) by
 ``DescriptorSpec`` with ``dna_count`` changed, every other block as stored; the local block
 (each source encoded by words fitted on the other sources) and the ring block at weight 4
@@ -18,13 +18,13 @@ as the service joins them.
 
 The grid, written before any score of it was seen: ``dna_count`` in {30 (the service's), 15,
 60}, ties in that order. The rule and the ship condition are the ring study's
-(``bench/profile_block_select.py``): mAP per source, mean over the seven sources
+(``bench/selection/profile_block_select.py``): mAP per source, mean over the seven sources
 (capod-nonrigid scored apart), leave-one-source-out with a paired bootstrap against 30; ship
 only if the LOSO mean is above 30's by more than 0.002 with the 95 % interval above zero.
 The ``bendable`` family is not part of this question (it keeps 30 until asked by its own
 rule).
 
-    nice -n 10 .venv/bin/python bench/shape_dna_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/shape_dna_select.py /work/study \\
         --json /work/study/dna.json
 """
 

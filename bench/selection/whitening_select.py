@@ -7,7 +7,7 @@ bins of one histogram, the HKS and WKS of one part, VLAD residuals of similar wo
 whatever several correlated bins carry is counted several times in a distance. Jegou & Chum
 (2012, "Negative evidence and co-occurrences in image retrieval") showed that PCA whitening
 learned on other data removes such over-counting and raises retrieval mAP of bag-of-words
-and VLAD vectors. Unlike the nuisance projection (``bench/nuisance_projection_select.py``)
+and VLAD vectors. Unlike the nuisance projection (``bench/selection/nuisance_projection_select.py``)
 it uses no labels: it only equalises the descriptor's directions of variance.
 
 The candidate of ``d`` components and power ``alpha`` (computed on the stored study
@@ -26,13 +26,13 @@ the other sources' rows, and ``s`` is scored with it; capod-nonrigid with capod'
 
 The grid, written before any score of it was seen: ``ss6`` (the reference) and ``d`` in
 {64, 128, 256} x ``alpha`` in {0, 0.5, 1}: 10 candidates. The rule and the ship condition are
-the ring study's (``bench/profile_block_select.py``): mAP per source, mean over the seven
+the ring study's (``bench/selection/profile_block_select.py``): mAP per source, mean over the seven
 sources, ties within 0.002 to the narrower vector (``ss6`` counts as 2817 wide), applied
 leave-one-source-out with a paired bootstrap against ``ss6``; ship only if the LOSO mean is
 above ``ss6``'s by more than 0.002 with the 95 % interval above zero. The bendable family is
 not part of this question.
 
-    nice -n 10 .venv/bin/python bench/whitening_select.py /work/study \\
+    nice -n 10 .venv/bin/python bench/selection/whitening_select.py /work/study \\
         --json /work/study/whitening.json
 """
 

@@ -3,21 +3,21 @@
 For every model of every source (``SOURCES/<source>/<class>/<file>``) the service's own
 stages run once (``core.evaluation.runner``: seeded sample, seeded rotation, robust
 Laplacian, the default adaptive cutoff), and what every descriptor candidate needs is
-saved, so that stage 2 (``bench/local_features_select.py``) only recombines:
+saved, so that stage 2 (``bench/selection/local_features_select.py``) only recombines:
 
 - ``points``, ``areas``: the normalised sample and the area each point stands for;
 - ``signature``: log scaled HKS at the 16 default times and log WKS at the 16 energies;
 - ``blocks_*``: the unit blocks of the default descriptor (every weight 1).
 
-    .venv/bin/python bench/local_features_extract.py SOURCES OUT [--scan KIND]
+    .venv/bin/python bench/selection/local_features_extract.py SOURCES OUT [--scan KIND]
         [--feature-share S] [--max-points N] [--cutoff-t T] [--hks-scale F] [--wks-sigma W]
 
 ``--feature-share`` samples clean models feature-aware (``core.evaluation.feature_sampling``)
 instead of uniformly, ``--max-points`` changes the point budget (the engine's default 3000),
 ``--cutoff-t`` the adaptive cutoff's ``t`` (default 0.01), ``--hks-scale`` multiplies the
 16 heat-kernel times (default 1: 0.001 to 0.1), ``--wks-sigma`` sets the wave kernel's band
-width in energy steps (default 2): the studies of ``bench/extraction_select.py``, one ``OUT``
-per setting.
+width in energy steps (default 2): the studies of ``bench/selection/extraction_select.py``, one
+``OUT`` per setting.
 
 Eigenpairs are cached under ``OUT/cache`` (the evaluation's cache layout), features under
 ``OUT/features/<kind>/<source>/``; a re-run resumes.
