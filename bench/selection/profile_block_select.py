@@ -234,6 +234,10 @@ def lowest_copy_cosine(rows: np.ndarray, labels: np.ndarray) -> float:
 #: A stabilisation may give back at most this much leave-one-source-out mAP (the lower end
 #: of its 95 % interval against the default it replaces).
 STABILISATION_MARGIN = -0.005
+#: ... and must bring copies of one mesh at least this much closer (lowest cosine): a new
+#: default changes every catalogue's descriptor version, and each stored model is described
+#: again, which a gain in steadiness too small to see does not pay for.
+STABILISATION_MIN_COPY_GAIN = 0.002
 
 
 def stabilisation_ships(report: dict[str, object], fixes: list[str], reference: str,
@@ -243,22 +247,26 @@ def stabilisation_ships(report: dict[str, object], fixes: list[str], reference: 
     block's soft axes, the ring block's soft shells): the rule chose one of ``fixes``, its
     leave-one-source-out interval against ``reference`` starts above
     ``STABILISATION_MARGIN`` and ends above zero (not a certain loss), and the copies'
-    lowest cosine (``copies``) rises. Prints the verdict and writes it into ``json_path``'s
-    ``ships``.
+    lowest cosine (``copies``) rises by at least ``STABILISATION_MIN_COPY_GAIN``. Prints
+    the verdict and writes it into ``json_path``'s ``ships``.
 
     The upper end was added after soft bins passed the first three conditions with an
-    interval wholly below zero (``bench/selection/soft_bins_select.py``, disclosed there); the two
-    shipped stabilisations pass it.
+    interval wholly below zero (``bench/selection/soft_bins_select.py``, disclosed there);
+    the least gain after D2 from more pairs passed every condition with copies 0.00003
+    closer (``bench/selection/d2_pairs_select.py``, disclosed there). The two shipped
+    stabilisations pass both (LOSO upper ends +0.0037 and +0.0021; copies +0.028 and
+    +0.0096).
     """
     chosen = str(report["chosen"])
     _, low, high = report[f"minus_{reference}"]  # type: ignore[misc]
+    gain = copies[chosen] - copies[reference]
     conditions = (chosen in fixes, low > STABILISATION_MARGIN, high > 0,
-                  copies[chosen] > copies[reference])
+                  gain >= STABILISATION_MIN_COPY_GAIN)
     ships = all(conditions)
     print(f"{title}: choice {chosen}; a fix {conditions[0]}, LOSO lower end {low:+.4f} > "
           f"{STABILISATION_MARGIN} {conditions[1]}, upper end {high:+.4f} > 0 "
-          f"{conditions[2]}, copies {copies[chosen]:.4f} > {copies[reference]:.4f} "
-          f"{conditions[3]}; ships: {ships}")
+          f"{conditions[2]}, copies {copies[chosen]:.4f} - {copies[reference]:.4f} = "
+          f"{gain:+.4f} >= {STABILISATION_MIN_COPY_GAIN} {conditions[3]}; ships: {ships}")
     if json_path:
         data = json.loads(json_path.read_text())
         json_path.write_text(json.dumps({**data, "ships": ships}, indent=1))
