@@ -59,14 +59,12 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import BASES, Study, joined  # noqa: E402
-from normal_scale_select import stored_blocks  # noqa: E402
+from local_features_select import BASES, Study  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    SS6_RING_WEIGHT,
-    default_local_blocks,
-    default_ring_and_caps,
+    check_recomputed,
     lowest_copy_cosine,
     score_candidates,
+    ss9_replacing,
     stabilisation_decision,
     study_command,
     study_samples,
@@ -100,48 +98,24 @@ def d2_blocks(study: Study, pairs: int, timings: list[float]) -> dict[str, np.nd
     return study.with_nonrigid(blocks)
 
 
-def check_recomputed(study: Study, recomputed: dict[str, np.ndarray]) -> None:
-    """Stop before scoring unless the block at the service's pair count is the stored one."""
-    stored = stored_blocks(study, "d2")
-    gaps = [np.abs(recomputed[name] - rows).max(axis=1) for name, rows in stored.items()]
-    gap = max(float(g.max()) for g in gaps)
-    moved = float(np.mean(np.concatenate(gaps) > 1e-6))
-    print(f"D2 at {SS9_PAIRS} pairs recomputed vs stored: largest difference {gap:.2e}, "
-          f"share of models that differ {moved:.3f}", flush=True)
-    if gap > 2e-3 or moved > 0.03:
-        raise SystemExit("the recomputed D2 block is not the stored one: stop before scoring")
-
-
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv)
-    scored = study.scored
     timings = {candidate_name(pairs): [] for pairs in (SS9_PAIRS, *FIXES)}
     d2 = {pairs: d2_blocks(study, pairs, timings[candidate_name(pairs)])
           for pairs in (SS9_PAIRS, *FIXES)}
-    check_recomputed(study, d2[SS9_PAIRS])
-    weights = {key: w for key, w in BASES["ss4-noprop"].items() if w > 0 and key != "d2"}
-    others = {key: stored_blocks(study, key) for key in weights}
-    local = study.with_nonrigid(default_local_blocks(study.sources, cache))
-    ring, caps = default_ring_and_caps(study)
-    print("blocks done", flush=True)
-    labels = np.asarray(next(s.labels for s in scored if s.name == "parts"))
+    check_recomputed(study, "d2", d2[SS9_PAIRS])
+    rows = ss9_replacing(study, cache, "d2")
+    labels = np.asarray(next(s.labels for s in study.scored if s.name == "parts"))
     copies: dict[str, float] = {}
-    d2_weight = BASES["ss4-noprop"]["d2"]
 
     def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
         for pairs in (SS9_PAIRS, *FIXES):
-            rows = {}
-            for s in scored:
-                base = np.hstack([w * others[key][s.name] for key, w in weights.items()]
-                                 + [d2_weight * d2[pairs][s.name]])
-                rows[s.name] = joined(np.hstack([base, local[s.name],
-                                                 SS6_RING_WEIGHT * ring[s.name]]),
-                                      caps[s.name], 1.0)
             name = candidate_name(pairs)
-            copies[name] = lowest_copy_cosine(rows["parts"], labels)
-            yield name, rows
+            vectors = rows(d2[pairs], BASES["ss4-noprop"]["d2"])
+            copies[name] = lowest_copy_cosine(vectors["parts"], labels)
+            yield name, vectors
 
-    table, widths, queries = score_candidates(candidates(), scored)
+    table, widths, queries = score_candidates(candidates(), study.scored)
     stabilisation_decision(table, widths, queries, [candidate_name(p) for p in FIXES], SS9,
                            copies, timings, "D2 pairs", tuple(s.name for s in study.sources),
                            args.json)

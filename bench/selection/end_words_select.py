@@ -56,12 +56,10 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import Study, joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    SS6_RING_WEIGHT,
     decide,
-    default_local_blocks,
-    default_ring_and_caps,
     fold_words,
     score_candidates,
+    ss9_blocks,
     study_command,
     study_samples,
 )
@@ -162,11 +160,9 @@ def end_words_blocks(study: Study, depth: float, timings: list[float]
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv)
     scored = study.scored
-    local = study.with_nonrigid(default_local_blocks(study.sources, cache))
-    ring, caps = default_ring_and_caps(study)
+    rest, caps = ss9_blocks(study, cache)
     # ss9's weighted blocks before the one unit scaling; a new block joins them there.
-    raw = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name],
-                              SS6_RING_WEIGHT * ring[s.name], caps[s.name]]) for s in scored}
+    raw = {name: np.hstack([rows, caps[name]]) for name, rows in rest.items()}
     timings: dict[str, list[float]] = {}
     ends: dict[float, dict[str, np.ndarray]] = {}
     for depth in DEPTHS:

@@ -60,13 +60,12 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import BASES, Study, joined  # noqa: E402
+from local_features_select import Study  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    SS6_RING_WEIGHT,
+    check_recomputed,
     decide,
-    default_local_blocks,
-    default_ring_and_caps,
     score_candidates,
+    ss9_replacing,
     study_command,
 )
 
@@ -105,51 +104,18 @@ def normals_blocks(study: Study, neighbours: int) -> dict[str, np.ndarray]:
     return study.with_nonrigid(blocks)
 
 
-def stored_blocks(study: Study, key: str) -> dict[str, np.ndarray]:
-    """Every model's stored unit block ``key``, per source."""
-    return study.with_nonrigid({
-        source.name: np.array([np.load(file)[f"blocks_{key}"]
-                               for file in sorted(folder.glob("*.npz"))])
-        for source, folder in zip(study.sources, study.folders, strict=True)})
-
-
-def check_recomputed(study: Study, recomputed: dict[str, np.ndarray]) -> None:
-    """Stop before scoring unless the block at the service's neighbourhood is the stored one."""
-    stored = stored_blocks(study, "normals")
-    gaps = [np.abs(recomputed[name] - rows).max(axis=1) for name, rows in stored.items()]
-    gap = max(float(g.max()) for g in gaps)
-    moved = float(np.mean(np.concatenate(gaps) > 1e-6))
-    print(f"normals at {SS9_NEIGHBOURS} neighbours recomputed vs stored: largest difference "
-          f"{gap:.2e}, share of models that differ {moved:.3f}", flush=True)
-    if gap > 2e-3 or moved > 0.03:
-        raise SystemExit("the recomputed normals block is not the stored one: stop before scoring")
-
-
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv)
-    scored = study.scored
     neighbourhoods = sorted({neighbours for neighbours, _ in GRID})
     normals = {k: normals_blocks(study, k) for k in neighbourhoods}
-    check_recomputed(study, normals[SS9_NEIGHBOURS])
-    # ``ss4-noprop``'s stored blocks but the normals, weighted as ``load_source`` weighs them.
-    weights = {key: w for key, w in BASES["ss4-noprop"].items() if w > 0 and key != "normals"}
-    others = {key: stored_blocks(study, key) for key in weights}
-    local = study.with_nonrigid(default_local_blocks(study.sources, cache))
-    ring, caps = default_ring_and_caps(study)
-    print("blocks done", flush=True)
+    check_recomputed(study, "normals", normals[SS9_NEIGHBOURS])
+    rows = ss9_replacing(study, cache, "normals")
 
     def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
         for neighbours, weight in GRID:
-            rows = {}
-            for s in scored:
-                base = np.hstack([w * others[key][s.name] for key, w in weights.items()]
-                                 + [weight * normals[neighbours][s.name]])
-                rows[s.name] = joined(np.hstack([base, local[s.name],
-                                                 SS6_RING_WEIGHT * ring[s.name]]),
-                                      caps[s.name], 1.0)
-            yield candidate_name(neighbours, weight), rows
+            yield candidate_name(neighbours, weight), rows(normals[neighbours], weight)
 
-    table, widths, queries = score_candidates(candidates(), scored)
+    table, widths, queries = score_candidates(candidates(), study.scored)
     order = {candidate_name(*cell): rank for rank, cell in enumerate(GRID)}
     decide(table, queries, order, "normals neighbourhood", tuple(s.name for s in study.sources),
            SS9, args.json, tie_key="tie order", widths=widths)

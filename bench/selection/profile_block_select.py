@@ -89,7 +89,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import Source, Study, joined, load_study, score  # noqa: E402
+from local_features_select import BASES, Source, Study, joined, load_study, score  # noqa: E402
 from positional_features_select import (  # noqa: E402
     TIE,
     choose,
@@ -203,6 +203,66 @@ def default_ring_and_caps(study: Study) -> tuple[dict[str, np.ndarray], dict[str
         caps_block, bins=settings.caps_bins, depth=settings.caps_depth,
         weight=settings.caps_weight, sharpness=settings.caps_sharpness), []))
     return ring, caps
+
+
+def stored_blocks(study: Study, key: str) -> dict[str, np.ndarray]:
+    """Every model's stored unit block ``key``, per source, capod-nonrigid included."""
+    return study.with_nonrigid({
+        source.name: np.array([np.load(file)[f"blocks_{key}"]
+                               for file in sorted(folder.glob("*.npz"))])
+        for source, folder in zip(study.sources, study.folders, strict=True)})
+
+
+def check_recomputed(study: Study, key: str, recomputed: dict[str, np.ndarray]) -> None:
+    """Stop before scoring unless ``recomputed`` (block ``key`` at the service's settings,
+    per source) is the stored one, up to the study's float32 storage of the points (a
+    neighbour or a distance on a bin edge may move): at most 2e-3 in any entry and at most
+    3 % of the models differing."""
+    gaps = [np.abs(recomputed[name] - rows).max(axis=1)
+            for name, rows in stored_blocks(study, key).items()]
+    gap = max(float(g.max()) for g in gaps)
+    moved = float(np.mean(np.concatenate(gaps) > 1e-6))
+    print(f"{key} recomputed at the service's settings vs stored: largest difference "
+          f"{gap:.2e}, share of models that differ {moved:.3f}", flush=True)
+    if gap > 2e-3 or moved > 0.03:
+        raise SystemExit(f"the recomputed {key} block is not the stored one: stop before scoring")
+
+
+def ss9_blocks(study: Study, cache: Path) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """``ss9``'s weighted blocks before the one unit scaling, per scored source: the stored
+    ``ss4-noprop`` base, the local block and the ring block at its weight joined, ``(m, d)``;
+    and the caps block at its weight apart, ``(m, 144)`` (a candidate adds a block to both,
+    or changes the caps block)."""
+    local = study.with_nonrigid(default_local_blocks(study.sources, cache))
+    ring, caps = default_ring_and_caps(study)
+    rest = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name],
+                               SS6_RING_WEIGHT * ring[s.name]]) for s in study.scored}
+    return rest, caps
+
+
+def ss9_replacing(study: Study, cache: Path, key: str
+                  ) -> Callable[[dict[str, np.ndarray], float], dict[str, np.ndarray]]:
+    """``ss9``'s unit rows with its ``ss4-noprop`` block ``key`` replaced: a function of the
+    new unit block per source and its weight, giving the rows of every scored source (the
+    other base blocks as stored, the local, ring and caps blocks as the service joins
+    them)."""
+    weights = {name: w for name, w in BASES["ss4-noprop"].items() if w > 0 and name != key}
+    others = {name: stored_blocks(study, name) for name in weights}
+    local = study.with_nonrigid(default_local_blocks(study.sources, cache))
+    ring, caps = default_ring_and_caps(study)
+    print("blocks done", flush=True)
+
+    def rows(block: dict[str, np.ndarray], weight: float) -> dict[str, np.ndarray]:
+        joined_rows = {}
+        for s in study.scored:
+            base = np.hstack([w * others[name][s.name] for name, w in weights.items()]
+                             + [weight * block[s.name]])
+            joined_rows[s.name] = joined(
+                np.hstack([base, local[s.name], SS6_RING_WEIGHT * ring[s.name]]),
+                caps[s.name], 1.0)
+        return joined_rows
+
+    return rows
 
 
 def ss6_rows(source: Source, local: np.ndarray, ring: np.ndarray) -> np.ndarray:

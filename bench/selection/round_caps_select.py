@@ -69,11 +69,9 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    SS6_RING_WEIGHT,
     decide,
-    default_local_blocks,
-    default_ring_and_caps,
     score_candidates,
+    ss9_blocks,
     study_command,
     study_samples,
 )
@@ -112,8 +110,8 @@ def main(argv: list[str] | None = None) -> int:
     grid = GRID_ROUND2 if adding else GRID
     scored = study.scored
     settings = DescriptorSettings()
-    local = study.with_nonrigid(default_local_blocks(study.sources, cache))
-    ring, caps = default_ring_and_caps(study)
+    # ss9's weighted blocks but the caps block, before the one unit scaling; the caps apart.
+    raw, caps = ss9_blocks(study, cache)
     unit_caps = {name: rows / settings.caps_weight for name, rows in caps.items()}
     rounds = study.with_nonrigid({
         name: np.array([roundness(points, areas) for points, areas in models])
@@ -123,9 +121,6 @@ def main(argv: list[str] | None = None) -> int:
             low, median, high = np.percentile(rounds[name], [10, 50, 90], axis=0).T[0]
             print(f"{name}: roundness about the first axis, 10/50/90 %: "
                   f"{low:.2f} / {median:.2f} / {high:.2f}", flush=True)
-    # ss9's weighted blocks but the caps block, before the one unit scaling.
-    raw = {s.name: np.hstack([s.bases["ss4-noprop"], local[s.name],
-                              SS6_RING_WEIGHT * ring[s.name]]) for s in scored}
 
     def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
         yield SS9, {s.name: joined(raw[s.name], caps[s.name], 1.0) for s in scored}
