@@ -163,8 +163,8 @@ class DescriptorSettings:
     # (core.extrinsic.shell_spectrum), so a wall at one distance is not cut by a tertile
     # whose side follows the sampling; a shell holding less than a third of the area counts
     # by its share; None: the area tertiles (``ss8``). Chosen by round 2 of
-    # bench/selection/ring_shells_select.py: leave-one-source-out +0.0011 over ``ss8`` (95 % +0.0003
-    # .. +0.0021), re-sampled copies closer.
+    # bench/selection/ring_shells_select.py: leave-one-source-out +0.0011 over ``ss8``
+    # (95 % +0.0003 .. +0.0021), re-sampled copies closer.
     ring_shells: tuple[float, float, float] | None = (0.5, 1.0, 1.5)
     # Each end's depth-radius profile along the first and third principal axes, measured
     # from the end in the part's median radius (core.extrinsic.end_profiles), so that a

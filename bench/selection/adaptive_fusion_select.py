@@ -49,13 +49,14 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import BASES, Study, nonrigid_rows  # noqa: E402
+from local_features_select import BASES, Study  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     decide,
     default_local_blocks,
     default_ring_and_caps,
     score_distances,
+    stored_blocks,
     study_command,
 )
 
@@ -72,20 +73,12 @@ def block_rows(study: Study, cache: Path) -> dict[str, list[np.ndarray]]:
     each; their concatenation is the service's descriptor."""
     local = study.with_nonrigid(default_local_blocks(study.sources, cache))
     ring, caps = default_ring_and_caps(study)
-    weights = BASES["ss4-noprop"]
-    rows: dict[str, list[np.ndarray]] = {}
-    for source, folder in zip(study.sources, study.folders, strict=True):
-        files = sorted(folder.glob("*.npz"))
-        base = []
-        for key, weight in weights.items():
-            if weight > 0:
-                base.append(weight * np.array([np.load(f)[f"blocks_{key}"] for f in files]))
-        rows[source.name] = [*base, local[source.name], SS6_RING_WEIGHT * ring[source.name],
-                             caps[source.name]]
-    capod = [s for s in study.sources if s.name == "capod"]
-    if capod:
-        keep = nonrigid_rows(capod[0])
-        rows["capod-nonrigid"] = [block[keep] for block in rows["capod"]]
+    base = {key: stored_blocks(study, key) for key, weight in BASES["ss4-noprop"].items()
+            if weight > 0}
+    rows: dict[str, list[np.ndarray]] = {
+        name: [BASES["ss4-noprop"][key] * blocks[name] for key, blocks in base.items()]
+        + [local[name], SS6_RING_WEIGHT * ring[name], caps[name]]
+        for name in local}
     for name, blocks in rows.items():
         # The whole is scaled to unit norm once, as the service does.
         norm = np.sqrt(sum((block ** 2).sum(axis=1) for block in blocks))
