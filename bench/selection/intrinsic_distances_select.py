@@ -53,6 +53,17 @@ The grid, written before any score of it was seen: blocks {``bD2``, ``bD1``, ``b
   each chosen on the other one), against the family as it is; ships only if it passes the
   same condition there and its mean over the seven sources is not below the family's.
 
+**Result: declined in both families** (2026-11-26, eighth session). Parts family: every
+candidate's mean is below ``ss9``'s (0.8594; the best, ``bD1`` at 0.5, 0.8589), the rule
+keeps ``ss9`` without every source, leave-one-source-out +0.0000. ``bD2`` and ``bD1`` do what
+they are for on bent shapes (``bendable`` 0.976 -> 0.983 at weight 2) and cost the rigid
+sources (pymadcad 0.887 -> 0.800, our generator 0.729 -> 0.656, bd-vslot 0.872 -> 0.801):
+an intrinsic layout cannot tell parts apart that differ in how their surface sits in space.
+Bendable family: the rule picks ``bD1`` at 2 on the two non-rigid sources (0.9607 against
+0.9541) but without capod-nonrigid keeps the family as it is, leave-one-source-out +0.0003
+(95 % -0.0003 .. +0.0012), and its mean over the seven sources drops 0.7900 -> 0.7684. 39 ms
+per model (median, both blocks).
+
     nice -n 10 .venv/bin/python bench/selection/intrinsic_distances_select.py /work/study \\
         --json /work/study/intrinsic_distances.json
 """
