@@ -322,3 +322,28 @@ def test_cached_stores_keep_the_points_and_old_caches_get_them_back(tmp_path: Pa
     np.testing.assert_allclose(
         run_variants(resumed, {"default": settings})["default"].descriptor, expected, atol=1e-6
     )
+
+
+def test_eval_scores_the_hub_discount_beside_the_plain_ranking(tmp_path: Path) -> None:
+    import json
+
+    from core.evaluation.cli import evaluate
+
+    dataset = load_dataset(_tiny_dataset(tmp_path / "data"))
+    plain = evaluate(dataset, _tiny_variants(), tmp_path / "plain", use_cache=False)
+    record = evaluate(dataset, _tiny_variants(), tmp_path / "hub", use_cache=False,
+                      hub_neighbours=1)
+    entry = json.loads((tmp_path / "hub" / "results.json").read_text())["variants"]["default"]
+    # The plain scores are untouched; the discounted ones sit beside them.
+    assert entry["scores"]["clean"] == pytest.approx(
+        plain["variants"]["default"]["scores"]["clean"])
+    assert set(entry["hub"]) == {"clean"}
+    # Spheres and tori stay apart with the discount too (keys in the wrong order would put
+    # the other kind first).
+    assert entry["hub"]["clean"]["nn"] == 1.0 and entry["hub"]["clean"]["map"] == 1.0
+    assert record["hub_discount"] == {"neighbours": 1, "weight": 1.0}
+    report = (tmp_path / "hub" / "results.md").read_text()
+    assert "## With a hub discount (CSLS, k 1, weight 1" in report
+    assert "| default | clean |" in report
+    assert "hub" not in plain["variants"]["default"]
+    assert "hub discount" not in (tmp_path / "plain" / "results.md").read_text()

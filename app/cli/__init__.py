@@ -260,6 +260,11 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--timing-models", type=int, default=0,
                           help="models on which each cutoff is also timed with its own solver")
     evaluate.add_argument("--no-cache", action="store_true", help="do not read or write OUT/cache")
+    evaluate.add_argument(
+        "--hub-discount", type=int, default=0, metavar="K",
+        help="also score every ranking with the hub discount (CSLS over each candidate's K "
+        "nearest; 10 is the chosen K); the search service does not apply it yet",
+    )
     evaluate.set_defaults(handler=_eval)
 
     parts = commands.add_parser(

@@ -82,6 +82,7 @@ from profile_block_select import (  # noqa: E402
 )
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
+from core.hubness import hub_discounted_keys  # noqa: E402
 from core.local_features import Vocabulary, encode_vlad  # noqa: E402
 
 SS9 = "ss9"
@@ -98,31 +99,13 @@ def candidate_name(neighbours: int, beta: float) -> str:
 
 
 def hub_discounted(rows: np.ndarray, neighbours: int, beta: float) -> np.ndarray:
-    """Ranking keys ``(m, m)`` (lower first) for every query ``q`` (row) and model ``x``.
-
-    Parameters
-    ----------
-    rows : (m, d) float
-        Unit rows; each is a query against the others (leave-one-out).
-    neighbours : int
-        ``k``, the neighbourhood of ``r_k(x)`` (0: plain cosine).
-    beta : float
-
-    ``r_k(x)`` is taken over the catalogue without ``x`` and without the query: where the
-    query is among ``x``'s ``k`` nearest, the ``k + 1``-th takes its place.
-    """
-    cosines = rows @ rows.T
+    """Ranking keys ``(m, m)`` (lower first) of every query ``q`` (row) for every model:
+    ``core.hubness.hub_discounted_keys`` leave-one-out (``r_k`` without the query), plain
+    distance for ``neighbours`` 0."""
     if neighbours == 0:
-        return -cosines
-    others = cosines.copy()
-    np.fill_diagonal(others, -np.inf)
-    top = -np.sort(-others, axis=1)[:, : neighbours + 1]  # (m, k + 1), x's nearest first
-    top_sum = top[:, :neighbours].sum(axis=1)
-    # [q, x]: is q among x's k nearest? Then r_k(x) without q swaps q for the (k+1)-th.
-    query_inside = top[None, :, neighbours - 1] <= others.T
-    without_query = (top_sum[None, :] - others.T + top[None, :, neighbours]) / neighbours
-    radius = np.where(query_inside, without_query, top_sum[None, :] / neighbours)
-    return -(cosines - 0.5 * beta * radius)
+        return hub_discounted_keys(rows, rows, weight=0.0)
+    return hub_discounted_keys(rows, rows, neighbours, beta,
+                               exclude=np.eye(len(rows), dtype=bool))
 
 
 def pooled_rows(study: Study) -> tuple[np.ndarray, list[str]]:

@@ -46,6 +46,7 @@ from core.evaluation.runner import (
     time_variants_directly,
 )
 from core.evaluation.variants import SCAN_VARIANTS, resolve_variants
+from core.hubness import HUB_WEIGHT, hub_discounted_keys
 from core.settings import EngineSettings
 
 __all__ = ["evaluate", "run"]
@@ -116,19 +117,26 @@ def score_variant(
     database: dict[str, ModelResult],
     queries: dict[str, ModelResult],
     labels: dict[str, str],
+    hub_neighbours: int = 0,
 ) -> tuple[dict[str, float], tuple[np.ndarray, np.ndarray]]:
     """Leave-one-out scores of ``queries`` against ``database``, and the mean PR curve.
 
     A query is left out of the database under its own model name (itself for clean queries,
-    its source model for scans).
+    its source model for scans). ``hub_neighbours`` above 0 ranks with the hub discount
+    (``core.hubness``, that ``k`` and the chosen weight), the left-out model counted in no
+    candidate's neighbourhood.
     """
     names = sorted(database)
     query_names = sorted(queries)
     base = np.array([database[name].descriptor for name in names])
     query = np.array([queries[name].descriptor for name in query_names])
     exclude = np.array([[q == d for d in names] for q in query_names])
+    distances = (
+        hub_discounted_keys(query, base, hub_neighbours, HUB_WEIGHT, exclude)
+        if hub_neighbours > 0 else pairwise_distances(query, base)
+    )
     relevance = ranked_relevance(
-        pairwise_distances(query, base),
+        distances,
         [labels[q] for q in query_names],
         [labels[d] for d in names],
         exclude,
@@ -258,8 +266,13 @@ def evaluate(
     timing_models: int = 0,
     command: str = "",
     use_cache: bool = True,
+    hub_neighbours: int = 0,
 ) -> dict[str, Any]:
-    """Run the whole evaluation and write the report; returns the JSON record."""
+    """Run the whole evaluation and write the report; returns the JSON record.
+
+    ``hub_neighbours`` above 0 also scores every ranking with the hub discount
+    (``core.hubness``), under each variant's ``hub`` entry.
+    """
     from core.eigen import pin_blas_threads
 
     started = time.perf_counter()
@@ -280,6 +293,8 @@ def evaluate(
         },
         "variants": {},
     }
+    if hub_neighbours > 0:
+        record["hub_discount"] = {"neighbours": hub_neighbours, "weight": HUB_WEIGHT}
     with pin_blas_threads():
         clean = describe_all(dataset.models, variants, cache_dir, "clean", counters, failures)
         for name in variants:
@@ -295,6 +310,9 @@ def evaluate(
                     for m, r in clean[name].items()
                 },
             }
+            if hub_neighbours > 0:
+                hub_scores, _ = score_variant(clean[name], clean[name], labels, hub_neighbours)
+                record["variants"][name]["hub"] = {"clean": hub_scores}
         chosen_scan = {n: variants[n] for n in scan_variants if n in variants}
         for kind in scans:
             if not chosen_scan:
@@ -307,6 +325,9 @@ def evaluate(
                 entry["scores"][kind] = scores
                 entry["stats"][kind] = _stats(results)
                 entry["pr"][kind] = {"recall": curve[0], "precision": curve[1]}
+                if hub_neighbours > 0:
+                    entry["hub"][kind] = score_variant(clean[name], results, labels,
+                                                       hub_neighbours)[0]
         if resampling_sizes:
             subset = _subset(dataset.models, resampling_per_class, seed=0)
             record["resampling"] = {"sizes": list(resampling_sizes), "models": len(subset),
@@ -386,6 +407,7 @@ def run(args: argparse.Namespace) -> int:
         timing_models=getattr(args, "timing_models", 0) or 0,
         command="shapesearch " + " ".join(sys.argv[1:]),
         use_cache=not getattr(args, "no_cache", False),
+        hub_neighbours=getattr(args, "hub_discount", 0) or 0,
     )
     print(f"wrote {args.out}/results.md, results.json and {len(record['plots'])} plots "
           f"in {record['wall_seconds']:.0f} s", file=sys.stderr)

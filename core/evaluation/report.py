@@ -66,6 +66,27 @@ def variant_table(variants: dict[str, dict[str, Any]], key: str = "clean") -> st
     return "\n".join(lines)
 
 
+def hub_table(record: dict[str, Any]) -> str:
+    """Every scoring with the hub discount (``core.hubness``) beside the plain one."""
+    hub = record["hub_discount"]
+    lines = [
+        f"## With a hub discount (CSLS, k {hub['neighbours']}, weight {hub['weight']:g};"
+        " not applied by the search service yet)",
+        "",
+        "| variant | queries | NN | mAP | top-5 | plain NN | plain mAP | plain top-5 |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, entry in record["variants"].items():
+        for kind, scores in entry.get("hub", {}).items():
+            plain = entry["scores"][kind]
+            lines.append(
+                f"| {name} | {kind} | "
+                + " | ".join(_fmt(v[m]) for v in (scores, plain) for m in ("nn", "map", "top5"))
+                + " |"
+            )
+    return "\n".join(lines)
+
+
 def scan_table(variants: dict[str, dict[str, Any]]) -> str:
     """Clean against scanned queries, per variant: mAP, top-5 and NN side by side."""
     lines = [
@@ -152,6 +173,8 @@ def markdown_report(record: dict[str, Any]) -> str:
             "",
             scan_table(record["variants"]),
         ]
+    if record.get("hub_discount"):
+        parts += ["", hub_table(record)]
     if record.get("resampling"):
         parts += ["", "## Resampling consistency", "", resampling_table(record["resampling"])]
     parts += ["", "## Plots", ""]

@@ -1,0 +1,100 @@
+"""Hub discount for ranking: cross-domain similarity local scaling (CSLS).
+
+In high-dimensional retrieval some vectors ("hubs") lie near many queries of other kinds
+and push true answers down every list they enter (Radovanovic et al., JMLR 2010). CSLS
+(Conneau et al., ICLR 2018) ranks a candidate ``x`` for a query ``q`` by
+``cos(q, x) - (weight / 2) r_k(x)``, ``r_k(x)`` the mean cosine of ``x`` to its ``k``
+nearest other vectors of the catalogue: a hub's is high, so it comes a little later.
+Nothing is fitted; it uses only the catalogue searched.
+
+For unit vectors ``|q - x|^2 = 2 - 2 cos(q, x)``, so the key ``|q - x|^2 + weight r_k(x)``,
+lower first, ranks exactly as CSLS does; it is what ``hub_discounted_keys`` returns.
+Chosen by ``bench/selection/hubness_select.py`` (``k`` 10, ``weight`` 1: +0.011 mAP left out
+over seven tuning sources, docs/results.md); ``shapesearch eval --hub-discount 10`` scores
+it. The search service does not apply it yet (it needs the index to keep every ``r_k``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["HUB_NEIGHBOURS", "HUB_WEIGHT", "hub_discounted_keys", "neighbourhood_radii"]
+
+#: ``k`` and ``weight`` of the rule's choice (bench/selection/hubness_select.py, round 1).
+HUB_NEIGHBOURS = 10
+HUB_WEIGHT = 1.0
+
+
+def neighbourhood_radii(database: np.ndarray, neighbours: int,
+                        exclude: np.ndarray | None = None) -> np.ndarray:
+    """``r_k(x)``: each database vector's mean cosine to its ``k`` nearest others.
+
+    Parameters
+    ----------
+    database : (m, d) float
+        Unit rows.
+    neighbours : int
+        ``k``; fewer when the catalogue holds fewer others (at least 1).
+    exclude : (q, m) bool, optional
+        Per query, at most one database vector that is not in the catalogue for it (the
+        query itself, leave-one-out; a scan's own model): no radius counts it.
+
+    Returns
+    -------
+    radii : (m,) float, or (q, m) float with ``exclude``
+    """
+    database = np.asarray(database, dtype=np.float64)
+    count = database.shape[0]
+    spare = 1 if exclude is not None else 0
+    k = min(neighbours, count - 1 - spare)
+    if k < 1:
+        raise ValueError(f"a hub discount needs at least {2 + spare} vectors, got {count}")
+    cosines = database @ database.T
+    np.fill_diagonal(cosines, -np.inf)
+    # Each row's k + 1 largest, nearest first: the (k+1)-th replaces an excluded neighbour.
+    nearest = -np.sort(-cosines, axis=1)[:, : k + 1]
+    radii = nearest[:, :k].mean(axis=1)
+    if exclude is None:
+        return radii
+    exclude = np.asarray(exclude, dtype=bool)
+    if exclude.shape[1] != count or (exclude.sum(axis=1) > 1).any():
+        raise ValueError("exclude must be (queries, database) with at most one True per row")
+    per_query = np.broadcast_to(radii, exclude.shape).copy()
+    for query, left_out in zip(*np.nonzero(exclude), strict=True):
+        to_left_out = cosines[:, left_out]
+        inside = to_left_out >= nearest[:, k - 1]
+        swapped = nearest[:, :k].sum(axis=1) - to_left_out + nearest[:, k]
+        per_query[query, inside] = swapped[inside] / k
+    return per_query
+
+
+def hub_discounted_keys(queries: np.ndarray, database: np.ndarray,
+                        neighbours: int = HUB_NEIGHBOURS, weight: float = HUB_WEIGHT,
+                        exclude: np.ndarray | None = None) -> np.ndarray:
+    """Ranking keys, lower first: ``|q - x|^2 + weight r_k(x)`` (CSLS order).
+
+    Parameters
+    ----------
+    queries : (q, d) float
+        Unit rows.
+    database : (m, d) float
+        Unit rows; the catalogue.
+    neighbours : int
+        ``k`` of ``r_k``.
+    weight : float
+        0 ranks by distance alone.
+    exclude : (q, m) bool, optional
+        As ``neighbourhood_radii``'s; the pairs themselves are still given keys (the caller
+        leaves them out of its ranking).
+
+    Returns
+    -------
+    keys : (q, m) float
+    """
+    queries = np.asarray(queries, dtype=np.float64)
+    database = np.asarray(database, dtype=np.float64)
+    squared = np.maximum(2.0 - 2.0 * queries @ database.T, 0.0)
+    if weight == 0:
+        return squared
+    radii = neighbourhood_radii(database, neighbours, exclude)
+    return squared + weight * radii
