@@ -347,3 +347,23 @@ def test_eval_scores_the_hub_discount_beside_the_plain_ranking(tmp_path: Path) -
     assert "| default | clean |" in report
     assert "hub" not in plain["variants"]["default"]
     assert "hub discount" not in (tmp_path / "plain" / "results.md").read_text()
+
+
+def test_eval_refuses_a_hub_discount_it_cannot_compute(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from app.cli import build_parser
+
+    def run(data: Path, neighbours: str) -> int:
+        args = build_parser().parse_args(["eval", str(data), "--out", str(tmp_path / "o"),
+                                          "--hub-discount", neighbours])
+        return int(args.handler(args))
+
+    data = _tiny_dataset(tmp_path / "data")
+    assert run(data, "-1") == 2
+    for file in (data / "torus").iterdir():  # two models left: no radius without the query
+        file.unlink()
+    assert run(data, "10") == 2
+    err = capsys.readouterr().err
+    assert err.count("--hub-discount needs K >= 1 and at least 3 models") == 2
+    assert "Traceback" not in err and not (tmp_path / "o").exists()

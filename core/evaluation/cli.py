@@ -389,6 +389,11 @@ def run(args: argparse.Namespace) -> int:
     if not dataset.models:
         print(f"shapesearch eval: no models under {args.dataset}", file=sys.stderr)
         return 2
+    hub_neighbours = getattr(args, "hub_discount", 0) or 0
+    if hub_neighbours < 0 or (hub_neighbours > 0 and len(dataset.models) < 3):
+        print("shapesearch eval: --hub-discount needs K >= 1 and at least 3 models",
+              file=sys.stderr)
+        return 2
     print(
         f"{len(dataset.models)} models in {len(set(dataset.labels))} classes"
         f" ({len(dataset.duplicates)} duplicates dropped), {len(variants)} variants",
@@ -407,7 +412,7 @@ def run(args: argparse.Namespace) -> int:
         timing_models=getattr(args, "timing_models", 0) or 0,
         command="shapesearch " + " ".join(sys.argv[1:]),
         use_cache=not getattr(args, "no_cache", False),
-        hub_neighbours=getattr(args, "hub_discount", 0) or 0,
+        hub_neighbours=hub_neighbours,
     )
     print(f"wrote {args.out}/results.md, results.json and {len(record['plots'])} plots "
           f"in {record['wall_seconds']:.0f} s", file=sys.stderr)
