@@ -346,6 +346,11 @@ def test_eval_scores_the_hub_discount_beside_the_plain_ranking(tmp_path: Path) -
     assert "## With a hub discount (CSLS, k 1, weight 1" in report
     assert "| default | clean |" in report
     assert "hub" not in plain["variants"]["default"]
+    # The per-kind table: both kinds, found first every time.
+    assert entry["per_class"] == {
+        kind: {"queries": 2, "nn": 1.0, "map": 1.0, "mistakes": {}} for kind in ("sphere", "torus")}
+    assert "## Per kind (variant default, clean queries), worst mAP first" in report
+    assert "| sphere | 2 | 1.000 | 1.000 | - |" in report
     assert "hub discount" not in (tmp_path / "plain" / "results.md").read_text()
 
 

@@ -13,6 +13,7 @@ from core.evaluation.metrics import (
     first_tier,
     nearest_neighbour,
     pairwise_distances,
+    per_class_scores,
     precision_recall_curve,
     ranked_relevance,
     score_rankings,
@@ -117,3 +118,22 @@ def test_pairwise_distances_match_numpy() -> None:
     expected = np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2)
     np.testing.assert_allclose(pairwise_distances(a, b), expected, atol=1e-12)
     assert np.all(np.diag(pairwise_distances(a, a)) >= 0)
+
+
+def test_per_class_scores_name_each_kind_s_wrong_first_answers() -> None:
+    # Five models on a line: screws at 0 and 1, a washer at 1.2, nuts at 5 and 9.
+    positions = np.array([0.0, 1.0, 1.2, 5.0, 9.0])
+    labels = ["screw", "screw", "washer", "nut", "nut"]
+    distances = np.abs(positions[:, None] - positions[None, :])
+    table = per_class_scores(distances, labels, labels, np.eye(5, dtype=bool))
+    # The washer has no classmate: not scored. Screw at 1 finds the washer first (0.2).
+    assert set(table) == {"screw", "nut"}
+    assert table["screw"]["queries"] == 2
+    assert table["screw"]["nn"] == pytest.approx(0.5)
+    assert table["screw"]["map"] == pytest.approx((1.0 + 0.5) / 2)
+    assert table["screw"]["mistakes"] == {"washer": 1}
+    # The nut at 5 ranks the washer (3.8) and the screw at 1 (4, a tie broken by index)
+    # before the nut at 9 (4); the nut at 9 finds the one at 5 first.
+    assert table["nut"]["nn"] == pytest.approx(0.5)
+    assert table["nut"]["map"] == pytest.approx((1 / 3 + 1.0) / 2)
+    assert table["nut"]["mistakes"] == {"washer": 1}

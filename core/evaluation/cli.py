@@ -30,6 +30,7 @@ from core.errors import InvalidShapeError, SolverError
 from core.evaluation.dataset import Dataset, Model, load_dataset
 from core.evaluation.metrics import (
     pairwise_distances,
+    per_class_scores,
     precision_recall_curve,
     ranked_relevance,
     score_rankings,
@@ -113,6 +114,26 @@ def describe_all(
     return results
 
 
+def _rankings_of(
+    database: dict[str, ModelResult],
+    queries: dict[str, ModelResult],
+    labels: dict[str, str],
+    hub_neighbours: int,
+) -> tuple[np.ndarray, list[str], list[str], np.ndarray]:
+    """What ranks ``queries`` against ``database`` leave-one-out: distances (or hub keys),
+    the query and database labels and the excluded pairs (a query's own model)."""
+    names = sorted(database)
+    query_names = sorted(queries)
+    base = np.array([database[name].descriptor for name in names])
+    query = np.array([queries[name].descriptor for name in query_names])
+    exclude = np.array([[q == d for d in names] for q in query_names])
+    distances = (
+        hub_discounted_keys(query, base, hub_neighbours, HUB_WEIGHT, exclude)
+        if hub_neighbours > 0 else pairwise_distances(query, base)
+    )
+    return distances, [labels[q] for q in query_names], [labels[d] for d in names], exclude
+
+
 def score_variant(
     database: dict[str, ModelResult],
     queries: dict[str, ModelResult],
@@ -126,21 +147,7 @@ def score_variant(
     (``core.hubness``, that ``k`` and the chosen weight), the left-out model counted in no
     candidate's neighbourhood.
     """
-    names = sorted(database)
-    query_names = sorted(queries)
-    base = np.array([database[name].descriptor for name in names])
-    query = np.array([queries[name].descriptor for name in query_names])
-    exclude = np.array([[q == d for d in names] for q in query_names])
-    distances = (
-        hub_discounted_keys(query, base, hub_neighbours, HUB_WEIGHT, exclude)
-        if hub_neighbours > 0 else pairwise_distances(query, base)
-    )
-    relevance = ranked_relevance(
-        distances,
-        [labels[q] for q in query_names],
-        [labels[d] for d in names],
-        exclude,
-    )
+    relevance = ranked_relevance(*_rankings_of(database, queries, labels, hub_neighbours))
     curves = [precision_recall_curve(r) for r in relevance if r.any()]
     recall = curves[0][0] if curves else np.linspace(0.05, 1, 20)
     precision = np.mean([c[1] for c in curves], axis=0) if curves else np.zeros_like(recall)
@@ -310,6 +317,8 @@ def evaluate(
                     for m, r in clean[name].items()
                 },
             }
+            record["variants"][name]["per_class"] = per_class_scores(
+                *_rankings_of(clean[name], clean[name], labels, 0))
             if hub_neighbours > 0:
                 hub_scores, _ = score_variant(clean[name], clean[name], labels, hub_neighbours)
                 record["variants"][name]["hub"] = {"clean": hub_scores}

@@ -30,6 +30,7 @@ __all__ = [
     "first_tier",
     "nearest_neighbour",
     "pairwise_distances",
+    "per_class_scores",
     "precision_recall_curve",
     "ranked_relevance",
     "score_rankings",
@@ -86,14 +87,56 @@ def ranked_relevance(
         ``relevance[i][r]`` is True when the result at rank ``r`` (0-based) of query ``i``
         has the query's label. Excluded models are removed, so lengths may differ.
     """
-    distances = np.asarray(distances, dtype=np.float64)
     database = np.asarray(database_labels, dtype=object)
-    result = []
-    for row, label in enumerate(query_labels):
+    return [database[order] == label
+            for order, label in zip(_rankings(distances, exclude), query_labels, strict=True)]
+
+
+def _rankings(distances: np.ndarray, exclude: np.ndarray | None) -> list[np.ndarray]:
+    """Each query's database indices, nearest first, without its excluded ones."""
+    distances = np.asarray(distances, dtype=np.float64)
+    orders = []
+    for row in range(distances.shape[0]):
         keep = np.ones(distances.shape[1], dtype=bool) if exclude is None else ~exclude[row]
         candidates = np.flatnonzero(keep)
-        order = candidates[np.argsort(distances[row, candidates], kind="stable")]
-        result.append(database[order] == label)
+        orders.append(candidates[np.argsort(distances[row, candidates], kind="stable")])
+    return orders
+
+
+def per_class_scores(
+    distances: np.ndarray,
+    query_labels: Sequence[str],
+    database_labels: Sequence[str],
+    exclude: np.ndarray | None = None,
+) -> dict[str, dict[str, object]]:
+    """NN, mAP and the first answers' wrong kinds, per query label.
+
+    Parameters are ``ranked_relevance``'s. Returns, per label with a scored query (one
+    with a relevant model left), ``queries``, ``nn``, ``map`` and ``mistakes``: the labels
+    of wrong first answers with their counts, most first (ties by label).
+    """
+    database = np.asarray(database_labels, dtype=object)
+    grouped: dict[str, dict[str, list]] = {}
+    for order, label in zip(_rankings(distances, exclude), query_labels, strict=True):
+        relevance = database[order] == label
+        if not relevance.any():
+            continue
+        entry = grouped.setdefault(label, {"nn": [], "map": [], "first": []})
+        entry["nn"].append(nearest_neighbour(relevance))
+        entry["map"].append(average_precision(relevance))
+        entry["first"].append(str(database[order[0]]))
+    result: dict[str, dict[str, object]] = {}
+    for label, entry in sorted(grouped.items()):
+        wrong: dict[str, int] = {}
+        for first in entry["first"]:
+            if first != label:
+                wrong[first] = wrong.get(first, 0) + 1
+        result[label] = {
+            "queries": len(entry["nn"]),
+            "nn": float(np.mean(entry["nn"])),
+            "map": float(np.mean(entry["map"])),
+            "mistakes": dict(sorted(wrong.items(), key=lambda item: (-item[1], item[0]))),
+        }
     return result
 
 

@@ -87,6 +87,25 @@ def hub_table(record: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def per_class_table(record: dict[str, Any]) -> str:
+    """The first answers per kind of one variant (``default`` when scored, else the first),
+    clean queries, worst mAP first: the kinds that fail and what they are taken for."""
+    scored = {name: v for name, v in record["variants"].items() if "per_class" in v}
+    name = "default" if "default" in scored else next(iter(scored))
+    per_class = scored[name]["per_class"]
+    lines = [
+        f"## Per kind (variant {name}, clean queries), worst mAP first",
+        "",
+        "| kind | queries | NN | mAP | wrong first answers |",
+        "|---|---|---|---|---|",
+    ]
+    for label, row in sorted(per_class.items(), key=lambda item: (item[1]["map"], item[0])):
+        mistakes = ", ".join(f"{other} ({count})" for other, count in row["mistakes"].items())
+        lines.append(f"| {label} | {row['queries']} | {_fmt(row['nn'])} | {_fmt(row['map'])} |"
+                     f" {mistakes or '-'} |")
+    return "\n".join(lines)
+
+
 def scan_table(variants: dict[str, dict[str, Any]]) -> str:
     """Clean against scanned queries, per variant: mAP, top-5 and NN side by side."""
     lines = [
@@ -173,6 +192,8 @@ def markdown_report(record: dict[str, Any]) -> str:
             "",
             scan_table(record["variants"]),
         ]
+    if any("per_class" in v for v in record["variants"].values()):
+        parts += ["", per_class_table(record)]
     if record.get("hub_discount"):
         parts += ["", hub_table(record)]
     if record.get("resampling"):
