@@ -48,7 +48,9 @@ sources can be confused as in a real catalogue, plain ``ss9`` against the round'
 (mAP / NN, leave-one-out). One catalogue has one vocabulary: its local block is encoded by
 words fitted on the other four sources, none of the three (the first run of the check,
 disclosed, encoded each source by its own fold's words, which made different sources look
-further apart than one vocabulary does).
+further apart than one vocabulary does). Added after the results, for the cost of adopting it
+(not a selection): how deep a search must fetch, in plain distance order, before its first
+10 discounted results are certain (``fetch_depths``).
 
     nice -n 10 .venv/bin/python bench/selection/hubness_select.py /work/study \\
         --json /work/study/hubness.json [--round 2]
@@ -82,7 +84,7 @@ from profile_block_select import (  # noqa: E402
 )
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
-from core.hubness import hub_discounted_keys  # noqa: E402
+from core.hubness import hub_discounted_keys, neighbourhood_radii  # noqa: E402
 from core.local_features import Vocabulary, encode_vlad  # noqa: E402
 
 SS9 = "ss9"
@@ -128,6 +130,26 @@ def pooled_rows(study: Study) -> tuple[np.ndarray, list[str]]:
     return np.vstack(rows), labels
 
 
+def fetch_depths(rows: np.ndarray, neighbours: int, beta: float, results: int = 10
+                 ) -> np.ndarray:
+    """For each query (leave-one-out), how many candidates a search must fetch in plain
+    distance order before its first ``results`` by the discounted key are certain: the key
+    ``d^2 + beta (r_k(x) - r_min)`` only adds to ``d^2``, so a candidate not yet fetched
+    (``d^2`` at least the last one's) cannot come before a key at or below the last
+    ``d^2``; ``r_min`` is the smallest radius of the catalogue. ``(m,)`` int."""
+    exclude = np.eye(len(rows), dtype=bool)
+    radii = neighbourhood_radii(rows, neighbours, exclude)
+    squared = np.maximum(2.0 - 2.0 * rows @ rows.T, 0.0)
+    floor = radii[~exclude].min()
+    depths = []
+    for query in range(len(rows)):
+        others = np.flatnonzero(~exclude[query])
+        keys = squared[query, others] + beta * (radii[query, others] - floor)
+        last_certain = np.sort(keys)[results - 1]
+        depths.append(int((squared[query, others] <= last_certain).sum()))
+    return np.array(depths)
+
+
 def pooled_check(study: Study, grid: list[tuple[str, int, float]]
                  ) -> dict[str, dict[str, float]]:
     """The ``POOLED`` sources searched as one catalogue (``pooled_rows``), each of
@@ -141,6 +163,11 @@ def pooled_check(study: Study, grid: list[tuple[str, int, float]]
         print(f"one catalogue of {'+'.join(POOLED)} ({len(labels)} parts, "
               f"{len(set(labels))} kinds), {name}: mAP {scores[name]['map']:.4f}, "
               f"NN {scores[name]['nn']:.4f}, top-5 {scores[name]['top5']:.4f}")
+        if neighbours:
+            depths = fetch_depths(vectors, neighbours, beta)
+            print(f"  fetched for 10 certain results: median {np.median(depths):.0f}, "
+                  f"95th percentile {np.percentile(depths, 95):.0f}, most {depths.max()}")
+            scores[name]["fetch_depth_median"] = float(np.median(depths))
     return scores
 
 
