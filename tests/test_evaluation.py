@@ -350,7 +350,9 @@ def test_eval_scores_the_hub_discount_beside_the_plain_ranking(tmp_path: Path) -
     assert entry["per_class"] == {
         kind: {"queries": 2, "nn": 1.0, "map": 1.0, "mistakes": {}} for kind in ("sphere", "torus")}
     assert "## Per kind (variant default, clean queries), worst mAP first" in report
-    assert "| sphere | 2 | 1.000 | 1.000 | - |" in report
+    assert "| sphere | 2 | 1.000 | 1.000 | - | 1.000 / 1.000 |" in report
+    assert entry["hub_per_class"]["torus"]["map"] == 1.0
+    assert "| sphere | 2 | 1.000 | 1.000 | - |\n" in (tmp_path / "plain" / "results.md").read_text()
     assert "hub discount" not in (tmp_path / "plain" / "results.md").read_text()
 
 

@@ -322,6 +322,8 @@ def evaluate(
             if hub_neighbours > 0:
                 hub_scores, _ = score_variant(clean[name], clean[name], labels, hub_neighbours)
                 record["variants"][name]["hub"] = {"clean": hub_scores}
+                record["variants"][name]["hub_per_class"] = per_class_scores(
+                    *_rankings_of(clean[name], clean[name], labels, hub_neighbours))
         chosen_scan = {n: variants[n] for n in scan_variants if n in variants}
         for kind in scans:
             if not chosen_scan:

@@ -93,16 +93,21 @@ def per_class_table(record: dict[str, Any]) -> str:
     scored = {name: v for name, v in record["variants"].items() if "per_class" in v}
     name = "default" if "default" in scored else next(iter(scored))
     per_class = scored[name]["per_class"]
+    # With --hub-discount, each kind's NN and mAP with it too.
+    hub = scored[name].get("hub_per_class", {})
+    extra = " NN / mAP with the hub discount |" if hub else ""
     lines = [
         f"## Per kind (variant {name}, clean queries), worst mAP first",
         "",
-        "| kind | queries | NN | mAP | wrong first answers |",
-        "|---|---|---|---|---|",
+        "| kind | queries | NN | mAP | wrong first answers |" + extra,
+        "|---|---|---|---|---|" + ("---|" if hub else ""),
     ]
     for label, row in sorted(per_class.items(), key=lambda item: (item[1]["map"], item[0])):
         mistakes = ", ".join(f"{other} ({count})" for other, count in row["mistakes"].items())
+        with_hub = (f" {_fmt(hub[label]['nn'])} / {_fmt(hub[label]['map'])} |"
+                    if label in hub else (" - |" if hub else ""))
         lines.append(f"| {label} | {row['queries']} | {_fmt(row['nn'])} | {_fmt(row['map'])} |"
-                     f" {mistakes or '-'} |")
+                     f" {mistakes or '-'} |" + with_hub)
     return "\n".join(lines)
 
 
