@@ -114,7 +114,7 @@ def describe_all(
     return results
 
 
-def _rankings_of(
+def _ranking_inputs(
     database: dict[str, ModelResult],
     queries: dict[str, ModelResult],
     labels: dict[str, str],
@@ -139,19 +139,23 @@ def score_variant(
     queries: dict[str, ModelResult],
     labels: dict[str, str],
     hub_neighbours: int = 0,
-) -> tuple[dict[str, float], tuple[np.ndarray, np.ndarray]]:
-    """Leave-one-out scores of ``queries`` against ``database``, and the mean PR curve.
+    per_class: bool = False,
+) -> tuple[dict[str, float], tuple[np.ndarray, np.ndarray], dict[str, Any] | None]:
+    """Leave-one-out scores of ``queries`` against ``database``, the mean PR curve and, with
+    ``per_class``, ``per_class_scores`` (else None) of the same ranking.
 
     A query is left out of the database under its own model name (itself for clean queries,
     its source model for scans). ``hub_neighbours`` above 0 ranks with the hub discount
     (``core.hubness``, that ``k`` and the chosen weight), the left-out model counted in no
     candidate's neighbourhood.
     """
-    relevance = ranked_relevance(*_rankings_of(database, queries, labels, hub_neighbours))
+    inputs = _ranking_inputs(database, queries, labels, hub_neighbours)
+    relevance = ranked_relevance(*inputs)
     curves = [precision_recall_curve(r) for r in relevance if r.any()]
     recall = curves[0][0] if curves else np.linspace(0.05, 1, 20)
     precision = np.mean([c[1] for c in curves], axis=0) if curves else np.zeros_like(recall)
-    return score_rankings(relevance), (recall, precision)
+    classes = per_class_scores(*inputs) if per_class else None
+    return score_rankings(relevance), (recall, precision), classes
 
 
 def _stats(results: dict[str, ModelResult]) -> dict[str, Any]:
@@ -305,7 +309,8 @@ def evaluate(
     with pin_blas_threads():
         clean = describe_all(dataset.models, variants, cache_dir, "clean", counters, failures)
         for name in variants:
-            scores, curve = score_variant(clean[name], clean[name], labels)
+            scores, curve, classes = score_variant(clean[name], clean[name], labels,
+                                                   per_class=True)
             record["variants"][name] = {
                 "settings": asdict(variants[name]),
                 "scores": {"clean": scores},
@@ -317,13 +322,12 @@ def evaluate(
                     for m, r in clean[name].items()
                 },
             }
-            record["variants"][name]["per_class"] = per_class_scores(
-                *_rankings_of(clean[name], clean[name], labels, 0))
+            record["variants"][name]["per_class"] = classes
             if hub_neighbours > 0:
-                hub_scores, _ = score_variant(clean[name], clean[name], labels, hub_neighbours)
+                hub_scores, _, hub_classes = score_variant(
+                    clean[name], clean[name], labels, hub_neighbours, per_class=True)
                 record["variants"][name]["hub"] = {"clean": hub_scores}
-                record["variants"][name]["hub_per_class"] = per_class_scores(
-                    *_rankings_of(clean[name], clean[name], labels, hub_neighbours))
+                record["variants"][name]["hub_per_class"] = hub_classes
         chosen_scan = {n: variants[n] for n in scan_variants if n in variants}
         for kind in scans:
             if not chosen_scan:
@@ -331,7 +335,7 @@ def evaluate(
             scanned = describe_all(dataset.models, chosen_scan, cache_dir, kind, counters,
                                    failures)
             for name, results in scanned.items():
-                scores, curve = score_variant(clean[name], results, labels)
+                scores, curve, _ = score_variant(clean[name], results, labels)
                 entry = record["variants"][name]
                 entry["scores"][kind] = scores
                 entry["stats"][kind] = _stats(results)

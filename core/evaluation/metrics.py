@@ -19,6 +19,7 @@ Ties in distance are broken by database index (stable sort), so scores are deter
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
@@ -116,25 +117,22 @@ def per_class_scores(
     of wrong first answers with their counts, most first (ties by label).
     """
     database = np.asarray(database_labels, dtype=object)
-    grouped: dict[str, dict[str, list]] = {}
+    # Per label: (nn, ap, first answer's label) of each scored query.
+    queries: dict[str, list[tuple[float, float, str]]] = {}
     for order, label in zip(_rankings(distances, exclude), query_labels, strict=True):
         relevance = database[order] == label
-        if not relevance.any():
-            continue
-        entry = grouped.setdefault(label, {"nn": [], "map": [], "first": []})
-        entry["nn"].append(nearest_neighbour(relevance))
-        entry["map"].append(average_precision(relevance))
-        entry["first"].append(str(database[order[0]]))
+        if relevance.any():
+            queries.setdefault(label, []).append((nearest_neighbour(relevance),
+                                                  average_precision(relevance),
+                                                  str(database[order[0]])))
     result: dict[str, dict[str, object]] = {}
-    for label, entry in sorted(grouped.items()):
-        wrong: dict[str, int] = {}
-        for first in entry["first"]:
-            if first != label:
-                wrong[first] = wrong.get(first, 0) + 1
+    for label, rows in sorted(queries.items()):
+        nn, ap, first = zip(*rows, strict=True)
+        wrong = Counter(answer for answer in first if answer != label)
         result[label] = {
-            "queries": len(entry["nn"]),
-            "nn": float(np.mean(entry["nn"])),
-            "map": float(np.mean(entry["map"])),
+            "queries": len(rows),
+            "nn": float(np.mean(nn)),
+            "map": float(np.mean(ap)),
             "mistakes": dict(sorted(wrong.items(), key=lambda item: (-item[1], item[0]))),
         }
     return result
