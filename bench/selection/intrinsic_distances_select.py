@@ -94,8 +94,10 @@ from profile_block_select import (  # noqa: E402
 )
 
 from core.descriptor import _unit_block, area_histograms  # noqa: E402
+from core.evaluation.runner import sampling_of  # noqa: E402
+from core.evaluation.scan_retrieval import ROTATION_SEED  # noqa: E402
 from core.extrinsic import pair_distance_ratios  # noqa: E402
-from core.settings import DescriptorSettings  # noqa: E402
+from core.settings import DescriptorSettings, EngineSettings  # noqa: E402
 
 SS9 = "ss9"
 BENDABLE = "bendable"
@@ -103,8 +105,6 @@ BLOCKS = ("bD2", "bD1", "bD2+bD1")
 WEIGHTS = (0.5, 1.0, 2.0)
 #: Eigenvalues at or below this share of the n-th are a connected piece's constant.
 ZERO_SHARE = 1e-6
-#: The evaluation cache's name of a clean 3000-point sampling (``core.evaluation.runner``).
-CACHE_SUFFIX = "_robust_p3000_s0_r1_clean_e2.npz"
 
 
 def biharmonic_embedding(eigenvalues: np.ndarray, eigenvectors: np.ndarray) -> np.ndarray:
@@ -145,13 +145,16 @@ def study_intrinsic_blocks(study: Study, cache: Path, timings: list[float]
     """``bD2``, ``bD1`` and the two joined for every model, per block and source
     (capod-nonrigid included), from the study's eigen cache and stored cutoffs."""
     settings = DescriptorSettings()
+    # The study's sampling (local_features_extract's); a feature file is named by the
+    # model's sha256[:24], which is all of it that the cache's name holds.
+    sampling = sampling_of(EngineSettings(), ROTATION_SEED)
     per_block: dict[str, dict[str, np.ndarray]] = {name: {} for name in BLOCKS}
     for source, folder in zip(study.sources, study.folders, strict=True):
         rows: dict[str, list[np.ndarray]] = {"bD2": [], "bD1": []}
         for file in sorted(folder.glob("*.npz")):
             with np.load(file) as features:
                 n = int(features["n"])
-            with np.load(cache / f"{file.stem}{CACHE_SUFFIX}", allow_pickle=True) as store:
+            with np.load(cache / sampling.cache_name(file.stem), allow_pickle=True) as store:
                 values = store["eigenvalues"][:n]
                 vectors = store["eigenvectors"][:, :n]
                 areas = store["areas"]
