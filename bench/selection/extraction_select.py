@@ -139,7 +139,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import Source, joined, load_study  # noqa: E402
+from local_features_select import Source, Study, joined, load_study  # noqa: E402
 from profile_block_select import (  # noqa: E402
     default_local_blocks,
     print_table,
@@ -155,6 +155,17 @@ NON_RIGID_SOURCES = ("bendable", "capod-nonrigid")
 POOLINGS = ("area", "point")
 
 
+def bendable_blocks(study: Study, cache: Path, point_pooling: bool = False
+                    ) -> dict[str, np.ndarray]:
+    """The ``bendable`` family's weighted blocks before the one unit scaling, per source
+    (capod-nonrigid included): the ``spectral`` base and the idf word counts of HKS on 64
+    words at ``BENDABLE_WORDS_WEIGHT``, each source's words fitted on the other sources."""
+    words = default_local_blocks(study.sources, cache, point_pooling, "hks", "bof")
+    return study.with_nonrigid({
+        s.name: np.hstack([s.bases["spectral"], BENDABLE_WORDS_WEIGHT * words[s.name]])
+        for s in study.sources})
+
+
 def study_vectors(folder: Path, poolings: list[str], family: str
                   ) -> tuple[list[Source], dict[str, dict[str, np.ndarray]]]:
     """The study's sources in ``folder`` (``OUT/features/clean``, capod-nonrigid included)
@@ -168,14 +179,12 @@ def study_vectors(folder: Path, poolings: list[str], family: str
     by_pooling = {}
     for pooling in poolings:
         if family == "bendable":
-            words = default_local_blocks(study.sources, cache, pooling == "point", "hks", "bof")
-            vectors = {s.name: joined(s.bases["spectral"], words[s.name], BENDABLE_WORDS_WEIGHT)
-                       for s in study.sources}
+            blocks = bendable_blocks(study, cache, pooling == "point")
+            by_pooling[pooling] = {name: joined(rows, None, 0.0) for name, rows in blocks.items()}
         else:
             local = default_local_blocks(study.sources, cache, pooling == "point")
-            vectors = {s.name: ss6_rows(s, local[s.name], rings[s.name])
-                       for s in study.sources}
-        by_pooling[pooling] = study.with_nonrigid(vectors)
+            by_pooling[pooling] = study.with_nonrigid({
+                s.name: ss6_rows(s, local[s.name], rings[s.name]) for s in study.sources})
     return study.scored, by_pooling
 
 

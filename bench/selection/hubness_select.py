@@ -70,13 +70,12 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from extraction_select import BENDABLE_WORDS_WEIGHT, NON_RIGID_SOURCES  # noqa: E402
+from extraction_select import NON_RIGID_SOURCES, bendable_blocks  # noqa: E402
 from local_features_select import Study, joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     TIE,
     decide,
-    default_local_blocks,
     default_ring_and_caps,
     score_distances,
     ss9_blocks,
@@ -177,9 +176,8 @@ def main(argv: list[str] | None = None) -> int:
     rest, caps = ss9_blocks(study, cache)
     parts_rows = {s.name: joined(np.hstack([rest[s.name], caps[s.name]]), None, 0.0)
                   for s in scored}
-    words = study.with_nonrigid(default_local_blocks(study.sources, cache, False, "hks", "bof"))
-    bendable_rows = {s.name: joined(s.bases["spectral"], words[s.name], BENDABLE_WORDS_WEIGHT)
-                     for s in scored}
+    bendable = bendable_blocks(study, cache)
+    bendable_rows = {s.name: joined(bendable[s.name], None, 0.0) for s in scored}
     neighbours_grid, betas = ((NEIGHBOURS, BETAS) if args.round == 1
                               else (SECOND_NEIGHBOURS, SECOND_BETAS))
     grid = [(SS9, 0, 0.0)] + [(candidate_name(k, b), k, b)

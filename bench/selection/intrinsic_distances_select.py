@@ -83,11 +83,10 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from extraction_select import BENDABLE_WORDS_WEIGHT, NON_RIGID_SOURCES  # noqa: E402
+from extraction_select import NON_RIGID_SOURCES, bendable_blocks  # noqa: E402
 from local_features_select import Study, joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     decide,
-    default_local_blocks,
     score_candidates,
     ss9_blocks,
     study_command,
@@ -207,9 +206,7 @@ def main(argv: list[str] | None = None) -> int:
                                tuple(s.name for s in study.sources),
                                "intrinsic distances, parts family", parts_json)
 
-    words = study.with_nonrigid(default_local_blocks(study.sources, cache, False, "hks", "bof"))
-    bendable_raw = {s.name: np.hstack([s.bases["spectral"], BENDABLE_WORDS_WEIGHT * words[s.name]])
-                    for s in study.scored}
+    bendable_raw = bendable_blocks(study, cache)
     bendable_json = (args.json.with_name(f"{args.json.stem}-bendable.json") if args.json
                      else None)
     bendable, overall = family_question(study, bendable_raw, blocks, BENDABLE,
