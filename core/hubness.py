@@ -11,18 +11,67 @@ For unit vectors ``|q - x|^2 = 2 - 2 cos(q, x)``, so the key ``|q - x|^2 + weigh
 lower first, ranks exactly as CSLS does; it is what ``hub_discounted_keys`` returns.
 Chosen by ``bench/selection/hubness_select.py`` (``k`` 10, ``weight`` 1: +0.011 mAP left out
 over seven tuning sources, docs/results.md); ``shapesearch eval --hub-discount 10`` scores
-it. The search service does not apply it yet (it needs the index to keep every ``r_k``).
+it. The search service ranks shape-mode answers this way (``app.search.similarity``): it
+fetches the ``rerank_depth(k)`` nearest models in plain distance order, takes their radii
+from the index and re-orders them by ``hub_keys``; a model whose descriptor equals the
+query's (``SAME_DESCRIPTOR``: the same part) stays first.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["HUB_NEIGHBOURS", "HUB_WEIGHT", "hub_discounted_keys", "neighbourhood_radii"]
+__all__ = [
+    "HUB_NEIGHBOURS",
+    "HUB_RERANK_FACTOR",
+    "HUB_WEIGHT",
+    "SAME_DESCRIPTOR",
+    "hub_discounted_keys",
+    "hub_keys",
+    "neighbourhood_radii",
+    "rerank_depth",
+]
 
 #: ``k`` and ``weight`` of the rule's choice (bench/selection/hubness_select.py, round 1).
 HUB_NEIGHBOURS = 10
 HUB_WEIGHT = 1.0
+#: Candidates per wanted result that a search re-orders by ``hub_keys``: the plain top
+#: ``rerank_depth(k)``. Chosen for agreement with the discount over the whole catalogue,
+#: not for a score (``bench/selection/hubness_select.py``, "re-rank depth").
+HUB_RERANK_FACTOR = 4
+#: Distance at or below which two unit descriptors count as the same (float32 rounding of
+#: one file described twice): such a candidate is the query's own part and is never
+#: discounted below another.
+SAME_DESCRIPTOR = 1e-4
+
+
+def rerank_depth(k: int) -> int:
+    """How many plain nearest candidates a search re-orders for ``k`` results."""
+    return HUB_RERANK_FACTOR * k
+
+
+def hub_keys(squared_distances: np.ndarray, radii: np.ndarray,
+             weight: float = HUB_WEIGHT) -> np.ndarray:
+    """The ranking key, lower first: ``|q - x|^2 + weight r_k(x)`` (CSLS order).
+
+    Parameters
+    ----------
+    squared_distances : (...) float
+        ``|q - x|^2`` of unit vectors.
+    radii : (...) float
+        ``r_k(x)`` of the same candidates (broadcast against ``squared_distances``).
+    weight : float
+        0 ranks by distance alone.
+
+    Returns
+    -------
+    keys : (...) float
+        A candidate within ``SAME_DESCRIPTOR`` of the query gets a key below every other's
+        (keys otherwise exceed ``-|weight|``, cosines being at least -1), nearest first.
+    """
+    squared = np.asarray(squared_distances, dtype=np.float64)
+    keys = squared + weight * np.asarray(radii)
+    return np.where(squared <= SAME_DESCRIPTOR**2, squared - 1.0 - 2.0 * abs(weight), keys)
 
 
 def neighbourhood_radii(database: np.ndarray, neighbours: int,
@@ -96,5 +145,4 @@ def hub_discounted_keys(queries: np.ndarray, database: np.ndarray,
     squared = np.maximum(2.0 - 2.0 * queries @ database.T, 0.0)
     if weight == 0:
         return squared
-    radii = neighbourhood_radii(database, neighbours, exclude)
-    return squared + weight * radii
+    return hub_keys(squared, neighbourhood_radii(database, neighbours, exclude), weight)

@@ -14,6 +14,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from conftest import PARTS, fake_describe, make_settings, upload, wait_for_status
 from fastapi.testclient import TestClient
@@ -22,6 +23,7 @@ from sqlalchemy import create_engine, text
 from app.api.main import create_app
 from app.auth.keys import create_key
 from app.db.session import make_session_factory
+from tests.test_hub_search import hub_order
 
 SNAPSHOT = Path(__file__).parent / "snapshots" / "openapi.json"
 CUBE = PARTS / "20mm-xyz-cube.stl"
@@ -191,7 +193,9 @@ def test_delete_is_204_then_404(client: TestClient) -> None:
     assert len(client.app.state.services.index) == 0  # type: ignore[attr-defined]
 
 
-def test_similar_with_metadata_filters_returns_k_matches(client: TestClient) -> None:
+def test_similar_with_metadata_filters_returns_k_matches(
+    client: TestClient, make_client: ClientFactory
+) -> None:
     parts = sorted(p for p in PARTS.iterdir() if p.is_file() and p.suffix.lower() == ".stl")
     ids = []
     for i, path in enumerate(parts):
@@ -203,9 +207,19 @@ def test_similar_with_metadata_filters_returns_k_matches(client: TestClient) -> 
     query = ids[0]
     unfiltered = client.get(f"/v1/models/{query}/similar", params={"k": 100}).json()
     assert len(unfiltered["results"]) == len(ids) - 1
-    assert query not in [r["model"]["id"] for r in unfiltered["results"]]
+    answer = [r["model"]["id"] for r in unfiltered["results"]]
+    assert query not in answer
+    # Ordered with the hub discount (tests/test_hub_search.py), computed here from the fake
+    # describer's vectors; scores stay the plain similarity.
+    vectors = {i: np.frombuffer(fake_describe(p.read_bytes(), p.name)["descriptor"], np.float32)
+               for i, p in zip(ids, parts, strict=True)}
+    assert answer == hub_order(vectors, vectors[query], 100, 10, exclude=query)
     scores = [r["score"] for r in unfiltered["results"]]
-    assert scores == sorted(scores, reverse=True) and all(0 <= s <= 1 for s in scores)
+    assert all(0 <= s <= 1 for s in scores)
+    plain = make_client(search_hub_neighbours=0)  # the same database, plain order
+    plain_scores = [r["score"] for r in plain.get(
+        f"/v1/models/{query}/similar", params={"k": 100}).json()["results"]]
+    assert plain_scores == sorted(scores, reverse=True) != scores
 
     odd = client.get(f"/v1/models/{query}/similar", params={"k": 2, "metadata.family": "odd"})
     results = odd.json()["results"]

@@ -374,3 +374,14 @@ def test_eval_refuses_a_hub_discount_it_cannot_compute(
     err = capsys.readouterr().err
     assert err.count("--hub-discount needs K >= 1 and at least 3 models") == 2
     assert "Traceback" not in err and not (tmp_path / "o").exists()
+
+
+def test_eval_scores_the_service_s_order_unless_told_otherwise() -> None:
+    from app.cli import build_parser
+    from core.evaluation.cli import hub_neighbours_for
+    from core.hubness import HUB_NEIGHBOURS
+
+    default = build_parser().parse_args(["eval", "data"]).hub_discount
+    assert hub_neighbours_for(default, 245) == HUB_NEIGHBOURS == 10
+    assert hub_neighbours_for(default, 2) == 0  # too few models for any neighbourhood
+    assert hub_neighbours_for(0, 245) == 0 and hub_neighbours_for(5, 245) == 5

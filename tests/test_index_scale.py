@@ -35,7 +35,9 @@ def test_a_compressed_partition_answers_exactly_after_re_ranking(
         vector = centres[i % 6] + 0.15 * rng.normal(size=D).astype(np.float32) / np.sqrt(D)
         vector /= np.linalg.norm(vector)
         vectors[add_ready(sessions, vector)] = vector
-    index = ShapeIndex(sessions, exact_max=100, compact_min=compact_min, nprobe=4)
+    # Plain distance order (no hub discount): the exact re-rank is what is tested.
+    index = ShapeIndex(sessions, exact_max=100, compact_min=compact_min, nprobe=4,
+                       hub_neighbours=0)
     index.rebuild()
     assert index.describe(KEY) == kind and len(index) == 300
     assert index.nbytes() < 300 * 4 * D  # under half of what float32 rows would hold
@@ -258,3 +260,33 @@ def test_a_query_model_gone_from_the_database_is_not_answered_from_the_index(
     index.sync()
     assert index.locate("t", model_ids[gone]) is None
     assert index.vector(KEY, gone) is None
+
+
+@pytest.mark.parametrize("hub_neighbours", [0, 10], ids=["plain", "hub"])
+def test_models_gone_from_the_database_are_replaced_by_the_next_nearest(
+    sessions: sessionmaker[Session], hub_neighbours: int
+) -> None:
+    # A compressed partition confirms its candidates nearest first by exact distance, as
+    # many as the answer takes: models the index still holds but the database no longer
+    # has (deleted a moment ago, not yet synced) are made up for by the next ones.
+    rng = np.random.default_rng(4)
+    vectors = {}
+    for _ in range(200):
+        vector = rng.normal(size=D).astype(np.float32)
+        vector /= np.linalg.norm(vector)
+        vectors[add_ready(sessions, vector)] = vector
+    index = ShapeIndex(sessions, exact_max=50, nprobe=64, hub_neighbours=hub_neighbours)
+    index.rebuild()
+    assert index.is_approximate(KEY)
+    query = vectors[list(vectors)[7]]
+    with sessions() as session:
+        before = find_similar(index, session.connection(), KEY, query, k=10)
+    gone = [m.model.index_id for m in before[:6]]
+    with sessions.begin() as session:  # behind the index's back: no change-feed event
+        session.execute(update(Model).where(Model.index_id.in_(gone)).values(status="failed"))
+    with sessions() as session:
+        after = find_similar(index, session.connection(), KEY, query, k=10)
+    remaining = {i: v for i, v in vectors.items() if i not in gone}
+    assert len(after) == 10 and not set(gone) & {m.model.index_id for m in after}
+    if hub_neighbours == 0:
+        assert [m.model.index_id for m in after] == exact_order(remaining, query)[:10]

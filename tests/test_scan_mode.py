@@ -35,6 +35,7 @@ from app.settings import engine_settings
 from core.pipeline import describe_points, scan_weights
 from core.settings import EngineSettings, ViewSettings
 from core.views import hidden_point_removal, view_directions, virtual_views
+from tests.test_hub_search import hub_order
 from tests.test_index import add_ready as add_model
 from tests.test_index import delete_model
 
@@ -352,10 +353,12 @@ def test_default_mode_answers_exactly_as_before(sessions: sessionmaker[Session])
     index.sync()
     with sessions() as session:
         shape = find_similar(index, session.connection(), KEY, query, k=8)
-    expected = brute_force(entries, query, first_only=True)[:8]
-    assert [(m.model.index_id, m.view) for m in shape] == [(i, None) for i, _ in expected]
-    for match, (_, distance) in zip(shape, expected, strict=True):
-        assert match.distance == pytest.approx(distance, abs=1e-5)
+    # Whole models only, in the hub-discounted order (views in no neighbourhood either).
+    expected = hub_order({i: rows[0] for i, rows in entries.items()}, query, 8, 10)
+    assert [(m.model.index_id, m.view) for m in shape] == [(i, None) for i in expected]
+    plain = dict(brute_force(entries, query, first_only=True))
+    for match in shape:
+        assert match.distance == pytest.approx(plain[match.model.index_id], abs=1e-5)
     assert planted not in [m.model.index_id for m in shape]
     scan = scan_search(index, sessions, query, k=8)
     assert scan[0].model.index_id == planted and scan[0].view == 0

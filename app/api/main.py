@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import AsyncIterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import asynccontextmanager
@@ -63,11 +64,35 @@ def _sync(index: ShapeIndex) -> None:
 
 
 def _follow_feed(index: ShapeIndex, interval: float, stop: threading.Event) -> None:
+    """Sync every ``interval`` seconds; once a sync finds nothing new and the index wants
+    its hub-discount neighbourhoods (after start-up, or after a bulk change forgot them),
+    compute them in the background (``ShapeIndex.keep_neighbourhoods``)."""
+    keeper: threading.Thread | None = None
     while not stop.wait(interval):
+        changes = index.changes
         try:
             _sync(index)
         except Exception:
             log.exception("index sync failed; retrying")
+            continue
+        quiet = index.changes == changes
+        if quiet and (keeper is None or not keeper.is_alive()) and index.wants_neighbourhoods():
+            keeper = threading.Thread(target=_keep_neighbourhoods, args=(index,),
+                                      name="index-neighbourhoods", daemon=True)
+            keeper.start()
+
+
+def _keep_neighbourhoods(index: ShapeIndex) -> None:
+    """Every model's hub-discount neighbourhood, computed in the background so that similar
+    queries find it kept (until then they compute their candidates' own)."""
+    started = time.perf_counter()
+    try:
+        kept = index.keep_neighbourhoods()
+    except Exception:  # the queries compute what they need instead
+        log.exception("computing the hub-discount neighbourhoods failed")
+        return
+    log.info("hub-discount neighbourhoods of %d models kept in %.1f s", kept,
+             time.perf_counter() - started)
 
 
 def create_app(

@@ -132,7 +132,8 @@ class ModelSummary(BaseModel):
 class SimilarResult(BaseModel):
     model: ModelSummary
     distance: float = Field(description="L2 distance between the unit descriptors, in [0, 2].")
-    score: float = Field(description="1 - distance^2 / 4, in [0, 1]; 1 for identical descriptors.")
+    score: float = Field(description="1 - distance^2 / 4, in [0, 1]; 1 for identical descriptors "
+                         "(the plain similarity, also where the hub discount orders the results).")
     calibrated_score: float | None = Field(
         default=None,
         description="The share of pairs of different kinds of part (measured on the tuning "
@@ -162,7 +163,8 @@ class SimilarQuery(BaseModel):
 
 class SimilarResponse(BaseModel):
     query: SimilarQuery
-    results: list[SimilarResult] = Field(description="Best first.")
+    results: list[SimilarResult] = Field(
+        description="Best first: in shape mode with the hub discount (see the endpoint).")
 
 
 class SearchQuery(BaseModel):
@@ -178,7 +180,8 @@ class SearchQuery(BaseModel):
 
 class SearchResponse(BaseModel):
     query: SearchQuery
-    results: list[SimilarResult] = Field(description="Best first.")
+    results: list[SimilarResult] = Field(
+        description="Best first: in shape mode with the hub discount (see the endpoint).")
 
 
 class JobResource(BaseModel):

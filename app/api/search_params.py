@@ -25,6 +25,7 @@ from app.search.sizing import SIZE_FILTER_FIELDS, SizeQuery
 __all__ = [
     "FILTER_PARAMETERS",
     "FILTER_SCHEMAS",
+    "ORDER_HELP",
     "SCAN_MODE_HELP",
     "SIZE_HELP",
     "ModeQuery",
@@ -42,6 +43,13 @@ SCAN_MODE_HELP = (
     "each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's "
     "distance is that of its best view, one result per model. mode=shape (the default) "
     "compares whole models only, which suits complete meshes and merged scans better."
+)
+ORDER_HELP = (
+    " Order: with mode=shape the 4k nearest models are ordered by distance^2 + r, r a "
+    "model's mean cosine to its 10 most alike other models (a hub discount, "
+    "SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near everything comes a "
+    "little later and score, the plain similarity, need not fall along the list; a model "
+    "with the query's own descriptor stays first. With mode=scan, by distance."
 )
 ModeQuery = Annotated[
     SearchMode,

@@ -261,9 +261,11 @@ def build_parser() -> argparse.ArgumentParser:
                           help="models on which each cutoff is also timed with its own solver")
     evaluate.add_argument("--no-cache", action="store_true", help="do not read or write OUT/cache")
     evaluate.add_argument(
-        "--hub-discount", type=int, default=0, metavar="K",
-        help="also score every ranking with the hub discount (CSLS over each candidate's K "
-        "nearest; 10 is the chosen K); the search service does not apply it yet",
+        "--hub-discount", type=int, default=None, metavar="K",
+        help="also score every ranking as the search service orders shape-mode answers: "
+        "the hub discount (CSLS over each candidate's K nearest; default: the service's "
+        "SHAPESEARCH_SEARCH_HUB_NEIGHBOURS default, 10, when the set holds 3 models or more); "
+        "0: plain distance order only",
     )
     evaluate.set_defaults(handler=_eval)
 

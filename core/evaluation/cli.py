@@ -47,7 +47,7 @@ from core.evaluation.runner import (
     time_variants_directly,
 )
 from core.evaluation.variants import SCAN_VARIANTS, resolve_variants
-from core.hubness import HUB_WEIGHT, hub_discounted_keys
+from core.hubness import HUB_NEIGHBOURS, HUB_WEIGHT, hub_discounted_keys
 from core.settings import EngineSettings
 
 __all__ = ["evaluate", "run"]
@@ -282,7 +282,10 @@ def evaluate(
     """Run the whole evaluation and write the report; returns the JSON record.
 
     ``hub_neighbours`` above 0 also scores every ranking with the hub discount
-    (``core.hubness``), under each variant's ``hub`` entry.
+    (``core.hubness``), under each variant's ``hub`` entry: the order the search service
+    gives shape-mode answers (``app.search.similarity``; the same as long as a query's
+    ``k`` is at least a quarter of the catalogue, else its re-rank of the plain nearest
+    ``4 k`` agreed with this for most queries: bench/selection/hubness_select.py).
     """
     from core.eigen import pin_blas_threads
 
@@ -390,6 +393,14 @@ def _plots(record: dict[str, Any], out: Path) -> list[str]:
     return plots_from_record(record, out)
 
 
+def hub_neighbours_for(asked: int | None, models: int) -> int:
+    """``--hub-discount``'s ``K``: as asked, or when not asked the service's default
+    (``core.hubness.HUB_NEIGHBOURS``) for a set of at least 3 models, else 0 (none)."""
+    if asked is not None:
+        return asked
+    return HUB_NEIGHBOURS if models >= 3 else 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``shapesearch eval``."""
     try:
@@ -404,7 +415,7 @@ def run(args: argparse.Namespace) -> int:
     if not dataset.models:
         print(f"shapesearch eval: no models under {args.dataset}", file=sys.stderr)
         return 2
-    hub_neighbours = getattr(args, "hub_discount", 0) or 0
+    hub_neighbours = hub_neighbours_for(getattr(args, "hub_discount", None), len(dataset.models))
     if hub_neighbours < 0 or (hub_neighbours > 0 and len(dataset.models) < 3):
         print("shapesearch eval: --hub-discount needs K >= 1 and at least 3 models",
               file=sys.stderr)

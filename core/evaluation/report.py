@@ -70,8 +70,10 @@ def hub_table(record: dict[str, Any]) -> str:
     """Every scoring with the hub discount (``core.hubness``) beside the plain one."""
     hub = record["hub_discount"]
     lines = [
-        f"## With a hub discount (CSLS, k {hub['neighbours']}, weight {hub['weight']:g};"
-        " not applied by the search service yet)",
+        f"## With a hub discount (CSLS, k {hub['neighbours']}, weight {hub['weight']:g})",
+        "",
+        "The search service orders shape-mode answers this way (its default, k 10); the "
+        "tables above rank by plain distance, the descriptor's own order.",
         "",
         "| variant | queries | NN | mAP | top-5 | plain NN | plain mAP | plain top-5 |",
         "|---|---|---|---|---|---|---|---|",

@@ -31,6 +31,7 @@ from app.api.schemas import (
 )
 from app.api.search_params import (
     FILTER_PARAMETERS,
+    ORDER_HELP,
     SCAN_MODE_HELP,
     SIZE_HELP,
     ModeQuery,
@@ -279,7 +280,7 @@ def delete_model(
     "score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite. "
     + SCAN_MODE_HELP + " Use mode=scan for a model that was uploaded as a partial scan (a "
     "model described before scan mode existed is then queried with its plain descriptor)."
-    + SIZE_HELP,
+    + ORDER_HELP + SIZE_HELP,
 )
 async def similar_models(
     model_id: str,

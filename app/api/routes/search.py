@@ -18,6 +18,7 @@ from app.api.schemas import (
 )
 from app.api.search_params import (
     FILTER_PARAMETERS,
+    ORDER_HELP,
     SCAN_MODE_HELP,
     SIZE_HELP,
     ModeQuery,
@@ -49,7 +50,8 @@ router = APIRouter(prefix="/v1", tags=["search"])
     description="The scan is described synchronously, which takes seconds; at most "
     "SHAPESEARCH_SEARCH_MAX_CONCURRENT at a time (beyond: 503 with Retry-After). A file "
     "seen before (same bytes, same mode) is answered without describing it again. Same "
-    "filters and score as /v1/models/{id}/similar. " + SCAN_MODE_HELP + SIZE_HELP
+    "filters, score and order as /v1/models/{id}/similar. " + SCAN_MODE_HELP + ORDER_HELP
+    + SIZE_HELP
     + " The query's size is the upload's, in its `units`; a partial scan under-measures.",
 )
 def search_by_upload(

@@ -38,8 +38,10 @@ holds, exactly as added (``vector``, ``exact_vectors``), so a similar query by m
 no descriptor from the database.
 
 ``neighbour_graph`` gives every vector of a partition its k most alike others at once (the
-duplicates report, ``app.search.duplicates``); an index built with ``only`` holds one
-partition and no views, which is what a duplicates job loads.
+duplicates report, ``app.search.duplicates``), ``neighbourhood_radii`` a few vectors' mean
+cosine to theirs (the hub discount similar queries are ordered by, ``core.hubness``); an
+index built with ``only`` holds one partition and no views, which is what a duplicates job
+loads.
 
 Searches hold a partition's read lock and run side by side (FAISS releases the GIL);
 writes (batched per sync) take the write lock briefly. A rebuild builds new partitions
@@ -60,7 +62,12 @@ from sqlalchemy.orm import QueryableAttribute, Session, sessionmaker
 
 from app.db.models import FeedState, IndexEvent, Model
 from app.search.index._builder import Builder
-from app.search.index._neighbours import NeighbourGraph, neighbour_graph
+from app.search.index._neighbours import (
+    NeighbourGraph,
+    keep_neighbourhoods,
+    neighbour_graph,
+    neighbourhood_radii,
+)
 from app.search.index._partition import Partition
 from app.search.index._view_ids import (
     VIEW_ID_BASE,
@@ -72,6 +79,7 @@ from app.search.index._view_ids import (
     views_array,
     views_key,
 )
+from core.hubness import HUB_NEIGHBOURS
 from core.settings import MAX_VIEWS
 
 __all__ = [
@@ -123,6 +131,9 @@ class ShapeIndex:
     projected_dims : int
         Principal components an IVF partition's codes hold instead of every dimension
         (``_projection``); 0, the default: every dimension.
+    hub_neighbours : int
+        ``k`` of the hub discount that similar queries rank by (``core.hubness``,
+        ``neighbourhood_radii``); 0: plain distance order.
     only : PartitionKey, optional
         Hold this partition alone, without its views: one tenant's descriptors of one
         version, read once (a duplicates job). None: every partition.
@@ -137,6 +148,7 @@ class ShapeIndex:
         nprobe: int = 8,
         rerank_factor: int = 2,
         projected_dims: int = 0,
+        hub_neighbours: int = HUB_NEIGHBOURS,
         only: PartitionKey | None = None,
     ) -> None:
         self.sessions = sessions
@@ -146,6 +158,7 @@ class ShapeIndex:
         self.nprobe = nprobe
         self.rerank_factor = rerank_factor
         self.projected_dims = projected_dims
+        self.hub_neighbours = hub_neighbours
         self.revision = 0  # last change-feed revision applied
         self.changes = 0  # moves on every applied change: answers cached before are stale
         self._partitions: dict[PartitionKey, Partition] = {}
@@ -238,6 +251,36 @@ class ShapeIndex:
             return NeighbourGraph.empty(k)
         with partition.lock.reading():
             return neighbour_graph(partition, k)
+
+    def neighbourhood_radii(
+        self, key: PartitionKey, ids: Sequence[int], exclude: int | None = None
+    ) -> dict[int, float]:
+        """``r_k`` (``k`` = ``hub_neighbours``) of each of ``ids`` that partition ``key``
+        holds, ``exclude`` counted in no neighbourhood (see ``_neighbours``); empty when the
+        discount is off or the partition holds no other models."""
+        partition = self._partitions.get(key)
+        if partition is None or self.hub_neighbours < 1:
+            return {}
+        with partition.lock.reading():
+            return neighbourhood_radii(partition, ids, self.hub_neighbours, exclude)
+
+    def keep_neighbourhoods(self) -> int:
+        """Compute every model's hub-discount neighbourhood now, partition by partition
+        (``_neighbours.keep_neighbourhoods``), so that similar queries find them kept
+        instead of computing their candidates' (an API process runs this in the background
+        after ``rebuild``; changes wait for one block of it at a time); the count kept."""
+        if self.hub_neighbours < 1:
+            return 0
+        return sum(keep_neighbourhoods(partition, self.hub_neighbours)
+                   for key, partition in list(self._partitions.items())
+                   if not holds_views(key))
+
+    def wants_neighbourhoods(self) -> bool:
+        """Whether ``keep_neighbourhoods`` would keep more: a partition large enough to keep
+        them holds fewer than half, and has changed since a pass last went through it."""
+        return self.hub_neighbours > 0 and any(
+            partition.kept.wanted(self.hub_neighbours, int(partition.index.ntotal))
+            for key, partition in list(self._partitions.items()) if not holds_views(key))
 
     def rerank_candidates(self, key: PartitionKey, k: int) -> int:
         """How many candidates to fetch from partition ``key`` for ``k`` exact results:

@@ -18,18 +18,33 @@ Scores are never those of the codes: both cases multiply the full float32 vector
 flat partition's own, an IVF partition's ``full_vectors``), so every cosine is exact and
 only the choice of pairs compared is approximate. Memory: one block of vectors and one
 block of products at a time (tens of MB at 10^5), never n x n.
+
+``neighbourhood_radii`` gives a few vectors' ``r_k``, the mean cosine to their ``k`` most
+alike others (``core.hubness``: the hub discount a similar query is ordered by), from the
+neighbourhoods the partition keeps (``_kept``) or one batched search for those it does not;
+its cosines are exact too (an IVF partition's are recomputed from the full vectors), its
+neighbours those the partition's own search finds. ``keep_neighbourhoods`` computes every
+one from the graph instead, one block per read lock (an API process, in the background).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import faiss
 import numpy as np
 
+from app.search.index._kept import Neighbourhood
 from app.search.index._partition import Partition
 
-__all__ = ["NeighbourGraph", "neighbour_graph"]
+__all__ = [
+    "NeighbourGraph",
+    "graph_blocks",
+    "keep_neighbourhoods",
+    "neighbour_graph",
+    "neighbourhood_radii",
+]
 
 _BLOCK_PRODUCTS = 1 << 24  # products (floats) per block of a flat partition: 64 MB
 
@@ -69,54 +84,186 @@ def neighbour_graph(partition: Partition, k: int) -> NeighbourGraph:
     lock held)."""
     if partition.index.ntotal == 0:
         return NeighbourGraph.empty(k)
+    ids, blocks, exact = graph_blocks(partition, k)
+    neighbours = np.full((len(ids), k), -1, dtype=np.int64)
+    cosines = np.full((len(ids), k), -np.inf, dtype=np.float32)
+    for rows, block_neighbours, block_cosines in blocks:
+        neighbours[rows], cosines[rows] = block_neighbours, block_cosines
+    return NeighbourGraph(ids, neighbours, cosines, exact=exact)
+
+
+#: One block of the graph: the rows (a slice of ``ids``), their neighbours (positions in
+#: ``ids``, -1: none) and cosines (-inf: none).
+GraphBlock = tuple[slice, np.ndarray, np.ndarray]
+
+
+def graph_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
+    """The graph of ``partition`` (not empty) block by block: the ``(n,)`` ids, the blocks,
+    each computed when the iterator is advanced, and whether every pair is compared. The
+    read lock must be held while the ids are taken and while each block is computed, and
+    the partition unchanged in between (``Partition.version``): a caller may release the
+    lock between blocks and stop when the partition changed."""
     if partition.approximate:
-        return _ivf_graph(partition, k)
-    return _flat_graph(partition, k)
+        return _ivf_blocks(partition, k)
+    return _flat_blocks(partition, k)
 
 
-def _flat_graph(partition: Partition, k: int) -> NeighbourGraph:
+def _flat_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
     """Every vector against every other, a block of rows at a time."""
     index = partition.index  # IndexIDMap2(IndexFlatL2)
     ids = faiss.vector_to_array(index.id_map).astype(np.int64)
     vectors = index.index.reconstruct_n(0, index.ntotal)[:, : partition.dim]
     n = len(ids)
     positions = np.arange(n)
-    neighbours = np.empty((n, k), dtype=np.int64)
-    cosines = np.empty((n, k), dtype=np.float32)
     step = max(1, min(1024, _BLOCK_PRODUCTS // n))
-    for start in range(0, n, step):
-        rows = slice(start, start + step)
-        neighbours[rows], cosines[rows] = _nearest(
-            vectors[rows], positions[rows], vectors, positions, k
-        )
-    return NeighbourGraph(ids, neighbours, cosines, exact=True)
+
+    def blocks() -> Iterator[GraphBlock]:
+        for start in range(0, n, step):
+            rows = slice(start, start + step)
+            yield rows, *_nearest(vectors[rows], positions[rows], vectors, positions, k)
+
+    return ids, blocks(), True
 
 
-def _ivf_graph(partition: Partition, k: int) -> NeighbourGraph:
+def neighbourhood_radii(
+    partition: Partition, ids: Sequence[int], k: int, exclude: int | None = None
+) -> dict[int, float]:
+    """``r_k`` of each of ``ids`` that ``partition`` holds: its mean cosine to its ``k`` most
+    alike others, ``exclude`` (a query model, leave-one-out) counted in no neighbourhood
+    (call with the partition's read lock held).
+
+    A partition of at least ``k + 2`` vectors keeps each neighbourhood it computed, until a
+    change moves it (``_kept``); leaving ``exclude`` out of a kept one is arithmetic. A
+    smaller partition is counted afresh each time, ``k`` being what there is (the same for
+    every id; none at all: an empty answer). Two ids with the same vector are each other's
+    neighbours (an id is left out of its own neighbourhood by id, not by distance).
+    """
+    vectors, held = partition.exact_vectors(ids)
+    asked = [int(i) for i, h in zip(ids, held.tolist(), strict=True) if h]
+    if not asked:
+        return {}
+    vectors = vectors[held]
+    if partition.index.ntotal < k + 2:
+        return _counted_radii(partition, asked, vectors, k, exclude)
+    kept = partition.kept
+    kept.use(k)
+    entries = {own: kept.get(own) for own in asked}
+    missing = [row for row, own in enumerate(asked) if entries[own] is None]
+    if missing:
+        found = _nearest_others(partition, [asked[r] for r in missing], vectors[missing], k + 1)
+        for row, cosines in zip(missing, found, strict=True):
+            if len(cosines) > k:
+                computed = Neighbourhood.of(cosines, k)
+                entries[asked[row]] = computed
+                kept.put(asked[row], computed)
+            else:  # the search found fewer (an IVF corner): what it found, not kept
+                padded = np.concatenate([cosines, np.full(k + 1 - len(cosines), cosines[-1])])
+                entries[asked[row]] = Neighbourhood.of(padded, k)
+    left_out = None
+    if exclude is not None:
+        excluded, present = partition.exact_vectors([exclude])
+        left_out = excluded[0] if present[0] else None
+    radii = {}
+    for own, vector in zip(asked, vectors, strict=True):
+        entry = entries[own]
+        assert entry is not None
+        top = entry.top
+        if left_out is not None and own != exclude:
+            cosine = float(left_out @ vector)
+            if cosine >= entry.kth:  # the left-out model is one of its k: the next steps in
+                top += entry.after - cosine
+        radii[own] = top / k
+    return radii
+
+
+def keep_neighbourhoods(partition: Partition, k: int) -> int:
+    """Compute and keep every neighbourhood of ``partition`` that ``neighbourhood_radii``
+    would, from the neighbour graph (one block-wise pass instead of a search per model);
+    the count kept. Takes the read lock for one block at a time, so that changes wait for
+    a block, not for the whole pass; stops early when the partition changed meanwhile
+    (those kept so far stay: the change forgot the ones it moved)."""
+    kept = partition.kept
+    with partition.lock.reading():
+        kept.use(k)
+        version = kept.version
+        if partition.index.ntotal < k + 2:
+            kept.pass_version = version
+            return 0
+        ids, blocks, _ = graph_blocks(partition, k + 1)
+    count = 0
+    while True:
+        with partition.lock.reading():
+            if kept.version != version or kept.k != k:
+                return count
+            block = next(blocks, None)
+            if block is None:
+                kept.pass_version = version
+                return count
+            rows, _, cosines = block
+            complete = np.isfinite(cosines).all(axis=1)
+            for own, row in zip(ids[rows][complete].tolist(), cosines[complete], strict=True):
+                kept.put(own, Neighbourhood.of(row.astype(np.float64), k))
+            count += int(complete.sum())
+
+
+def _counted_radii(
+    partition: Partition, ids: list[int], vectors: np.ndarray, k: int, exclude: int | None
+) -> dict[int, float]:
+    """``neighbourhood_radii`` of a partition with fewer than ``k + 2`` vectors, counted."""
+    others = int(partition.index.ntotal) - 1
+    if exclude is not None and partition.exact_vectors([exclude])[1][0]:
+        others -= 1
+    k = min(k, others)
+    if k < 1:
+        return {}
+    found = _nearest_others(partition, ids, vectors, k + 1, exclude)
+    return {own: float(cosines[:k].mean()) for own, cosines in zip(ids, found, strict=True)}
+
+
+def _nearest_others(
+    partition: Partition, ids: list[int], vectors: np.ndarray, count: int,
+    exclude: int | None = None,
+) -> list[np.ndarray]:
+    """For each of ``ids`` (at ``vectors : (m, d) float32``), the exact cosines of its
+    ``count`` most alike others (fewer when the partition holds fewer), largest first;
+    ``exclude`` is no one's neighbour."""
+    fetch = count + 2  # itself and the excluded model may be among the nearest
+    if partition.approximate:  # estimated order: a margin, as for any exact re-rank
+        fetch = partition.rerank_scale * max(2 * fetch, fetch + 10)
+    _, found = partition.search(vectors, min(fetch, int(partition.index.ntotal)), None)
+    nearest = []
+    for own, vector, row in zip(ids, vectors, found, strict=True):
+        neighbours = [int(i) for i in row if i >= 0 and i != own and i != exclude]
+        near, _ = partition.exact_vectors(neighbours)
+        nearest.append(np.sort(near @ vector)[::-1][:count].astype(np.float64))
+    return nearest
+
+
+def _ivf_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
     """Each inverted list against the ``nprobe`` lists nearest it, on the full vectors."""
     ivf = faiss.extract_index_ivf(partition.index)
-    assert partition.full is not None  # a compressed partition keeps its full vectors
+    full = partition.full
+    assert full is not None  # a compressed partition keeps its full vectors
     members = [_list_ids(ivf.invlists, number) for number in range(ivf.nlist)]
     ids = np.concatenate(members)
     starts = np.concatenate([[0], np.cumsum([len(m) for m in members])])
     probes = min(partition.nprobe, ivf.nlist)
     centroids = ivf.quantizer.reconstruct_n(0, ivf.nlist)
     _, nearby = ivf.quantizer.search(centroids, probes)
-    neighbours = np.full((len(ids), k), -1, dtype=np.int64)
-    cosines = np.full((len(ids), k), -np.inf, dtype=np.float32)
-    for number in range(ivf.nlist):
-        if len(members[number]) == 0:
-            continue
-        # Its own list first, whatever ties between equal centroids say.
-        lists = [number, *(int(j) for j in nearby[number] if 0 <= j != number)][:probes]
-        at = np.concatenate([np.arange(starts[j], starts[j + 1]) for j in lists])
-        columns, _ = partition.full.get(ids[at].tolist())
-        rows = slice(starts[number], starts[number + 1])
-        count = starts[number + 1] - starts[number]
-        neighbours[rows], cosines[rows] = _nearest(
-            columns[:count], at[:count], columns, at, k
-        )
-    return NeighbourGraph(ids, neighbours, cosines, exact=probes >= ivf.nlist)
+
+    def blocks() -> Iterator[GraphBlock]:
+        for number in range(ivf.nlist):
+            if len(members[number]) == 0:
+                continue
+            # Its own list first, whatever ties between equal centroids say.
+            lists = [number, *(int(j) for j in nearby[number] if 0 <= j != number)][:probes]
+            at = np.concatenate([np.arange(starts[j], starts[j + 1]) for j in lists])
+            columns, _ = full.get(ids[at].tolist())
+            count = starts[number + 1] - starts[number]
+            yield (slice(starts[number], starts[number + 1]),
+                   *_nearest(columns[:count], at[:count], columns, at, k))
+
+    return ids, blocks(), probes >= ivf.nlist
 
 
 def _list_ids(invlists: faiss.InvertedLists, number: int) -> np.ndarray:

@@ -22,6 +22,7 @@ import faiss
 import numpy as np
 
 from app.search.full_vectors import FullVectors
+from app.search.index._kept import KeptNeighbourhoods
 from app.search.index._lock import ReadWriteLock
 from app.search.index._projection import Projection
 
@@ -57,6 +58,8 @@ class Partition:
         # The dimensions the codes hold when some are constant over the training sample.
         self.varying: np.ndarray | None = None
         self.lock = ReadWriteLock()
+        # The hub discount's neighbourhoods, kept while a change does not move them.
+        self.kept = KeptNeighbourhoods()
 
     @property
     def kind(self) -> str:
@@ -143,11 +146,17 @@ class Partition:
         return coded
 
     def add(self, ids: np.ndarray, vectors: np.ndarray) -> None:
+        self.kept.changed(self, ids, vectors)
         if self.full is not None:  # first: when its disk is full, nothing is added
             self.full.put(ids.tolist(), vectors)
         self.index.add_with_ids(self.codable(vectors), ids)
 
     def remove(self, ids: np.ndarray) -> None:
+        if len(self.kept):  # the leaving vectors, read while still held
+            vectors, held = self.exact_vectors(ids.tolist())
+            self.kept.changed(self, ids[held], vectors[held])
+        else:  # nothing kept to forget: a bulk removal reads no vectors
+            self.kept.changed(self, ids[:0], np.zeros((0, self.dim), np.float32))
         # An array selector: the IVF direct map (a hashtable) then removes without a scan.
         self.index.remove_ids(faiss.IDSelectorArray(len(ids), faiss.swig_ptr(ids)))
         if self.full is not None:

@@ -27,7 +27,7 @@ class SearchResponse:
     """ 
         Attributes:
             query (SearchQuery): The uploaded scan as described for the search (nothing is stored).
-            results (list[SimilarResult]): Best first.
+            results (list[SimilarResult]): Best first: in shape mode with the hub discount (see the endpoint).
      """
 
     query: SearchQuery

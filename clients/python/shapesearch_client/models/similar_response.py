@@ -27,7 +27,7 @@ class SimilarResponse:
     """ 
         Attributes:
             query (SimilarQuery):
-            results (list[SimilarResult]): Best first.
+            results (list[SimilarResult]): Best first: in shape mode with the hub discount (see the endpoint).
      """
 
     query: SimilarQuery

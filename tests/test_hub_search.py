@@ -1,0 +1,242 @@
+"""Similar answers ordered with the hub discount (``core.hubness``) in the search service:
+the index's radii against a direct count, the service's order against the discount computed
+over the whole catalogue, the query model left out, the same part kept first, filters, and
+the setting that turns it off."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import make_settings
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.search.index import ShapeIndex
+from app.search.similarity import Match, find_similar
+from core.hubness import hub_keys, neighbourhood_radii, rerank_depth
+from tests.test_hubness import direct_radius, hub_catalogue, unit_rows
+from tests.test_index import add_ready, delete_model
+
+KEY = ("t", "v1")
+
+
+def hub_order(
+    vectors: dict[int, np.ndarray],
+    query: np.ndarray,
+    k: int,
+    neighbours: int,
+    exclude: int | None = None,
+    allowed: set[int] | None = None,
+) -> list[int]:
+    """What the service should answer, computed directly: the plain nearest ``rerank_depth(k)``
+    (among ``allowed``), re-ordered by ``hub_keys`` with radii over the whole catalogue,
+    ``exclude`` neither a candidate nor in any radius."""
+    ids = [i for i in vectors if i != exclude]
+    rows = np.array([vectors[i] for i in ids], dtype=np.float64)
+    radii = neighbourhood_radii(rows, neighbours)
+    candidates = [i for i in ids if allowed is None or i in allowed]
+    squared = {i: float(np.sum((vectors[i] - query) ** 2)) for i in candidates}
+    nearest = sorted(candidates, key=lambda i: (squared[i], i))[: rerank_depth(k)]
+    keys = hub_keys(np.array([squared[i] for i in nearest]),
+                    np.array([radii[ids.index(i)] for i in nearest]))
+    order = sorted(range(len(nearest)), key=lambda j: (keys[j], nearest[j]))
+    return [nearest[j] for j in order][:k]
+
+
+def search(index: ShapeIndex, sessions: sessionmaker[Session], query: np.ndarray,
+           **options: object) -> list[Match]:
+    with sessions() as session:
+        return find_similar(index, session.connection(), KEY, query, **options)  # type: ignore[arg-type]
+
+
+def planted_hub_catalogue(sessions: sessionmaker[Session]) -> tuple[np.ndarray, list[int]]:
+    """``tests.test_hubness.hub_catalogue`` without its query, as ready models: the query
+    vector and the ids of the classmate, the hub and the hub's six near parts."""
+    rows, _ = hub_catalogue()
+    return rows[0].astype(np.float32), [add_ready(sessions, row) for row in rows[1:]]
+
+
+def test_a_hub_the_plain_order_puts_first_comes_after_the_classmate(
+    sessions: sessionmaker[Session],
+) -> None:
+    query, (classmate, hub, *_) = planted_hub_catalogue(sessions)
+    plain = ShapeIndex(sessions, hub_neighbours=0)
+    discounted = ShapeIndex(sessions, hub_neighbours=3)
+    plain.rebuild()
+    discounted.rebuild()
+    assert [m.model.index_id for m in search(plain, sessions, query, k=2)] == [hub, classmate]
+    answer = search(discounted, sessions, query, k=2)
+    assert [m.model.index_id for m in answer] == [classmate, hub]
+    # Scores stay the plain similarity: the hub's is the higher one, second in the answer.
+    assert answer[1].score > answer[0].score
+    assert answer[0].score == pytest.approx((1 + 0.80) / 2, abs=1e-6)
+
+
+@pytest.mark.parametrize("exact_max", [10**6, 20], ids=["flat", "ivf"])
+def test_the_answer_is_the_discount_over_the_whole_catalogue(
+    sessions: sessionmaker[Session], exact_max: int
+) -> None:
+    rows = unit_rows(60, 8, seed=3).astype(np.float32)
+    vectors = {add_ready(sessions, row): row for row in rows}
+    # nprobe at least the lists of an IVF partition: its search is exact, so are its radii.
+    index = ShapeIndex(sessions, exact_max=exact_max, nprobe=64, hub_neighbours=5)
+    index.rebuild()
+    assert index.describe(KEY) == ("flat" if exact_max > 60 else "ivf-sq8")
+    ids = list(vectors)
+    radii = index.neighbourhood_radii(KEY, ids)
+    assert [radii[i] for i in ids] == pytest.approx(
+        [direct_radius(rows, x, None, 5) for x in range(60)], abs=1e-5)
+    changed = 0
+    for q in range(8):
+        query = unit_rows(1, 8, seed=100 + q)[0].astype(np.float32)
+        answer = [m.model.index_id for m in search(index, sessions, query, k=6)]
+        assert answer == hub_order(vectors, query, 6, 5)
+        plain = sorted(vectors, key=lambda i: (float(np.linalg.norm(vectors[i] - query)), i))
+        changed += answer != plain[:6]
+    assert changed > 0  # the discount does reorder these answers
+    # The background pass (the neighbour graph) keeps every neighbourhood, the same as
+    # the queries computed (one search each).
+    kept = index._partitions[KEY].kept
+    computed = {own: kept.get(own) for own in ids}
+    kept.forget()
+    assert index.keep_neighbourhoods() == 60
+    for own, entry in computed.items():
+        again = kept.get(own)
+        assert entry is not None and again is not None
+        assert (again.top, again.kth, again.after) == pytest.approx(
+            (entry.top, entry.kth, entry.after), abs=1e-5)
+
+
+@pytest.mark.parametrize("neighbours", [4, 10], ids=["kept", "counted"])
+def test_a_query_model_is_in_no_neighbourhood_and_not_an_answer(
+    sessions: sessionmaker[Session], neighbours: int
+) -> None:
+    # 4 neighbours of 30 models: kept neighbourhoods, the query taken out by arithmetic;
+    # 10 of the first 8: too few models to keep them, counted without the query.
+    rows = unit_rows(30, 6, seed=5).astype(np.float32)
+    vectors = {add_ready(sessions, row): row for row in rows[: 8 if neighbours == 10 else 30]}
+    index = ShapeIndex(sessions, hub_neighbours=neighbours)
+    index.rebuild()
+    ids = list(vectors)
+    for query_id in ids[:6]:
+        answer = search(index, sessions, vectors[query_id], k=5, exclude=query_id,
+                        indexed_query=True)
+        assert [m.model.index_id for m in answer] == hub_order(
+            vectors, vectors[query_id], 5, neighbours, exclude=query_id)
+    if neighbours == 10:
+        return
+    # Radii without the query differ from those with it where it was a near neighbour.
+    with_query = index.neighbourhood_radii(KEY, ids[1:])
+    without = index.neighbourhood_radii(KEY, ids[1:], exclude=ids[0])
+    assert any(without[i] < with_query[i] - 1e-6 for i in ids[1:])
+    assert without == pytest.approx(
+        {i: direct_radius(rows, x, 0, 4) for x, i in enumerate(ids) if x > 0}, abs=1e-5)
+
+
+def test_kept_neighbourhoods_a_change_moves_are_forgotten(
+    sessions: sessionmaker[Session],
+) -> None:
+    rows = unit_rows(40, 6, seed=9).astype(np.float32)
+    vectors = {add_ready(sessions, row): row for row in rows}
+    index = ShapeIndex(sessions, hub_neighbours=4)
+    index.rebuild()
+    queries = unit_rows(5, 6, seed=90).astype(np.float32)
+    for query in queries:
+        assert [m.model.index_id for m in search(index, sessions, query, k=5)] == hub_order(
+            vectors, query, 5, 4)
+    kept = index._partitions[KEY].kept
+    before = {own for own in vectors if kept.get(own) is not None}
+    assert len(before) >= 5  # kept for the next queries
+    # New models next to the queries enter the neighbourhoods of the kept candidates, and
+    # a removed one leaves those it was in.
+    for query in queries:
+        near = unit_rows(1, 6, seed=int(query[0] * 1000) % 997)[0] * 0.05 + query
+        vector = (near / np.linalg.norm(near)).astype(np.float32)
+        vectors[add_ready(sessions, vector)] = vector
+    removed = sorted(before)[3]
+    delete_model(sessions, removed)
+    del vectors[removed]
+    index.sync()
+    # Those the changes moved are forgotten, the rest kept, and every kept one is what a
+    # fresh count over the changed catalogue gives.
+    ids = list(vectors)
+    after = {own: entry for own in ids if (entry := kept.get(own)) is not None}
+    assert 0 < len(after) < len(before)
+    rows = np.array([vectors[i] for i in ids])
+    for own, entry in after.items():
+        x = ids.index(own)
+        cosines = sorted((float(rows[x] @ rows[y]) for y in range(len(ids)) if y != x),
+                         reverse=True)
+        assert (entry.top, entry.kth, entry.after) == pytest.approx(
+            (sum(cosines[:4]), cosines[3], cosines[4]), abs=1e-5)
+    for query in queries:
+        assert [m.model.index_id for m in search(index, sessions, query, k=5)] == hub_order(
+            vectors, query, 5, 4)
+
+
+def test_the_query_s_own_part_stays_first_even_as_a_hub(sessions: sessionmaker[Session]) -> None:
+    _, (classmate, hub, *_) = planted_hub_catalogue(sessions)
+    rows, _ = hub_catalogue()
+    index = ShapeIndex(sessions, hub_neighbours=3)
+    index.rebuild()
+    # The hub's own file uploaded again: itself first, though its radius is the largest.
+    answer = search(index, sessions, rows[2].astype(np.float32), k=3)
+    assert answer[0].model.index_id == hub and answer[0].score == pytest.approx(1.0)
+
+
+def test_filters_narrow_the_candidates_not_the_neighbourhoods(
+    sessions: sessionmaker[Session],
+) -> None:
+    rows = unit_rows(40, 6, seed=7).astype(np.float32)
+    vectors = {add_ready(sessions, row, meta={"even": str(x % 2 == 0)}): row
+               for x, row in enumerate(rows)}
+    index = ShapeIndex(sessions, hub_neighbours=5)
+    index.rebuild()
+    even = {i for x, i in enumerate(vectors) if x % 2 == 0}
+    for pushdown_max in (0, 10_000):  # widening index results, and ids selected in SQL
+        for q in range(4):
+            query = unit_rows(1, 6, seed=50 + q)[0].astype(np.float32)
+            answer = search(index, sessions, query, k=4, filters={"even": "True"},
+                            pushdown_max=pushdown_max)
+            assert [m.model.index_id for m in answer] == hub_order(
+                vectors, query, 4, 5, allowed=even)
+
+
+def test_too_few_models_for_a_neighbourhood_answer_in_plain_order(
+    sessions: sessionmaker[Session],
+) -> None:
+    only = add_ready(sessions, unit_rows(1, 4, seed=0)[0].astype(np.float32))
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    assert index.neighbourhood_radii(KEY, [only]) == {}  # no other model
+    assert [m.model.index_id for m in search(index, sessions, unit_rows(1, 4, 1)[0], k=3)] == [only]
+
+
+def test_the_setting_reaches_the_index_and_zero_turns_the_discount_off(
+    database_url: str,
+) -> None:
+    assert make_settings(database_url).index_options["hub_neighbours"] == 10
+    assert make_settings(database_url, search_hub_neighbours=0).index_options[
+        "hub_neighbours"] == 0
+
+
+def test_a_bulk_change_forgets_every_neighbourhood_and_the_index_wants_them_again(
+    sessions: sessionmaker[Session],
+) -> None:
+    rows = unit_rows(110, 6, seed=11).astype(np.float32)
+    for row in rows[:40]:
+        add_ready(sessions, row)
+    index = ShapeIndex(sessions, hub_neighbours=4)
+    index.rebuild()
+    assert index.wants_neighbourhoods()  # none kept yet
+    assert index.keep_neighbourhoods() == 40
+    assert not index.wants_neighbourhoods()
+    for row in rows[40:]:  # 70 models in one sync: more than a change forgets one by one
+        add_ready(sessions, row)
+    assert index.sync() == 70
+    assert len(index._partitions[KEY].kept) == 0
+    assert index.wants_neighbourhoods()
+    assert index.keep_neighbourhoods() == 110 and not index.wants_neighbourhoods()
+    # Too few models to keep any: a pass finds nothing to do, and is not wanted again.
+    small = ShapeIndex(sessions, hub_neighbours=200)
+    small.rebuild()
+    assert small.wants_neighbourhoods() is False and small.keep_neighbourhoods() == 0
