@@ -199,6 +199,12 @@ def test_filters_narrow_the_candidates_not_the_neighbourhoods(
                             pushdown_max=pushdown_max)
             assert [m.model.index_id for m in answer] == hub_order(
                 vectors, query, 4, 5, allowed=even)
+        # By model id: the query model is in no neighbourhood here either.
+        for query_id in list(vectors)[:4]:
+            answer = search(index, sessions, vectors[query_id], k=4, filters={"even": "True"},
+                            pushdown_max=pushdown_max, exclude=query_id, indexed_query=True)
+            assert [m.model.index_id for m in answer] == hub_order(
+                vectors, vectors[query_id], 4, 5, exclude=query_id, allowed=even)
 
 
 def test_too_few_models_for_a_neighbourhood_answer_in_plain_order(

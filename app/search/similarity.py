@@ -408,7 +408,10 @@ def _hub_answer(
     nearest = sorted(ids, key=lambda i: (distances[i], i))[:depth]
     if min_score is not None:
         nearest = [i for i in nearest if score_of(distances[i]) >= min_score]
-    order = _hub_order(index, key, nearest, [distances[i] for i in nearest], exclude)
+    # The query vector is the excluded query model's own: its cosine to a candidate is
+    # 1 - d^2 / 2, so the radii need no vectors read.
+    order = _hub_order(index, key, nearest, [distances[i] for i in nearest], exclude,
+                       query_is_excluded=True)
     matches: list[Match] = []
     for start in range(0, max(len(order), 1), k):
         chunk = order[start : start + k]
@@ -427,12 +430,15 @@ def _hub_answer(
 
 
 def _hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: list[float],
-               exclude: int | None) -> list[int]:
-    """``ids`` (nearest first, at ``distances``) in the order of the hub discount
-    (``core.hubness.hub_keys``), the query model ``exclude`` in no neighbourhood; ties in
-    upload order. An id the index dropped since it was found (deleted a moment ago) takes
-    the largest radius among the others."""
-    radii = index.neighbourhood_radii(key, ids, exclude)
+               exclude: int | None, query_is_excluded: bool = False) -> list[int]:
+    """``ids`` (nearest first, at plain ``distances``, or combined ones with a size term) in
+    the order of the hub discount (``core.hubness.hub_keys``), the query model ``exclude``
+    in no neighbourhood (``query_is_excluded``: the query vector is its own and the
+    distances plain, so its cosines are known); ties in upload order. An id the index
+    dropped since it was found (deleted a moment ago) takes the largest radius among the
+    others."""
+    cosines = [1.0 - d * d / 2.0 for d in distances] if query_is_excluded else None
+    radii = index.neighbourhood_radii(key, ids, exclude, cosines if exclude is not None else None)
     if not radii:
         return ids
     largest = max(radii.values())

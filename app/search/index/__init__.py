@@ -253,16 +253,22 @@ class ShapeIndex:
             return neighbour_graph(partition, k)
 
     def neighbourhood_radii(
-        self, key: PartitionKey, ids: Sequence[int], exclude: int | None = None
+        self,
+        key: PartitionKey,
+        ids: Sequence[int],
+        exclude: int | None = None,
+        excluded_cosines: Sequence[float] | None = None,
     ) -> dict[int, float]:
         """``r_k`` (``k`` = ``hub_neighbours``) of each of ``ids`` that partition ``key``
-        holds, ``exclude`` counted in no neighbourhood (see ``_neighbours``); empty when the
-        discount is off or the partition holds no other models."""
+        holds, ``exclude`` counted in no neighbourhood (see ``_neighbours``; its cosine to
+        each id may be given); empty when the discount is off or the partition holds no
+        other models."""
         partition = self._partitions.get(key)
         if partition is None or self.hub_neighbours < 1:
             return {}
         with partition.lock.reading():
-            return neighbourhood_radii(partition, ids, self.hub_neighbours, exclude)
+            return neighbourhood_radii(partition, ids, self.hub_neighbours, exclude,
+                                       excluded_cosines)
 
     def keep_neighbourhoods(self) -> int:
         """Compute every model's hub-discount neighbourhood now, partition by partition

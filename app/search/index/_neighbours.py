@@ -126,11 +126,16 @@ def _flat_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[Gra
 
 
 def neighbourhood_radii(
-    partition: Partition, ids: Sequence[int], k: int, exclude: int | None = None
+    partition: Partition,
+    ids: Sequence[int],
+    k: int,
+    exclude: int | None = None,
+    excluded_cosines: Sequence[float] | None = None,
 ) -> dict[int, float]:
     """``r_k`` of each of ``ids`` that ``partition`` holds: its mean cosine to its ``k`` most
     alike others, ``exclude`` (a query model, leave-one-out) counted in no neighbourhood
-    (call with the partition's read lock held).
+    (call with the partition's read lock held). ``excluded_cosines``: the cosine of
+    ``exclude`` to each of ``ids``, when the caller knows it (else read from the vectors).
 
     A partition of at least ``k + 2`` vectors keeps each neighbourhood it computed, until a
     change moves it (``_kept``); leaving ``exclude`` out of a kept one is arithmetic. A
@@ -138,38 +143,41 @@ def neighbourhood_radii(
     every id; none at all: an empty answer). Two ids with the same vector are each other's
     neighbours (an id is left out of its own neighbourhood by id, not by distance).
     """
-    vectors, held = partition.exact_vectors(ids)
-    asked = [int(i) for i, h in zip(ids, held.tolist(), strict=True) if h]
-    if not asked:
-        return {}
-    vectors = vectors[held]
+    asked = [int(i) for i in ids]
     if partition.index.ntotal < k + 2:
-        return _counted_radii(partition, asked, vectors, k, exclude)
+        vectors, held = partition.exact_vectors(asked)
+        held_ids = [own for own, h in zip(asked, held.tolist(), strict=True) if h]
+        return _counted_radii(partition, held_ids, vectors[held], k, exclude) if held_ids else {}
     kept = partition.kept
     kept.use(k)
+    # A kept neighbourhood is of a model still held (a removal forgets it): only the others'
+    # vectors are read, to compute theirs.
     entries = {own: kept.get(own) for own in asked}
-    missing = [row for row, own in enumerate(asked) if entries[own] is None]
+    missing = [own for own in asked if entries[own] is None]
     if missing:
-        found = _nearest_others(partition, [asked[r] for r in missing], vectors[missing], k + 1)
-        for row, cosines in zip(missing, found, strict=True):
+        vectors, held = partition.exact_vectors(missing)
+        held_ids = [own for own, h in zip(missing, held.tolist(), strict=True) if h]
+        found = _nearest_others(partition, held_ids, vectors[held], k + 1)
+        for own, cosines in zip(held_ids, found, strict=True):
             if len(cosines) > k:
-                computed = Neighbourhood.of(cosines, k)
-                entries[asked[row]] = computed
-                kept.put(asked[row], computed)
+                entries[own] = computed = Neighbourhood.of(cosines, k)
+                kept.put(own, computed)
             else:  # the search found fewer (an IVF corner): what it found, not kept
                 padded = np.concatenate([cosines, np.full(k + 1 - len(cosines), cosines[-1])])
-                entries[asked[row]] = Neighbourhood.of(padded, k)
-    left_out = None
-    if exclude is not None:
-        excluded, present = partition.exact_vectors([exclude])
-        left_out = excluded[0] if present[0] else None
+                entries[own] = Neighbourhood.of(padded, k)
+    left_out = dict(zip(asked, excluded_cosines, strict=True)) if excluded_cosines else None
+    if exclude is not None and left_out is None:
+        vectors, held = partition.exact_vectors([exclude, *asked])
+        left_out = ({own: float(v @ vectors[0]) for own, v in zip(asked, vectors[1:], strict=True)}
+                    if held[0] else None)
     radii = {}
-    for own, vector in zip(asked, vectors, strict=True):
+    for own in asked:
         entry = entries[own]
-        assert entry is not None
+        if entry is None:  # not held
+            continue
         top = entry.top
         if left_out is not None and own != exclude:
-            cosine = float(left_out @ vector)
+            cosine = left_out[own]
             if cosine >= entry.kth:  # the left-out model is one of its k: the next steps in
                 top += entry.after - cosine
         radii[own] = top / k
