@@ -373,7 +373,8 @@ class Settings(BaseSettings):
         "4 k nearest models re-ordered by distance^2 + r, r a candidate's mean cosine to "
         "its this many most alike other models, so a part that is near everything (a hub) "
         "comes a little later; `score` stays the plain similarity. 0: plain distance "
-        "order. Chosen on seven tuning sources, +0.011 mAP left out (README, Hub discount).",
+        "order. Chosen on seven tuning sources, +0.01 mAP left out (README, Order of the "
+        "results).",
     )
     filter_pushdown_max: int = Field(
         default=10_000,

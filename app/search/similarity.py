@@ -9,8 +9,7 @@ Every candidate is confirmed by the database, the source of truth, in one statem
 the few columns an answer shows: a model deleted by another process a moment ago is never
 returned. When the partition is approximate (IVF-SQ, see ``app.search.index``) the distances are
 recomputed exactly from the full vectors the index keeps (``app.search.full_vectors``), so scores
-never carry quantisation error; without filters or a size term, the candidates are put in that
-exact order first and only as many as the answer takes are confirmed.
+never carry quantisation error.
 
 Metadata filters, two ways, and either way "k results whenever k matching models exist":
 
@@ -327,38 +326,24 @@ def find_similar(
                            exclude if indexed_query else None)
     matches: list[Match] = []
     seen: set[int] = set()
-    distances: dict[int, float] = {}
-    # An approximate partition's candidates, unfiltered and without a size term, are put in
-    # exact order before the database sees them: only as many as the answer still takes are
-    # confirmed, nearest first, the rest wait for a shortfall (a model deleted a moment ago).
-    in_order = approximate and not filtered and size.weight == 0
-    waiting: list[int] = []
     query_id = exclude if indexed_query else None
     while True:
         hits = index.search(key, vector, fetch, allowed=allowed)
         fresh = [i for i, _ in hits if i not in seen and i != exclude]
         seen.update(i for i, _ in hits)
-        distances.update(hits)
+        if query_id is None:
+            rows = _ready_candidates(connection, key[0], fresh)
+        else:  # the query model's own row rides along, once
+            rows = _ready_candidates(connection, key[0], [*fresh, query_id], "descriptor_version")
+            rows = _without_query(rows, query_id, key)
+            query_id = None
+        distances = dict(hits)
         if approximate:  # estimates from the codes: exact ones from the full vectors
-            distances.update(_exact_distances(index, key, fresh, vector))
-        if in_order:
-            waiting = sorted([*waiting, *fresh], key=lambda i: (distances[i], i))
-        while True:
-            if in_order:
-                fresh, waiting = waiting[: depth - len(matches)], waiting[depth - len(matches):]
-            if query_id is None:
-                rows = _ready_candidates(connection, key[0], fresh)
-            else:  # the query model's own row rides along, once
-                rows = _ready_candidates(connection, key[0], [*fresh, query_id],
-                                         "descriptor_version")
-                rows = _without_query(rows, query_id, key)
-                query_id = None
-            for row in rows:
-                if _passes(row, filters, ranges, size):
-                    distance = size.distance(distances[row.index_id], row)
-                    matches.append(Match(_candidate(row), distance, score_of(distance)))
-            if not (waiting and len(matches) < depth):
-                break
+            distances.update(_exact_distances(index, key, [row.index_id for row in rows], vector))
+        for row in rows:
+            if _passes(row, filters, ranges, size):
+                distance = size.distance(distances[row.index_id], row)
+                matches.append(Match(_candidate(row), distance, score_of(distance)))
         matches.sort(key=lambda match: (match.distance, match.model.index_id))
         if min_score is not None:
             matches = [m for m in matches if m.score >= min_score]
@@ -408,8 +393,7 @@ def _hub_answer(
     nearest = sorted(ids, key=lambda i: (distances[i], i))[:depth]
     if min_score is not None:
         nearest = [i for i in nearest if score_of(distances[i]) >= min_score]
-    # The query vector is the excluded query model's own: its cosine to a candidate is
-    # 1 - d^2 / 2, so the radii need no vectors read.
+    # A query by model id is that model's own vector, at plain distances here.
     order = _hub_order(index, key, nearest, [distances[i] for i in nearest], exclude,
                        query_is_excluded=True)
     matches: list[Match] = []
@@ -437,8 +421,10 @@ def _hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: 
     distances plain, so its cosines are known); ties in upload order. An id the index
     dropped since it was found (deleted a moment ago) takes the largest radius among the
     others."""
-    cosines = [1.0 - d * d / 2.0 for d in distances] if query_is_excluded else None
-    radii = index.neighbourhood_radii(key, ids, exclude, cosines if exclude is not None else None)
+    # Then the excluded model's cosine to each candidate is 1 - d^2 / 2: no vectors read.
+    known = query_is_excluded and exclude is not None
+    radii = index.neighbourhood_radii(
+        key, ids, exclude, [1.0 - d * d / 2.0 for d in distances] if known else None)
     if not radii:
         return ids
     largest = max(radii.values())

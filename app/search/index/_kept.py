@@ -85,16 +85,21 @@ class KeptNeighbourhoods:
     def forget(self) -> None:
         self._entries = {}
 
-    def changed(self, partition: Partition, ids: np.ndarray, vectors: np.ndarray) -> None:
-        """Vectors ``(m, d)`` of ``ids`` are about to be added to ``partition`` or removed
-        from it (call while they are not, or still, held): forget their own neighbourhoods
-        and those they enter or leave."""
+    def changed(
+        self, partition: Partition, ids: np.ndarray, vectors: np.ndarray | None = None
+    ) -> None:
+        """Models ``ids`` are about to be added to ``partition`` with ``(m, d)`` ``vectors``,
+        or removed from it (no ``vectors``: read while they are still held): forget their
+        own neighbourhoods and those they enter or leave."""
         self.version += 1
         if not self._entries or len(ids) == 0:
             return
         if len(ids) > FORGET_BATCH:
             self.forget()
             return
+        if vectors is None:
+            vectors, present = partition.exact_vectors(ids.tolist())
+            ids, vectors = ids[present], vectors[present]
         for own in ids.tolist():
             self._entries.pop(own, None)
         held = int(partition.index.ntotal)

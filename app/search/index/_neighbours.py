@@ -101,8 +101,8 @@ def graph_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[Gra
     """The graph of ``partition`` (not empty) block by block: the ``(n,)`` ids, the blocks,
     each computed when the iterator is advanced, and whether every pair is compared. The
     read lock must be held while the ids are taken and while each block is computed, and
-    the partition unchanged in between (``Partition.version``): a caller may release the
-    lock between blocks and stop when the partition changed."""
+    the partition unchanged in between (``Partition.kept.version``): a caller may release
+    the lock between blocks and stop when the partition changed."""
     if partition.approximate:
         return _ivf_blocks(partition, k)
     return _flat_blocks(partition, k)

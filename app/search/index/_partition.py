@@ -152,11 +152,7 @@ class Partition:
         self.index.add_with_ids(self.codable(vectors), ids)
 
     def remove(self, ids: np.ndarray) -> None:
-        if len(self.kept):  # the leaving vectors, read while still held
-            vectors, held = self.exact_vectors(ids.tolist())
-            self.kept.changed(self, ids[held], vectors[held])
-        else:  # nothing kept to forget: a bulk removal reads no vectors
-            self.kept.changed(self, ids[:0], np.zeros((0, self.dim), np.float32))
+        self.kept.changed(self, ids)  # first: it reads the leaving vectors
         # An array selector: the IVF direct map (a hashtable) then removes without a scan.
         self.index.remove_ids(faiss.IDSelectorArray(len(ids), faiss.swig_ptr(ids)))
         if self.full is not None:
