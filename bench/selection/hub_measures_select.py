@@ -40,6 +40,12 @@ families). Reported beside, not deciding: the three third-party sources as one c
 ``mp gauss``. Every key keeps the service's one exception: a candidate within
 ``SAME_DESCRIPTOR`` of the query comes first.
 
+**Result** (2026-11-27, tenth session; docs/results.md, "Other hubness reductions in place
+of CSLS"): in sample the candidates lie within 0.005 of CSLS (NICDM ``k`` 20 0.8703,
+DisSim-local ``k`` 20 0.8715, mutual proximity 0.8689, CSLS 0.8688); the rule's choice
+without each source changes with the source, and leave-one-source-out scores **-0.0003
+(95 % -0.0025 .. +0.0019)** against CSLS: declined, CSLS stays.
+
     nice -n 10 .venv/bin/python bench/selection/hub_measures_select.py /work/study \\
         --json /work/study/hub_measures.json
 """
