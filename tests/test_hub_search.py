@@ -132,13 +132,17 @@ def test_a_query_model_is_in_no_neighbourhood_and_not_an_answer(
         {i: direct_radius(rows, x, 0, 4) for x, i in enumerate(ids) if x > 0}, abs=1e-5)
 
 
+@pytest.mark.parametrize("whole_pass", [False, True], ids=["by-queries", "by-a-pass"])
 def test_kept_neighbourhoods_a_change_moves_are_forgotten(
-    sessions: sessionmaker[Session],
+    sessions: sessionmaker[Session], whole_pass: bool
 ) -> None:
+    # Kept by the queries' own searches (a dict) or by the background pass (its table).
     rows = unit_rows(40, 6, seed=9).astype(np.float32)
     vectors = {add_ready(sessions, row): row for row in rows}
     index = ShapeIndex(sessions, hub_neighbours=4)
     index.rebuild()
+    if whole_pass:
+        assert index.keep_neighbourhoods() == 40
     queries = unit_rows(5, 6, seed=90).astype(np.float32)
     for query in queries:
         assert [m.model.index_id for m in search(index, sessions, query, k=5)] == hub_order(

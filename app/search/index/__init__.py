@@ -62,6 +62,7 @@ from sqlalchemy.orm import QueryableAttribute, Session, sessionmaker
 
 from app.db.models import FeedState, IndexEvent, Model
 from app.search.index._builder import Builder
+from app.search.index._heap import trim_heap
 from app.search.index._neighbours import (
     NeighbourGraph,
     keep_neighbourhoods,
@@ -277,9 +278,11 @@ class ShapeIndex:
         after ``rebuild``; changes wait for one block of it at a time); the count kept."""
         if self.hub_neighbours < 1:
             return 0
-        return sum(keep_neighbourhoods(partition, self.hub_neighbours)
+        kept = sum(keep_neighbourhoods(partition, self.hub_neighbours)
                    for key, partition in list(self._partitions.items())
                    if not holds_views(key))
+        trim_heap()  # the pass's blocks, freed: most of what it grew the process by
+        return kept
 
     def wants_neighbourhoods(self) -> bool:
         """Whether ``keep_neighbourhoods`` would keep more: a partition large enough to keep
@@ -512,6 +515,7 @@ class ShapeIndex:
             self._public_id_of = {index_id: public for public, index_id in index_id_of.items()}
             self.revision = int(revision)
             self.changes += 1
+        trim_heap()  # the rows streamed and the builders' buffers, freed
         self.sync()
 
     def _in_scope(self) -> ColumnElement[bool]:

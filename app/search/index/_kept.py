@@ -12,8 +12,10 @@ among the hub's 64 nearest: that radius then stays, off by at most the hub's cos
 ``k``). More changes at once than ``FORGET_BATCH`` (a bulk load) forget everything, and the
 API process computes them again once its index is quiet (``ShapeIndex.wants_neighbourhoods``).
 
-Memory: three floats per model kept (about 230 bytes with the dict entry: 23 MB at 10^5
-models, 230 MB at 10^6).
+Memory: a whole pass (``start_pass``, ``put_block``) keeps its neighbourhoods in arrays,
+three floats, an id and a flag per model (33 bytes: 3.3 MB at 10^5 models, 33 MB at 10^6);
+those a query computes for itself meanwhile, or after a change, go to a small dict (about
+230 bytes each with their Python objects), which a pass does not grow.
 """
 
 from __future__ import annotations
@@ -48,19 +50,44 @@ class Neighbourhood:
         return cls(float(cosines[:k].sum()), float(cosines[k - 1]), float(cosines[k]))
 
 
+@dataclass(frozen=True, slots=True)
+class _PassTable:
+    """A pass's neighbourhoods: ``ids : (n,) int64`` sorted, ``values : (n, 3) float64``
+    (``top``, ``kth``, ``after`` per id) and ``held : (n,) bool`` (computed, not forgotten).
+    Replaced as a whole, so a reader never mixes the arrays of two passes."""
+
+    ids: np.ndarray
+    values: np.ndarray
+    held: np.ndarray
+
+    @classmethod
+    def empty(cls) -> _PassTable:
+        return cls(np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros(0, dtype=bool))
+
+    def rows(self, ids: np.ndarray) -> np.ndarray:
+        """The row of each of ``ids : (m,) int64`` that the table holds, -1 elsewhere."""
+        if len(self.ids) == 0:
+            return np.full(len(ids), -1, dtype=np.int64)
+        rows = np.minimum(np.searchsorted(self.ids, ids), len(self.ids) - 1)
+        return np.where((self.ids[rows] == ids) & self.held[rows], rows, -1)
+
+
 class KeptNeighbourhoods:
     """The neighbourhoods one partition keeps, for one ``k``. Read and filled under the
-    partition's read lock (a dict's single operations are atomic); ``changed`` is called
-    under its write lock, which waits for every reader."""
+    partition's read lock (a dict's single operations are atomic, a pass's table is written
+    by its one thread, each value before its flag); ``changed`` is called under its write
+    lock, which waits for every reader."""
 
     def __init__(self) -> None:
         self.k = 0
         self.version = 0  # moves on every change of the partition
         self.pass_version = -1  # the version a whole pass (keep_neighbourhoods) went through
-        self._entries: dict[int, Neighbourhood] = {}
+        self._table = _PassTable.empty()
+        self._entries: dict[int, Neighbourhood] = {}  # kept outside a pass
 
     def __len__(self) -> int:
-        return len(self._entries)
+        """How many are kept (an id kept by a query and by a pass counts twice)."""
+        return int(self._table.held.sum()) + len(self._entries)
 
     def use(self, k: int) -> None:
         """Keep neighbourhoods of ``k`` from now on (another ``k``: forget the others)."""
@@ -73,17 +100,63 @@ class KeptNeighbourhoods:
         enough to keep neighbourhoods of ``k``, fewer than half are kept, and it changed
         since a pass last went through it."""
         return (held >= k + 2 and self.pass_version != self.version
-                and (self.k != k or len(self._entries) < held / 2))
+                and (self.k != k or len(self) < held / 2))
 
     def get(self, own: int) -> Neighbourhood | None:
         """The kept neighbourhood of ``own``, or None."""
-        return self._entries.get(own)
+        return self.lookup([own])[0]
+
+    def lookup(self, ids: list[int]) -> list[Neighbourhood | None]:
+        """The kept neighbourhood of each of ``ids`` (None: not kept), in one pass."""
+        table = self._table
+        rows = table.rows(np.asarray(ids, dtype=np.int64)).tolist()
+        found: list[Neighbourhood | None] = []
+        for own, row in zip(ids, rows, strict=True):
+            entry = self._entries.get(own)
+            if entry is None and row >= 0:
+                entry = Neighbourhood(*table.values[row].tolist())
+            found.append(entry)
+        return found
 
     def put(self, own: int, entry: Neighbourhood) -> None:
+        """Keep one neighbourhood a query computed."""
         self._entries[own] = entry
 
+    def start_pass(self, ids: np.ndarray) -> None:
+        """A whole pass over ``ids : (n,) int64`` (the partition's) begins: a table for all
+        of them, holding what the last one held of them; ``put_block`` fills it."""
+        order = np.sort(np.asarray(ids, dtype=np.int64))
+        values, held = np.zeros((len(order), 3)), np.zeros(len(order), dtype=bool)
+        previous = self._table
+        if len(order) and previous.held.any():
+            kept_ids, kept_values = previous.ids[previous.held], previous.values[previous.held]
+            rows = np.minimum(np.searchsorted(order, kept_ids), len(order) - 1)
+            present = order[rows] == kept_ids
+            values[rows[present]] = kept_values[present]
+            held[rows[present]] = True
+        self._table = _PassTable(order, values, held)
+
+    def put_block(self, ids: np.ndarray, cosines: np.ndarray) -> None:
+        """Keep the neighbourhoods of ``ids : (m,) int64`` of the running pass, from each
+        one's ``(m, k + 1)`` largest cosines, largest first."""
+        table = self._table
+        rows = np.searchsorted(table.ids, ids)
+        k = self.k
+        table.values[rows, 0] = cosines[:, :k].sum(axis=1, dtype=np.float64)
+        table.values[rows, 1] = cosines[:, k - 1]
+        table.values[rows, 2] = cosines[:, k]
+        table.held[rows] = True  # after the values: a reader that sees the flag sees them
+
     def forget(self) -> None:
+        self._table = _PassTable.empty()
         self._entries = {}
+
+    def _discard(self, ids: list[int]) -> None:
+        for own in ids:
+            self._entries.pop(own, None)
+        table = self._table
+        rows = table.rows(np.asarray(ids, dtype=np.int64))
+        table.held[rows[rows >= 0]] = False
 
     def changed(
         self, partition: Partition, ids: np.ndarray, vectors: np.ndarray | None = None
@@ -92,7 +165,7 @@ class KeptNeighbourhoods:
         or removed from it (no ``vectors``: read while they are still held): forget their
         own neighbourhoods and those they enter or leave."""
         self.version += 1
-        if not self._entries or len(ids) == 0:
+        if len(self) == 0 or len(ids) == 0:
             return
         if len(ids) > FORGET_BATCH:
             self.forget()
@@ -100,17 +173,19 @@ class KeptNeighbourhoods:
         if vectors is None:
             vectors, present = partition.exact_vectors(ids.tolist())
             ids, vectors = ids[present], vectors[present]
-        for own in ids.tolist():
-            self._entries.pop(own, None)
+        self._discard(ids.tolist())
         held = int(partition.index.ntotal)
         if held == 0:
             return
         _, found = partition.search(vectors, min(FORGET_NEAREST, held), None)
         for vector, row in zip(vectors, found, strict=True):
-            near = [int(i) for i in row if i >= 0 and int(i) in self._entries]
+            candidates = [int(i) for i in row if i >= 0]
+            entries = self.lookup(candidates)
+            near = [own for own, entry in zip(candidates, entries, strict=True) if entry]
             if not near:
                 continue
             cosines = partition.exact_vectors(near)[0] @ vector
-            for other, cosine in zip(near, cosines.tolist(), strict=True):
-                if cosine >= self._entries[other].after:
-                    del self._entries[other]
+            afters = [entry.after for entry in entries if entry]
+            self._discard([other for other, cosine, after
+                           in zip(near, cosines.tolist(), afters, strict=True)
+                           if cosine >= after])

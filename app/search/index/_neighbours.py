@@ -152,7 +152,7 @@ def neighbourhood_radii(
     kept.use(k)
     # A kept neighbourhood is of a model still held (a removal forgets it): only the others'
     # vectors are read, to compute theirs.
-    entries = {own: kept.get(own) for own in asked}
+    entries = dict(zip(asked, kept.lookup(asked), strict=True))
     missing = [own for own in asked if entries[own] is None]
     if missing:
         vectors, held = partition.exact_vectors(missing)
@@ -198,6 +198,7 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
             kept.pass_version = version
             return 0
         ids, blocks, _ = graph_blocks(partition, k + 1)
+        kept.start_pass(ids)
     count = 0
     while True:
         with partition.lock.reading():
@@ -209,8 +210,7 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
                 return count
             rows, _, cosines = block
             complete = np.isfinite(cosines).all(axis=1)
-            for own, row in zip(ids[rows][complete].tolist(), cosines[complete], strict=True):
-                kept.put(own, Neighbourhood.of(row.astype(np.float64), k))
+            kept.put_block(ids[rows][complete], cosines[complete])
             count += int(complete.sum())
 
 
