@@ -211,6 +211,27 @@ def test_filters_narrow_the_candidates_not_the_neighbourhoods(
                 vectors, vectors[query_id], 4, 5, exclude=query_id, allowed=even)
 
 
+def test_rows_sql_lets_through_and_the_filter_refuses_are_replaced_from_further_out(
+    sessions: sessionmaker[Session],
+) -> None:
+    # On SQLite the metadata entry 1 stands for both 1 and true, so SQL selects the ten
+    # models nearest the query and the filter then refuses them all: the answer must come
+    # from beyond the 4 k nearest that SQL allowed.
+    query = unit_rows(1, 6, seed=60)[0].astype(np.float32)
+    near = unit_rows(10, 6, seed=61) * 0.05 + query
+    near = (near / np.linalg.norm(near, axis=1, keepdims=True)).astype(np.float32)
+    refused = [add_ready(sessions, row, meta={"flag": 1}) for row in near]
+    far = unit_rows(20, 6, seed=62).astype(np.float32)
+    vectors = {i: row for i, row in zip(refused, near, strict=True)}
+    wanted = {add_ready(sessions, row, meta={"flag": True}): row for row in far}
+    vectors.update(wanted)
+    index = ShapeIndex(sessions, hub_neighbours=4)
+    index.rebuild()
+    answer = search(index, sessions, query, k=3, filters={"flag": "true"})
+    assert [m.model.index_id for m in answer] == hub_order(vectors, query, 3, 4,
+                                                           allowed=set(wanted))
+
+
 def test_too_few_models_for_a_neighbourhood_answer_in_plain_order(
     sessions: sessionmaker[Session],
 ) -> None:

@@ -49,6 +49,7 @@ from __future__ import annotations
 import functools
 import json
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -321,9 +322,13 @@ def find_similar(
     fetch = index.rerank_candidates(key, wanted)
     if filtered and allowed is None:
         fetch *= 4
-    if discounted and not filtered and size.weight == 0:
-        return _hub_answer(index, connection, key, vector, k, depth, fetch, min_score, exclude,
-                           exclude if indexed_query else None)
+    if discounted and size.weight == 0 and (allowed is not None or not filtered):
+        answer = _hub_answer(
+            index, connection, key, vector, k, depth, fetch, min_score, exclude,
+            exclude if indexed_query else None, allowed,
+            lambda row: _passes(row, filters, ranges, size))
+        if answer is not None:
+            return answer
     matches: list[Match] = []
     seen: set[int] = set()
     query_id = exclude if indexed_query else None
@@ -376,23 +381,32 @@ def _hub_answer(
     min_score: float | None,
     exclude: int | None,
     query_id: int | None,
-) -> list[Match]:
-    """``find_similar`` without filters or a size term, with the hub discount: the ``depth``
-    nearest (exact distances) are ordered from the index alone, then confirmed by the
-    database in that order, as many as the answer takes (a model deleted a moment ago is
-    skipped and the next one taken), so the database reads ``k`` rows, not ``depth``."""
+    allowed: list[int] | None,
+    passes: Callable[[Row[Any]], bool],
+) -> list[Match] | None:
+    """``find_similar`` with the hub discount, without a size term, unfiltered or with the
+    ids that pass the filters ``allowed`` by SQL: the ``depth`` nearest (exact distances)
+    are ordered from the index alone, then confirmed by the database in that order, as
+    many as the answer takes, so the database reads about ``k`` rows, not ``depth``. None
+    when fewer than ``k`` were confirmed (deleted a moment ago, or refused by ``passes``,
+    which SQL can let through) while models beyond the ``depth`` nearest may qualify: the
+    caller's general search widens instead."""
     while True:
-        hits = index.search(key, vector, fetch)
+        hits = index.search(key, vector, fetch, allowed=allowed)
         ids = [i for i, _ in hits if i != exclude]
-        if len(ids) >= depth or len(hits) < fetch or fetch >= index.partition_size(key):
+        exhausted = len(hits) < fetch or fetch >= index.partition_size(key)
+        if len(ids) >= depth or exhausted:
             break
         fetch *= 4
     distances = dict(hits)
     if index.is_approximate(key):  # estimates from the codes: exact ones from the full vectors
         distances.update(_exact_distances(index, key, ids, vector))
     nearest = sorted(ids, key=lambda i: (distances[i], i))[:depth]
+    beyond = len(ids) > depth or not exhausted  # more candidates than those ordered here
     if min_score is not None:
-        nearest = [i for i in nearest if score_of(distances[i]) >= min_score]
+        qualifying = [i for i in nearest if score_of(distances[i]) >= min_score]
+        beyond = beyond and len(qualifying) == len(nearest)
+        nearest = qualifying
     # A query by model id is that model's own vector, at plain distances here.
     order = _hub_order(index, key, nearest, [distances[i] for i in nearest], exclude,
                        query_is_excluded=True)
@@ -405,12 +419,12 @@ def _hub_answer(
             rows = _without_query(_ready_candidates(connection, key[0], [*chunk, query_id],
                                                     "descriptor_version"), query_id, key)
             query_id = None
-        by_id = {row.index_id: row for row in rows}
+        by_id = {row.index_id: row for row in rows if passes(row)}
         matches += [Match(_candidate(by_id[i]), distances[i], score_of(distances[i]))
                     for i in chunk if i in by_id]
         if len(matches) >= k:
-            break
-    return matches[:k]
+            return matches[:k]
+    return None if beyond else matches
 
 
 def _hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: list[float],
