@@ -65,16 +65,8 @@ import numpy as np  # noqa: E402
 from scipy.stats import norm  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from extraction_select import NON_RIGID_SOURCES, bendable_blocks  # noqa: E402
-from hubness_select import hub_discounted, pooled_rows  # noqa: E402
-from local_features_select import joined  # noqa: E402
-from profile_block_select import (  # noqa: E402
-    TIE,
-    decide,
-    score_distances,
-    ss9_blocks,
-    study_command,
-)
+from hubness_select import family_check, family_rows, hub_discounted, pooled_rows  # noqa: E402
+from profile_block_select import decide, score_distances, study_command  # noqa: E402
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
 from core.hubness import SAME_DESCRIPTOR  # noqa: E402
@@ -186,11 +178,7 @@ def candidate_grid() -> list[tuple[str, Callable[[np.ndarray], np.ndarray]]]:
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv)
     scored = study.scored
-    rest, caps = ss9_blocks(study, cache)
-    parts_rows = {s.name: joined(np.hstack([rest[s.name], caps[s.name]]), None, 0.0)
-                  for s in scored}
-    bendable = bendable_blocks(study, cache)
-    bendable_rows = {s.name: joined(bendable[s.name], None, 0.0) for s in scored}
+    parts_rows, bendable_rows = family_rows(study, cache)
     grid = candidate_grid()
     order = {name: rank for rank, (name, _) in enumerate(grid)}
     pool = [name for name, _ in grid if name not in (PLAIN, MUTUAL_PROXIMITY)]
@@ -205,13 +193,7 @@ def main(argv: list[str] | None = None) -> int:
                     tie_key="tie order", widths=order, pool=pool)
     chosen = str(report["chosen"])
     bendable_table, _ = score_distances(candidates(bendable_rows), scored)
-    family_mean = {name: float(np.mean([bendable_table[name][s]["map"]
-                                        for s in NON_RIGID_SOURCES])) for name in bendable_table}
-    print("bendable family, mean over", NON_RIGID_SOURCES,
-          {name: round(value, 4) for name, value in family_mean.items()})
-    ships = bool(report["ships"]) and family_mean[chosen] >= family_mean[REFERENCE] - TIE
-    print(f"choice {chosen}: parts test {report['ships']}, bendable family "
-          f"{family_mean[chosen]:.4f} against {family_mean[REFERENCE]:.4f}; ships: {ships}")
+    family_mean, ships = family_check(bendable_table, report, REFERENCE)
     vectors, labels = pooled_rows(study)
     pooled = {}
     for name, keys in grid:

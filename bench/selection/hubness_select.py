@@ -82,6 +82,7 @@ from local_features_select import Study, joined  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     TIE,
+    Table,
     decide,
     default_ring_and_caps,
     score_distances,
@@ -206,14 +207,37 @@ def rerank_fidelity(rows: np.ndarray, labels: list[str], neighbours: int, beta: 
     return measured
 
 
+def family_rows(study: Study, cache: Path
+                ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Each scored source's unit rows as the service builds them: ``ss9``'s (the parts
+    family) and the ``bendable`` family's."""
+    rest, caps = ss9_blocks(study, cache)
+    bendable = bendable_blocks(study, cache)
+    parts_rows = {s.name: joined(np.hstack([rest[s.name], caps[s.name]]), None, 0.0)
+                  for s in study.scored}
+    return parts_rows, {s.name: joined(bendable[s.name], None, 0.0) for s in study.scored}
+
+
+def family_check(bendable_table: Table, report: dict[str, object], reference: str
+                 ) -> tuple[dict[str, float], bool]:
+    """The search is one for both families: the ``bendable`` family's mean over its rule's
+    sources per candidate, and whether the parts family's choice ships (its test passed,
+    and that mean is not below ``reference``'s by more than the tie). Prints both."""
+    chosen = str(report["chosen"])
+    family_mean = {name: float(np.mean([bendable_table[name][s]["map"]
+                                        for s in NON_RIGID_SOURCES])) for name in bendable_table}
+    print("bendable family, mean over", NON_RIGID_SOURCES,
+          {name: round(value, 4) for name, value in family_mean.items()})
+    ships = bool(report["ships"]) and family_mean[chosen] >= family_mean[reference] - TIE
+    print(f"choice {chosen}: parts test {report['ships']}, bendable family "
+          f"{family_mean[chosen]:.4f} against {family_mean[reference]:.4f}; ships: {ships}")
+    return family_mean, ships
+
+
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv, rounds=(1, 2))
     scored = study.scored
-    rest, caps = ss9_blocks(study, cache)
-    parts_rows = {s.name: joined(np.hstack([rest[s.name], caps[s.name]]), None, 0.0)
-                  for s in scored}
-    bendable = bendable_blocks(study, cache)
-    bendable_rows = {s.name: joined(bendable[s.name], None, 0.0) for s in scored}
+    parts_rows, bendable_rows = family_rows(study, cache)
     neighbours_grid, betas = ((NEIGHBOURS, BETAS) if args.round == 1
                               else (SECOND_NEIGHBOURS, SECOND_BETAS))
     grid = [(SS9, 0, 0.0)] + [(candidate_name(k, b), k, b)
@@ -231,13 +255,7 @@ def main(argv: list[str] | None = None) -> int:
     bendable_table, _ = score_distances(candidates(bendable_rows), scored)
     chosen = str(report["chosen"])
     pooled = pooled_check(study, [entry for entry in grid if entry[0] in (SS9, chosen)])
-    family_mean = {name: float(np.mean([bendable_table[name][s]["map"]
-                                        for s in NON_RIGID_SOURCES])) for name in bendable_table}
-    print("bendable family, mean over", NON_RIGID_SOURCES,
-          {name: round(value, 4) for name, value in family_mean.items()})
-    ships = bool(report["ships"]) and family_mean[chosen] >= family_mean[SS9] - TIE
-    print(f"choice {chosen}: parts test {report['ships']}, bendable family "
-          f"{family_mean[chosen]:.4f} against {family_mean[SS9]:.4f}; ships: {ships}")
+    family_mean, ships = family_check(bendable_table, report, SS9)
     if args.json:
         data = json.loads(args.json.read_text())
         args.json.write_text(json.dumps({**data, "bendable_table": bendable_table,
