@@ -32,6 +32,12 @@ capod-nonrigid) not below the reference's by more than 0.002). The three third-p
 as one catalogue reported beside for plain, the reference and the choice. A candidate within
 ``SAME_DESCRIPTOR`` of the query comes first, as in the service.
 
+**Result** (2026-11-27, tenth session; docs/results.md, "k-reciprocal re-ranking"): the rule
+chose ``k1`` 5, ``k2`` 3 without every source, **+0.0173 (95 % +0.0131 .. +0.0215)** left out
+against the hub discount, every source up or level; the ``bendable`` family check fails
+(0.9806 against 0.9836), so by its rule it does not ship; one catalogue mAP 0.769 -> 0.792,
+NN 0.874 -> 0.866.
+
     nice -n 10 .venv/bin/python bench/selection/reciprocal_rerank_select.py /work/study \\
         --json /work/study/reciprocal_rerank.json
 """
