@@ -45,7 +45,9 @@ other models. Grid ``k1`` in {5, 10}, ``k2`` 3, the pool those two, round 1's tw
 chose ``k1`` 5, ``k2`` 3 without every source, **+0.0173 (95 % +0.0131 .. +0.0215)** left out
 against the hub discount, every source up or level; the ``bendable`` family check fails
 (0.9806 against 0.9836), so by its rule it does not ship; one catalogue mAP 0.769 -> 0.792,
-NN 0.874 -> 0.866.
+NN 0.874 -> 0.866. Round 2: the hub-term ``k1`` 5 candidate scores 0.8876 and passes the
+family check (0.9868), but ties (within 0.002) with round 1's ``k1`` 5, ``k2`` 3, which the
+rule keeps: not shipped either.
 
     nice -n 10 .venv/bin/python bench/selection/reciprocal_rerank_select.py /work/study \\
         --json /work/study/reciprocal_rerank.json [--round 2]
