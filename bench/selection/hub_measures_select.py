@@ -52,6 +52,7 @@ without each source changes with the source, and leave-one-source-out scores **-
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import sys
@@ -66,6 +67,7 @@ from scipy.stats import norm  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from hubness_select import family_check, family_rows, hub_discounted, pooled_rows  # noqa: E402
+from local_features_select import Study  # noqa: E402
 from profile_block_select import decide, score_distances, study_command  # noqa: E402
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
@@ -175,29 +177,36 @@ def candidate_grid() -> list[tuple[str, Callable[[np.ndarray], np.ndarray]]]:
     return grid
 
 
-def main(argv: list[str] | None = None) -> int:
-    args, study, cache = study_command(__doc__, argv)
+#: A search-time candidate: its name and its keys ``(m, m)`` (lower first) of unit rows.
+Candidate = tuple[str, Callable[[np.ndarray], np.ndarray]]
+
+
+def run_search_study(args: argparse.Namespace, study: Study, cache: Path, grid: list[Candidate],
+                     title: str, references: tuple[str, ...]) -> None:
+    """A search-time study's common steps: every candidate of ``grid`` (in tie order, the
+    shipped ``REFERENCE`` first) scored on both families' rows, the rule over the pool (all
+    but ``references``, which are reported only), the family check, and plain, the
+    reference, the choice and ``references`` on the one catalogue of third-party parts;
+    written to ``args.json`` when given."""
     scored = study.scored
     parts_rows, bendable_rows = family_rows(study, cache)
-    grid = candidate_grid()
     order = {name: rank for rank, (name, _) in enumerate(grid)}
-    pool = [name for name, _ in grid if name not in (PLAIN, MUTUAL_PROXIMITY)]
+    pool = [name for name, _ in grid if name not in references]
 
     def candidates(rows: dict[str, np.ndarray]) -> Iterator[tuple[str, dict[str, np.ndarray]]]:
         for name, keys in grid:
             yield name, {s.name: keys(rows[s.name]) for s in scored}
 
     table, queries = score_distances(candidates(parts_rows), scored)
-    report = decide(table, queries, order, "hubness reductions, parts family",
-                    tuple(s.name for s in study.sources), REFERENCE, args.json,
-                    tie_key="tie order", widths=order, pool=pool)
+    report = decide(table, queries, order, title, tuple(s.name for s in study.sources),
+                    REFERENCE, args.json, tie_key="tie order", widths=order, pool=pool)
     chosen = str(report["chosen"])
     bendable_table, _ = score_distances(candidates(bendable_rows), scored)
     family_mean, ships = family_check(bendable_table, report, REFERENCE)
     vectors, labels = pooled_rows(study)
     pooled = {}
     for name, keys in grid:
-        if name not in (PLAIN, REFERENCE, chosen, MUTUAL_PROXIMITY):
+        if name not in (REFERENCE, chosen, *references):
             continue
         relevance = ranked_relevance(keys(vectors), labels, labels,
                                      np.eye(len(labels), dtype=bool))
@@ -210,6 +219,12 @@ def main(argv: list[str] | None = None) -> int:
         args.json.write_text(json.dumps({**data, "bendable_table": bendable_table,
                                          "bendable_mean": family_mean, "pooled": pooled,
                                          "ships": ships}, indent=1))
+
+
+def main(argv: list[str] | None = None) -> int:
+    args, study, cache = study_command(__doc__, argv)
+    run_search_study(args, study, cache, candidate_grid(), "hubness reductions, parts family",
+                     (PLAIN, MUTUAL_PROXIMITY))
     return 0
 
 

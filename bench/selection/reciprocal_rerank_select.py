@@ -55,10 +55,8 @@ rule keeps: not shipped either.
 
 from __future__ import annotations
 
-import json
 import os
 import sys
-from collections.abc import Callable, Iterator
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -67,11 +65,10 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from hub_measures_select import PLAIN, REFERENCE  # noqa: E402
-from hubness_select import family_check, family_rows, hub_discounted, pooled_rows  # noqa: E402
-from profile_block_select import decide, score_distances, study_command  # noqa: E402
+from hub_measures_select import PLAIN, REFERENCE, Candidate, run_search_study  # noqa: E402
+from hubness_select import hub_discounted  # noqa: E402
+from profile_block_select import study_command  # noqa: E402
 
-from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
 from core.hubness import SAME_DESCRIPTOR  # noqa: E402
 
 FIRST = (5, 10, 20)
@@ -129,9 +126,9 @@ def reciprocal_keys(rows: np.ndarray, k1: int, k2: int, weight: float = LAMBDA,
     return np.where(np.sqrt(squared) <= SAME_DESCRIPTOR, -np.inf, keys)
 
 
-def candidate_grid(round_: int = 1) -> list[tuple[str, Callable[[np.ndarray], np.ndarray]]]:
+def candidate_grid(round_: int = 1) -> list[Candidate]:
     """Every candidate's name and keys ``(m, m)`` of unit rows, in tie order."""
-    grid: list[tuple[str, Callable[[np.ndarray], np.ndarray]]] = [
+    grid: list[Candidate] = [
         (REFERENCE, lambda rows: hub_discounted(rows, 10, 1.0)),
         (PLAIN, lambda rows: hub_discounted(rows, 0, 0.0)),
     ]
@@ -151,39 +148,8 @@ def candidate_grid(round_: int = 1) -> list[tuple[str, Callable[[np.ndarray], np
 
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(__doc__, argv, rounds=(1, 2))
-    scored = study.scored
-    parts_rows, bendable_rows = family_rows(study, cache)
-    grid = candidate_grid(args.round)
-    order = {name: rank for rank, (name, _) in enumerate(grid)}
-    pool = [name for name, _ in grid if name != PLAIN]
-
-    def candidates(rows: dict[str, np.ndarray]) -> Iterator[tuple[str, dict[str, np.ndarray]]]:
-        for name, keys in grid:
-            yield name, {s.name: keys(rows[s.name]) for s in scored}
-
-    table, queries = score_distances(candidates(parts_rows), scored)
-    report = decide(table, queries, order, "k-reciprocal re-ranking, parts family",
-                    tuple(s.name for s in study.sources), REFERENCE, args.json,
-                    tie_key="tie order", widths=order, pool=pool)
-    chosen = str(report["chosen"])
-    bendable_table, _ = score_distances(candidates(bendable_rows), scored)
-    family_mean, ships = family_check(bendable_table, report, REFERENCE)
-    vectors, labels = pooled_rows(study)
-    pooled = {}
-    for name, keys in grid:
-        if name not in (PLAIN, REFERENCE, chosen):
-            continue
-        relevance = ranked_relevance(keys(vectors), labels, labels,
-                                     np.eye(len(labels), dtype=bool))
-        pooled[name] = score_rankings(relevance)
-        print(f"one catalogue ({len(labels)} parts, {len(set(labels))} kinds), {name}: "
-              f"mAP {pooled[name]['map']:.4f}, NN {pooled[name]['nn']:.4f}, "
-              f"top-5 {pooled[name]['top5']:.4f}")
-    if args.json:
-        data = json.loads(args.json.read_text())
-        args.json.write_text(json.dumps({**data, "bendable_table": bendable_table,
-                                         "bendable_mean": family_mean, "pooled": pooled,
-                                         "ships": ships}, indent=1))
+    run_search_study(args, study, cache, candidate_grid(args.round),
+                     "k-reciprocal re-ranking, parts family", (PLAIN,))
     return 0
 
 
