@@ -5,12 +5,16 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
+from datetime import timedelta
 from typing import Any
 
 import pytest
 from conftest import PARTS, upload, wait_for_status
 from fastapi.testclient import TestClient
 from plm_helpers import ClientFactory, GatedDescriber, box_stl, started_clients
+
+from app.api import idempotency
+from app.db.models import utcnow
 
 CUBE = PARTS / "20mm-xyz-cube.stl"
 
@@ -104,15 +108,18 @@ def test_idempotency_key_replays_the_first_answer(client: TestClient) -> None:
     assert fresh.status_code == 202 and fresh.json()["id"] != first.json()["id"]
 
 
-def test_idempotency_keys_expire(make_client: ClientFactory) -> None:
+def test_idempotency_keys_expire(make_client: ClientFactory,
+                                 monkeypatch: pytest.MonkeyPatch) -> None:
     """After ``idempotency_ttl_seconds`` a key is forgotten: the same key makes a new model,
     and storing it deletes the tenant's expired keys."""
-    client = make_client(idempotency_ttl_seconds=0.5)
+    client = make_client(idempotency_ttl_seconds=60)
     key = {"Idempotency-Key": "sync-7"}
     first = upload(client, CUBE, headers=key, name="Cube")
     assert upload(client, CUBE, headers=key, name="Cube").json()["id"] == first.json()["id"]
     old = upload(client, CUBE, headers={"Idempotency-Key": "sync-8"}, name="Cube")
-    time.sleep(0.7)
+    # A minute later by the clock the expiry reads, not by sleeping: a short TTL and a sleep
+    # made a slow upload on a busy machine outlive the TTL before its replay was asked.
+    monkeypatch.setattr(idempotency, "utcnow", lambda: utcnow() + timedelta(seconds=61))
     later = upload(client, CUBE, headers=key, name="Cube")
     assert later.status_code == 202 and later.json()["id"] != first.json()["id"]
     assert "idempotent-replayed" not in later.headers
