@@ -66,10 +66,18 @@ class _PassTable:
 
     def rows(self, ids: np.ndarray) -> np.ndarray:
         """The row of each of ``ids : (m,) int64`` that the table holds, -1 elsewhere."""
-        if len(self.ids) == 0:
-            return np.full(len(ids), -1, dtype=np.int64)
-        rows = np.minimum(np.searchsorted(self.ids, ids), len(self.ids) - 1)
-        return np.where((self.ids[rows] == ids) & self.held[rows], rows, -1)
+        rows = _positions(self.ids, ids)
+        found = rows >= 0
+        found[found] = self.held[rows[found]]
+        return np.where(found, rows, -1)
+
+
+def _positions(sorted_ids: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """The position of each of ``ids`` in ``sorted_ids``, -1 where it is absent."""
+    if len(sorted_ids) == 0:
+        return np.full(len(ids), -1, dtype=np.int64)
+    rows = np.minimum(np.searchsorted(sorted_ids, ids), len(sorted_ids) - 1)
+    return np.where(sorted_ids[rows] == ids, rows, -1)
 
 
 class KeptNeighbourhoods:
@@ -128,12 +136,10 @@ class KeptNeighbourhoods:
         order = np.sort(np.asarray(ids, dtype=np.int64))
         values, held = np.zeros((len(order), 3)), np.zeros(len(order), dtype=bool)
         previous = self._table
-        if len(order) and previous.held.any():
-            kept_ids, kept_values = previous.ids[previous.held], previous.values[previous.held]
-            rows = np.minimum(np.searchsorted(order, kept_ids), len(order) - 1)
-            present = order[rows] == kept_ids
-            values[rows[present]] = kept_values[present]
-            held[rows[present]] = True
+        rows = _positions(order, previous.ids[previous.held])
+        present = rows >= 0
+        values[rows[present]] = previous.values[previous.held][present]
+        held[rows[present]] = True
         self._table = _PassTable(order, values, held)
 
     def put_block(self, ids: np.ndarray, cosines: np.ndarray) -> None:
