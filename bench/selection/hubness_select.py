@@ -117,17 +117,18 @@ def hub_discounted(rows: np.ndarray, neighbours: int, beta: float) -> np.ndarray
                                exclude=np.eye(len(rows), dtype=bool))
 
 
-def pooled_rows(study: Study) -> tuple[np.ndarray, list[str]]:
-    """``ss9`` unit rows of the ``POOLED`` sources as one catalogue encodes them: one
+def pooled_rows(study: Study, pooled: tuple[str, ...] = POOLED
+                ) -> tuple[np.ndarray, list[str]]:
+    """``ss9`` unit rows of the ``pooled`` sources as one catalogue encodes them: one
     vocabulary for all, fitted on the other sources (none of the pooled ones), and the
     kinds named by source."""
     by_name = {s.name: s for s in study.sources}
-    fitted_on = [s for s in study.sources if s.name not in POOLED]
+    fitted_on = [s for s in study.sources if s.name not in pooled]
     vocabulary = Vocabulary.fit([r for s in fitted_on for r in s.local["hks+sv"]], 64, seed=0,
                                 per_model=200)
     ring, caps = default_ring_and_caps(study)
     rows, labels = [], []
-    for name in POOLED:
+    for name in pooled:
         source = by_name[name]
         local = np.array([encode_vlad(f, a, vocabulary)
                           for f, a in zip(source.local["hks+sv"], source.areas, strict=True)])

@@ -14,6 +14,7 @@ the libraries' own parametric models.
 | ``capod`` | CAPOD (Papadakis 2014) | CC BY 3.0 | 15 object classes |
 | ``generated`` | ours (``core.evaluation.parts_generator``) | ours | 14 part families |
 | ``bendable`` | ours (``core.evaluation.sources.bendable``) | ours | 6 bendable kinds, 8 poses |
+| ``mcad`` | OpenSCAD's MCAD (``openscad-mcad``) | LGPL-2.1 | 11: bolts (3 heads), gears, ... |
 
 ``NON_RIGID`` names what bends: the whole ``bendable`` source and capod's articulated
 classes.
@@ -26,7 +27,7 @@ from pathlib import Path
 
 import trimesh
 
-__all__ = ["NON_RIGID", "SHARED", "SOURCES", "write_sources"]
+__all__ = ["DEFAULT_SOURCES", "NON_RIGID", "SHARED", "SOURCES", "write_sources"]
 
 #: The shared datasets folder (next to the repository), for ``parts`` and ``capod``.
 SHARED = Path(__file__).resolve().parents[3].parent / "shared" / "datasets"
@@ -58,6 +59,12 @@ def _vslot(seed: int, shared: Path) -> Parts:
     return parts()
 
 
+def _mcad(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.mcad_parts import parts
+
+    return parts()
+
+
 def _parts(seed: int, shared: Path) -> Parts:
     from core.evaluation.sources.real_parts import parts
 
@@ -81,8 +88,13 @@ def _bendable(seed: int, shared: Path) -> Parts:
 #: Every source that writes meshes (``capod`` is linked, not written).
 SOURCES: dict[str, Callable[[int, Path], Parts]] = {
     "madcad": _madcad, "gearworks": _gearworks, "vslot": _vslot, "parts": _parts,
-    "generated": _generated, "bendable": _bendable,
+    "generated": _generated, "bendable": _bendable, "mcad": _mcad,
 }
+
+#: The sources written when none are named: ``mcad`` needs the ``openscad`` program (not a
+#: wheel) and was added later, as a check on settings chosen without it.
+DEFAULT_SOURCES: tuple[str, ...] = ("madcad", "gearworks", "vslot", "parts", "generated",
+                                    "bendable", "capod")
 
 
 def write_sources(out: Path, names: list[str], seed: int = 0,

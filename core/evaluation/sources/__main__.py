@@ -6,13 +6,13 @@ import argparse
 import json
 from pathlib import Path
 
-from core.evaluation.sources import SOURCES, write_sources
+from core.evaluation.sources import DEFAULT_SOURCES, SOURCES, write_sources
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Write the labelled tuning sources.")
     parser.add_argument("out", type=Path)
-    parser.add_argument("--sources", nargs="+", default=[*SOURCES, "capod"],
+    parser.add_argument("--sources", nargs="+", default=list(DEFAULT_SOURCES),
                         choices=[*SOURCES, "capod"])
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
