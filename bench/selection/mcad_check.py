@@ -18,7 +18,7 @@ Question 1 (reported, nothing chosen): the shipped default against the earlier d
 on ``mcad``, through ``shapesearch eval`` as a user would run it (shipped vocabulary, the
 service's order):
 
-    shapesearch eval /work/tuning-mcad --out /work/eval-mcad \\
+    shapesearch eval /work/tuning-mcad/mcad --out /work/eval-mcad \\
         --variants default ss4 spectral baseline bendable
 
 Question 2 (a pre-registered test of one candidate, not a grid): ``k1`` 5, ``k2`` 3, ``lambda``
