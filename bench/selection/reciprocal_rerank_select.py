@@ -69,7 +69,8 @@ from hub_measures_select import PLAIN, REFERENCE, Candidate, run_search_study  #
 from hubness_select import hub_discounted  # noqa: E402
 from profile_block_select import study_command  # noqa: E402
 
-from core.hubness import SAME_DESCRIPTOR  # noqa: E402
+from core.reciprocal import reciprocal_keys as core_reciprocal_keys  # noqa: E402
+from core.reciprocal import rescaled_rows  # noqa: E402
 
 FIRST = (5, 10, 20)
 EXPANSION = (1, 3)
@@ -78,52 +79,19 @@ SECOND_EXPANSION = (3,)
 LAMBDA = 0.3
 
 
-def _reciprocal(ranks: np.ndarray, i: int, k: int) -> np.ndarray:
-    """``R(i, k)``: the ``k + 1`` nearest of ``i`` that have ``i`` among their own."""
-    forward = ranks[i, : k + 1]
-    backward = ranks[forward, : k + 1]
-    return forward[(backward == i).any(axis=1)]
-
-
 def hub_term(rows: np.ndarray) -> np.ndarray:
     """Round 2's distance term: the hub discount's keys (``k`` 10, ``beta`` 1, the query
     left out), each row rescaled to [0, 1] over the other models, 0 for the query itself."""
-    keys = hub_discounted(rows, 10, 1.0)
-    off = ~np.eye(len(keys), dtype=bool)
-    low = np.where(off, keys, np.inf).min(axis=1, keepdims=True)
-    high = np.where(off, keys, -np.inf).max(axis=1, keepdims=True)
-    return np.where(off, (keys - low) / np.maximum(high - low, 1e-12), 0.0)
+    return rescaled_rows(hub_discounted(rows, 10, 1.0))
 
 
 def reciprocal_keys(rows: np.ndarray, k1: int, k2: int, weight: float = LAMBDA,
                     term: np.ndarray | None = None) -> np.ndarray:
-    """``(m, m)`` final distances (lower first) of k-reciprocal re-ranking of unit ``rows``;
-    ``term``: the blended distance term in place of the scaled squared distance."""
-    rows = np.asarray(rows, dtype=np.float64)
-    m = len(rows)
-    squared = np.maximum(2.0 - 2.0 * rows @ rows.T, 0.0)
-    scaled = squared / np.maximum(squared.max(axis=1, keepdims=True), 1e-12)
-    ranks = np.argsort(scaled, axis=1, kind="stable")
-    k1, half = min(k1, m - 1), max(1, round(min(k1, m - 1) / 2))
-    weights = np.zeros((m, m))
-    for i in range(m):
-        core = _reciprocal(ranks, i, k1)
-        expanded = set(core.tolist())
-        for j in core:
-            candidate = _reciprocal(ranks, int(j), half)
-            if len(np.intersect1d(candidate, core)) > 2 / 3 * len(candidate):
-                expanded.update(candidate.tolist())
-        members = np.fromiter(expanded, dtype=np.int64)
-        weights[i, members] = np.exp(-scaled[i, members])
-        weights[i] /= weights[i].sum()
-    if k2 > 1:
-        weights = weights[ranks[:, :k2]].mean(axis=1)
-    jaccard = np.empty((m, m))
-    for i in range(m):
-        shared = np.minimum(weights[i], weights).sum(axis=1)
-        jaccard[i] = 1.0 - shared / np.maximum(2.0 - shared, 1e-12)
-    keys = (1.0 - weight) * jaccard + weight * (scaled if term is None else term)
-    return np.where(np.sqrt(squared) <= SAME_DESCRIPTOR, -np.inf, keys)
+    """``(m, m)`` final distances (lower first) of k-reciprocal re-ranking of unit ``rows``
+    (``core.reciprocal.reciprocal_keys``, since the eleventh session: the loop this study
+    first ran, moved there and vectorised, gives the same keys to the last bit on random
+    vectors); ``term``: the blended distance term in place of the scaled squared distance."""
+    return core_reciprocal_keys(rows, term, k1, k2, weight)
 
 
 def candidate_grid(round_: int = 1) -> list[Candidate]:
