@@ -46,6 +46,7 @@ class IndexOptions(TypedDict):
     rerank_factor: int
     projected_dims: int
     hub_neighbours: int
+    reciprocal: bool
 
 
 class Settings(BaseSettings):
@@ -376,6 +377,15 @@ class Settings(BaseSettings):
         "order. Chosen on seven tuning sources, +0.01 mAP left out (README, Order of the "
         "results).",
     )
+    search_reciprocal: bool = Field(
+        default=True,
+        description="With the hub discount on: shape-mode similar answers are re-ranked "
+        "k-reciprocally over the hub discount's order (Zhong et al. 2017): the nearest "
+        "max(4 k, 160) models are compared by their neighbourhoods among each other, so a "
+        "part whose own nearest include the query comes earlier; `score` stays the plain "
+        "similarity. Confirmed on a tuning source no setting had seen, +0.04 mAP (README, "
+        "Order of the results). false: the hub discount's order.",
+    )
     filter_pushdown_max: int = Field(
         default=10_000,
         ge=0,
@@ -468,6 +478,7 @@ class Settings(BaseSettings):
             rerank_factor=self.index_rerank_factor,
             projected_dims=self.index_projected_dims,
             hub_neighbours=self.search_hub_neighbours,
+            reciprocal=self.search_reciprocal,
         )
 
     @property

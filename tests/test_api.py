@@ -209,11 +209,11 @@ def test_similar_with_metadata_filters_returns_k_matches(
     assert len(unfiltered["results"]) == len(ids) - 1
     answer = [r["model"]["id"] for r in unfiltered["results"]]
     assert query not in answer
-    # Ordered with the hub discount (tests/test_hub_search.py), computed here from the fake
-    # describer's vectors; scores stay the plain similarity.
+    # Ordered with the hub discount and re-ranked k-reciprocally (tests/test_hub_search.py),
+    # computed here from the fake describer's vectors; scores stay the plain similarity.
     vectors = {i: np.frombuffer(fake_describe(p.read_bytes(), p.name)["descriptor"], np.float32)
                for i, p in zip(ids, parts, strict=True)}
-    assert answer == hub_order(vectors, vectors[query], 100, 10, exclude=query)
+    assert answer == hub_order(vectors, vectors[query], 100, 10, exclude=query, reciprocal=True)
     scores = [r["score"] for r in unfiltered["results"]]
     assert all(0 <= s <= 1 for s in scores)
     plain = make_client(search_hub_neighbours=0)  # the same database, plain order

@@ -341,9 +341,11 @@ def test_eval_scores_the_hub_discount_beside_the_plain_ranking(tmp_path: Path) -
     # Spheres and tori stay apart with the discount too (keys in the wrong order would put
     # the other kind first).
     assert entry["hub"]["clean"]["nn"] == 1.0 and entry["hub"]["clean"]["map"] == 1.0
-    assert record["hub_discount"] == {"neighbours": 1, "weight": 1.0}
+    assert record["hub_discount"] == {
+        "neighbours": 1, "weight": 1.0,
+        "reciprocal": {"neighbours": 5, "expansion": 3, "blend": 0.3}}
     report = (tmp_path / "hub" / "results.md").read_text()
-    assert "## With a hub discount (CSLS, k 1, weight 1" in report
+    assert "## With a hub discount (CSLS, k 1, weight 1), re-ranked k-reciprocally (k1 5" in report
     assert "| default | clean |" in report
     assert "hub" not in plain["variants"]["default"]
     # The per-kind table: both kinds, found first every time.

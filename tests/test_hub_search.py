@@ -13,6 +13,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.search.index import ShapeIndex
 from app.search.similarity import Match, find_similar
 from core.hubness import hub_keys, neighbourhood_radii, rerank_depth
+from core.reciprocal import pool_keys, reciprocal_depth
 from tests.test_hubness import direct_radius, hub_catalogue, unit_rows
 from tests.test_index import add_ready, delete_model
 
@@ -26,18 +27,23 @@ def hub_order(
     neighbours: int,
     exclude: int | None = None,
     allowed: set[int] | None = None,
+    reciprocal: bool = False,
 ) -> list[int]:
     """What the service should answer, computed directly: the plain nearest ``rerank_depth(k)``
     (among ``allowed``), re-ordered by ``hub_keys`` with radii over the whole catalogue,
-    ``exclude`` neither a candidate nor in any radius."""
+    ``exclude`` neither a candidate nor in any radius; ``reciprocal``: the plain nearest
+    ``reciprocal_depth(k)``, whose hub keys ``core.reciprocal.pool_keys`` then re-ranks."""
     ids = [i for i in vectors if i != exclude]
     rows = np.array([vectors[i] for i in ids], dtype=np.float64)
     radii = neighbourhood_radii(rows, neighbours)
     candidates = [i for i in ids if allowed is None or i in allowed]
     squared = {i: float(np.sum((vectors[i] - query) ** 2)) for i in candidates}
-    nearest = sorted(candidates, key=lambda i: (squared[i], i))[: rerank_depth(k)]
+    depth = reciprocal_depth(k) if reciprocal else rerank_depth(k)
+    nearest = sorted(candidates, key=lambda i: (squared[i], i))[:depth]
     keys = hub_keys(np.array([squared[i] for i in nearest]),
                     np.array([radii[ids.index(i)] for i in nearest]))
+    if reciprocal and len(nearest) > 1:
+        keys = pool_keys(query, np.array([vectors[i] for i in nearest]), keys)
     order = sorted(range(len(nearest)), key=lambda j: (keys[j], nearest[j]))
     return [nearest[j] for j in order][:k]
 
@@ -72,13 +78,15 @@ def test_a_hub_the_plain_order_puts_first_comes_after_the_classmate(
 
 
 @pytest.mark.parametrize("exact_max", [10**6, 20], ids=["flat", "ivf"])
+@pytest.mark.parametrize("reciprocal", [False, True], ids=["hub", "reciprocal"])
 def test_the_answer_is_the_discount_over_the_whole_catalogue(
-    sessions: sessionmaker[Session], exact_max: int
+    sessions: sessionmaker[Session], exact_max: int, reciprocal: bool
 ) -> None:
     rows = unit_rows(60, 8, seed=3).astype(np.float32)
     vectors = {add_ready(sessions, row): row for row in rows}
     # nprobe at least the lists of an IVF partition: its search is exact, so are its radii.
-    index = ShapeIndex(sessions, exact_max=exact_max, nprobe=64, hub_neighbours=5)
+    index = ShapeIndex(sessions, exact_max=exact_max, nprobe=64, hub_neighbours=5,
+                       reciprocal=reciprocal)
     index.rebuild()
     assert index.describe(KEY) == ("flat" if exact_max > 60 else "ivf-sq8")
     ids = list(vectors)
@@ -89,7 +97,7 @@ def test_the_answer_is_the_discount_over_the_whole_catalogue(
     for q in range(8):
         query = unit_rows(1, 8, seed=100 + q)[0].astype(np.float32)
         answer = [m.model.index_id for m in search(index, sessions, query, k=6)]
-        assert answer == hub_order(vectors, query, 6, 5)
+        assert answer == hub_order(vectors, query, 6, 5, reciprocal=reciprocal)
         plain = sorted(vectors, key=lambda i: (float(np.linalg.norm(vectors[i] - query)), i))
         changed += answer != plain[:6]
     assert changed > 0  # the discount does reorder these answers
@@ -107,21 +115,22 @@ def test_the_answer_is_the_discount_over_the_whole_catalogue(
 
 
 @pytest.mark.parametrize("neighbours", [4, 10], ids=["kept", "counted"])
+@pytest.mark.parametrize("reciprocal", [False, True], ids=["hub", "reciprocal"])
 def test_a_query_model_is_in_no_neighbourhood_and_not_an_answer(
-    sessions: sessionmaker[Session], neighbours: int
+    sessions: sessionmaker[Session], neighbours: int, reciprocal: bool
 ) -> None:
     # 4 neighbours of 30 models: kept neighbourhoods, the query taken out by arithmetic;
     # 10 of the first 8: too few models to keep them, counted without the query.
     rows = unit_rows(30, 6, seed=5).astype(np.float32)
     vectors = {add_ready(sessions, row): row for row in rows[: 8 if neighbours == 10 else 30]}
-    index = ShapeIndex(sessions, hub_neighbours=neighbours)
+    index = ShapeIndex(sessions, hub_neighbours=neighbours, reciprocal=reciprocal)
     index.rebuild()
     ids = list(vectors)
     for query_id in ids[:6]:
         answer = search(index, sessions, vectors[query_id], k=5, exclude=query_id,
                         indexed_query=True)
         assert [m.model.index_id for m in answer] == hub_order(
-            vectors, vectors[query_id], 5, neighbours, exclude=query_id)
+            vectors, vectors[query_id], 5, neighbours, exclude=query_id, reciprocal=reciprocal)
     if neighbours == 10:
         return
     # Radii without the query differ from those with it where it was a near neighbour.
@@ -187,13 +196,14 @@ def test_the_query_s_own_part_stays_first_even_as_a_hub(sessions: sessionmaker[S
     assert answer[0].model.index_id == hub and answer[0].score == pytest.approx(1.0)
 
 
+@pytest.mark.parametrize("reciprocal", [False, True], ids=["hub", "reciprocal"])
 def test_filters_narrow_the_candidates_not_the_neighbourhoods(
-    sessions: sessionmaker[Session],
+    sessions: sessionmaker[Session], reciprocal: bool
 ) -> None:
     rows = unit_rows(40, 6, seed=7).astype(np.float32)
     vectors = {add_ready(sessions, row, meta={"even": str(x % 2 == 0)}): row
                for x, row in enumerate(rows)}
-    index = ShapeIndex(sessions, hub_neighbours=5)
+    index = ShapeIndex(sessions, hub_neighbours=5, reciprocal=reciprocal)
     index.rebuild()
     even = {i for x, i in enumerate(vectors) if x % 2 == 0}
     for pushdown_max in (0, 10_000):  # widening index results, and ids selected in SQL
@@ -202,17 +212,19 @@ def test_filters_narrow_the_candidates_not_the_neighbourhoods(
             answer = search(index, sessions, query, k=4, filters={"even": "True"},
                             pushdown_max=pushdown_max)
             assert [m.model.index_id for m in answer] == hub_order(
-                vectors, query, 4, 5, allowed=even)
+                vectors, query, 4, 5, allowed=even, reciprocal=reciprocal)
         # By model id: the query model is in no neighbourhood here either.
         for query_id in list(vectors)[:4]:
             answer = search(index, sessions, vectors[query_id], k=4, filters={"even": "True"},
                             pushdown_max=pushdown_max, exclude=query_id, indexed_query=True)
             assert [m.model.index_id for m in answer] == hub_order(
-                vectors, vectors[query_id], 4, 5, exclude=query_id, allowed=even)
+                vectors, vectors[query_id], 4, 5, exclude=query_id, allowed=even,
+                reciprocal=reciprocal)
 
 
+@pytest.mark.parametrize("reciprocal", [False, True], ids=["hub", "reciprocal"])
 def test_rows_sql_lets_through_and_the_filter_refuses_are_replaced_from_further_out(
-    sessions: sessionmaker[Session],
+    sessions: sessionmaker[Session], reciprocal: bool
 ) -> None:
     # On SQLite the metadata entry 1 stands for both 1 and true, so SQL selects the ten
     # models nearest the query and the filter then refuses them all: the answer must come
@@ -225,11 +237,20 @@ def test_rows_sql_lets_through_and_the_filter_refuses_are_replaced_from_further_
     vectors = {i: row for i, row in zip(refused, near, strict=True)}
     wanted = {add_ready(sessions, row, meta={"flag": True}): row for row in far}
     vectors.update(wanted)
-    index = ShapeIndex(sessions, hub_neighbours=4)
+    index = ShapeIndex(sessions, hub_neighbours=4, reciprocal=reciprocal)
     index.rebuild()
     answer = search(index, sessions, query, k=3, filters={"flag": "true"})
-    assert [m.model.index_id for m in answer] == hub_order(vectors, query, 3, 4,
-                                                           allowed=set(wanted))
+    if not reciprocal:
+        assert [m.model.index_id for m in answer] == hub_order(
+            vectors, query, 3, 4, allowed=set(wanted))
+        return
+    # The neighbourhoods of a k-reciprocal re-rank are taken among the candidates SQL
+    # allowed (on SQLite the refused rows too: they count in them, and are not answers).
+    with sessions() as session:
+        sqlite = session.get_bind().dialect.name == "sqlite"
+    allowed = set(vectors) if sqlite else set(wanted)
+    order = hub_order(vectors, query, len(vectors), 4, allowed=allowed, reciprocal=True)
+    assert [m.model.index_id for m in answer] == [i for i in order if i in wanted][:3]
 
 
 def test_too_few_models_for_a_neighbourhood_answer_in_plain_order(
@@ -248,6 +269,28 @@ def test_the_setting_reaches_the_index_and_zero_turns_the_discount_off(
     assert make_settings(database_url).index_options["hub_neighbours"] == 10
     assert make_settings(database_url, search_hub_neighbours=0).index_options[
         "hub_neighbours"] == 0
+    assert make_settings(database_url).index_options["reciprocal"] is True
+    assert make_settings(database_url, search_reciprocal=False).index_options[
+        "reciprocal"] is False
+
+
+def test_the_reciprocal_re_rank_takes_its_pool_from_the_plain_nearest(
+    sessions: sessionmaker[Session],
+) -> None:
+    # 220 models: more than the pool (160), so the pool is the plain nearest 160, and the
+    # answers differ from the hub discount's alone.
+    rows = unit_rows(220, 8, seed=12).astype(np.float32)
+    vectors = {add_ready(sessions, row): row for row in rows}
+    index = ShapeIndex(sessions, hub_neighbours=10, reciprocal=True)
+    index.rebuild()
+    assert len(vectors) > reciprocal_depth(10)
+    differs = 0
+    for q in range(6):
+        query = unit_rows(1, 8, seed=300 + q)[0].astype(np.float32)
+        answer = [m.model.index_id for m in search(index, sessions, query, k=10)]
+        assert answer == hub_order(vectors, query, 10, 10, reciprocal=True)
+        differs += answer != hub_order(vectors, query, 10, 10)
+    assert differs > 0
 
 
 def test_a_bulk_change_forgets_every_neighbourhood_and_the_index_wants_them_again(

@@ -133,7 +133,8 @@ class SimilarResult(BaseModel):
     model: ModelSummary
     distance: float = Field(description="L2 distance between the unit descriptors, in [0, 2].")
     score: float = Field(description="1 - distance^2 / 4, in [0, 1]; 1 for identical descriptors "
-                         "(the plain similarity, also where the hub discount orders the results).")
+                         "(the plain similarity, also where the hub discount and its re-rank "
+                         "order the results).")
     calibrated_score: float | None = Field(
         default=None,
         description="The share of pairs of different kinds of part (measured on the tuning "
@@ -164,7 +165,8 @@ class SimilarQuery(BaseModel):
 class SimilarResponse(BaseModel):
     query: SimilarQuery
     results: list[SimilarResult] = Field(
-        description="Best first: in shape mode with the hub discount (see the endpoint).")
+        description="Best first: in shape mode with the hub discount and its k-reciprocal "
+        "re-rank (see the endpoint).")
 
 
 class SearchQuery(BaseModel):
@@ -181,7 +183,8 @@ class SearchQuery(BaseModel):
 class SearchResponse(BaseModel):
     query: SearchQuery
     results: list[SimilarResult] = Field(
-        description="Best first: in shape mode with the hub discount (see the endpoint).")
+        description="Best first: in shape mode with the hub discount and its k-reciprocal "
+        "re-rank (see the endpoint).")
 
 
 class JobResource(BaseModel):

@@ -45,10 +45,12 @@ SCAN_MODE_HELP = (
     "compares whole models only, which suits complete meshes and merged scans better."
 )
 ORDER_HELP = (
-    " Order: with mode=shape the 4k nearest models are ordered by distance^2 + r, r a "
-    "model's mean cosine to its 10 most alike other models (a hub discount, "
+    " Order: with mode=shape the max(4k, 160) nearest models are ordered by distance^2 + r, "
+    "r a model's mean cosine to its 10 most alike other models (a hub discount, "
     "SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near everything comes a "
-    "little later and score, the plain similarity, need not fall along the list; a model "
+    "little later, and then re-ranked k-reciprocally among themselves (a model whose own "
+    "nearest include the query comes earlier; SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the "
+    "discount's order); score, the plain similarity, need not fall along the list; a model "
     "with the query's own descriptor stays first. With mode=scan, by distance."
 )
 ModeQuery = Annotated[

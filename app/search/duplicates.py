@@ -28,7 +28,7 @@ from __future__ import annotations
 import time
 import uuid
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, Unpack
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -38,6 +38,9 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import Model
 from app.search.index import NeighbourGraph, ShapeIndex
+
+if TYPE_CHECKING:
+    from app.settings import IndexOptions
 from app.search.sizing import extents_mm
 
 __all__ = [
@@ -103,7 +106,7 @@ def compute_report(
     sessions: sessionmaker[Session],
     tenant: str,
     query: DuplicatesQuery,
-    **index_options: int,
+    **index_options: Unpack[IndexOptions],
 ) -> ComputedReport:
     """The report of ``tenant``'s ready models of ``query.descriptor_version``; the index
     options (``ShapeIndex``'s keyword arguments) are the service's

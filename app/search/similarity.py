@@ -81,6 +81,7 @@ from app.db.models import Model
 from app.search.index import PartitionKey, ShapeIndex, views_key
 from app.search.sizing import SizeQuery
 from core.hubness import hub_keys, rerank_depth
+from core.reciprocal import pool_keys, reciprocal_depth
 from core.size import SIZE_FIELDS, ShapeSize
 
 __all__ = [
@@ -317,7 +318,8 @@ def find_similar(
         )
     approximate = index.is_approximate(key)
     discounted = index.hub_neighbours > 0
-    depth = rerank_depth(k) if discounted else k  # plain nearest, re-ordered below
+    # Plain nearest, re-ordered below; a k-reciprocal re-rank takes neighbourhoods among them.
+    depth = k if not discounted else reciprocal_depth(k) if index.reciprocal else rerank_depth(k)
     wanted = depth + 1 if exclude is not None else depth
     fetch = index.rerank_candidates(key, wanted)
     if filtered and allowed is None:
@@ -366,7 +368,11 @@ def find_similar(
             # Equal distances (identical files) in upload order, whatever order the index
             # happened to insert them in: every process answers alike.
             nearest = certain[:depth]
-            return _hub_ordered(index, key, nearest, exclude)[:k] if discounted else nearest
+            if not discounted:
+                return nearest
+            # A size term's combined distances are no vectors' distances: no neighbourhoods.
+            query = vector if size.weight == 0 else None
+            return _hub_ordered(index, key, nearest, exclude, query)[:k]
         fetch *= 4
 
 
@@ -390,7 +396,8 @@ def _hub_answer(
     many as the answer takes, so the database reads about ``k`` rows, not ``depth``. None
     when fewer than ``k`` were confirmed (deleted a moment ago, or refused by ``passes``,
     which SQL can let through) while models beyond the ``depth`` nearest may qualify: the
-    caller's general search widens instead."""
+    caller's general search widens instead. A k-reciprocal re-rank takes its neighbourhoods
+    among the ``depth`` nearest that SQL allowed, a row ``passes`` then refuses included."""
     while True:
         hits = index.search(key, vector, fetch, allowed=allowed)
         ids = [i for i, _ in hits if i != exclude]
@@ -409,7 +416,7 @@ def _hub_answer(
         nearest = qualifying
     # A query by model id is that model's own vector, at plain distances here.
     order = _hub_order(index, key, nearest, [distances[i] for i in nearest], exclude,
-                       query_is_excluded=True)
+                       query_is_excluded=True, query=vector)
     matches: list[Match] = []
     for start in range(0, max(len(order), 1), k):
         chunk = order[start : start + k]
@@ -428,13 +435,15 @@ def _hub_answer(
 
 
 def _hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: list[float],
-               exclude: int | None, query_is_excluded: bool = False) -> list[int]:
+               exclude: int | None, query_is_excluded: bool = False,
+               query: np.ndarray | None = None) -> list[int]:
     """``ids`` (nearest first, at plain ``distances``, or combined ones with a size term) in
     the order of the hub discount (``core.hubness.hub_keys``), the query model ``exclude``
     in no neighbourhood (``query_is_excluded``: the query vector is its own and the
     distances plain, so its cosines are known); ties in upload order. An id the index
     dropped since it was found (deleted a moment ago) takes the largest radius among the
-    others."""
+    others. With the index's ``reciprocal`` and the ``query`` vector (plain distances),
+    that order is re-ranked k-reciprocally among ``ids`` (``_reciprocal_keys``)."""
     # Then the excluded model's cosine to each candidate is 1 - d^2 / 2: no vectors read.
     known = query_is_excluded and exclude is not None
     radii = index.neighbourhood_radii(
@@ -443,15 +452,34 @@ def _hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: 
         return ids
     largest = max(radii.values())
     keys = hub_keys(np.square(distances), np.array([radii.get(i, largest) for i in ids]))
+    if index.reciprocal and query is not None:
+        keys = _reciprocal_keys(index, key, ids, keys, query)
     return [ids[j] for j in sorted(range(len(ids)), key=lambda j: (keys[j], ids[j]))]
 
 
+def _reciprocal_keys(index: ShapeIndex, key: PartitionKey, ids: list[int], hub: np.ndarray,
+                     query: np.ndarray) -> np.ndarray:
+    """``core.reciprocal.pool_keys`` of ``ids`` for ``query`` (their ``hub`` keys as its
+    blended term), from the vectors the index holds; an id it dropped since it was found
+    comes after the others. ``hub`` itself when fewer than two are held."""
+    found = index.exact_vectors(key, ids)
+    if found is None or int(found[1].sum()) < 2:
+        return hub
+    vectors, held = found
+    keys = np.full(len(ids), np.inf)
+    keys[held] = pool_keys(query, vectors[held], hub[held])
+    return keys
+
+
 def _hub_ordered(
-    index: ShapeIndex, key: PartitionKey, matches: list[Match], exclude: int | None
+    index: ShapeIndex, key: PartitionKey, matches: list[Match], exclude: int | None,
+    query: np.ndarray | None,
 ) -> list[Match]:
-    """``matches`` (nearest first) re-ordered by the hub discount (``_hub_order``)."""
+    """``matches`` (nearest first) re-ordered by the hub discount (``_hub_order``), and
+    k-reciprocally with the ``query`` vector."""
     by_id = {m.model.index_id: m for m in matches}
-    order = _hub_order(index, key, list(by_id), [m.distance for m in matches], exclude)
+    order = _hub_order(index, key, list(by_id), [m.distance for m in matches], exclude,
+                       query=query)
     return [by_id[i] for i in order]
 
 

@@ -48,6 +48,13 @@ from core.evaluation.runner import (
 )
 from core.evaluation.variants import SCAN_VARIANTS, resolve_variants
 from core.hubness import HUB_NEIGHBOURS, HUB_WEIGHT, hub_discounted_keys
+from core.reciprocal import (
+    BLEND,
+    EXPANSION,
+    RECIPROCAL_NEIGHBOURS,
+    reciprocal_keys,
+    rescaled_rows,
+)
 from core.settings import EngineSettings
 
 __all__ = ["evaluate", "run"]
@@ -120,17 +127,23 @@ def _ranking_inputs(
     labels: dict[str, str],
     hub_neighbours: int,
 ) -> tuple[np.ndarray, list[str], list[str], np.ndarray]:
-    """What ranks ``queries`` against ``database`` leave-one-out: distances (or hub keys),
-    the query and database labels and the excluded pairs (a query's own model)."""
+    """What ranks ``queries`` against ``database`` leave-one-out: distances (or the
+    service's keys), the query and database labels and the excluded pairs (a query's own
+    model). With ``hub_neighbours``, clean queries (the database itself) rank as the service
+    does, by the hub discount re-ranked k-reciprocally over the whole catalogue
+    (``core.reciprocal``); scans by the hub discount alone (a scan is no member of the
+    catalogue whose neighbourhoods the re-rank compares)."""
     names = sorted(database)
     query_names = sorted(queries)
     base = np.array([database[name].descriptor for name in names])
     query = np.array([queries[name].descriptor for name in query_names])
     exclude = np.array([[q == d for d in names] for q in query_names])
-    distances = (
-        hub_discounted_keys(query, base, hub_neighbours, HUB_WEIGHT, exclude)
-        if hub_neighbours > 0 else pairwise_distances(query, base)
-    )
+    if hub_neighbours == 0:
+        distances = pairwise_distances(query, base)
+    else:
+        distances = hub_discounted_keys(query, base, hub_neighbours, HUB_WEIGHT, exclude)
+        if query_names == names:
+            distances = reciprocal_keys(base, rescaled_rows(distances))
     return distances, [labels[q] for q in query_names], [labels[d] for d in names], exclude
 
 
@@ -308,7 +321,11 @@ def evaluate(
         "variants": {},
     }
     if hub_neighbours > 0:
-        record["hub_discount"] = {"neighbours": hub_neighbours, "weight": HUB_WEIGHT}
+        record["hub_discount"] = {
+            "neighbours": hub_neighbours, "weight": HUB_WEIGHT,
+            "reciprocal": {"neighbours": RECIPROCAL_NEIGHBOURS, "expansion": EXPANSION,
+                           "blend": BLEND},
+        }
     with pin_blas_threads():
         clean = describe_all(dataset.models, variants, cache_dir, "clean", counters, failures)
         for name in variants:

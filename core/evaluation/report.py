@@ -69,11 +69,15 @@ def variant_table(variants: dict[str, dict[str, Any]], key: str = "clean") -> st
 def hub_table(record: dict[str, Any]) -> str:
     """Every scoring with the hub discount (``core.hubness``) beside the plain one."""
     hub = record["hub_discount"]
+    again = hub.get("reciprocal")
     lines = [
-        f"## With a hub discount (CSLS, k {hub['neighbours']}, weight {hub['weight']:g})",
+        f"## With a hub discount (CSLS, k {hub['neighbours']}, weight {hub['weight']:g})"
+        + (f", re-ranked k-reciprocally (k1 {again['neighbours']}, k2 {again['expansion']}, "
+           f"lambda {again['blend']:g}) for clean queries" if again else ""),
         "",
         "The search service orders shape-mode answers this way (its default, k 10); the "
-        "tables above rank by plain distance, the descriptor's own order.",
+        "tables above rank by plain distance, the descriptor's own order. Scans are "
+        "ranked by the hub discount alone.",
         "",
         "| variant | queries | NN | mAP | top-5 | plain NN | plain mAP | plain top-5 |",
         "|---|---|---|---|---|---|---|---|",

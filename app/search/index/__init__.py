@@ -135,6 +135,11 @@ class ShapeIndex:
     hub_neighbours : int
         ``k`` of the hub discount that similar queries rank by (``core.hubness``,
         ``neighbourhood_radii``); 0: plain distance order.
+    reciprocal : bool
+        With ``hub_neighbours`` above 0: similar queries re-rank the hub discount's order
+        k-reciprocally (``core.reciprocal``). The service's default is on
+        (``SHAPESEARCH_SEARCH_RECIPROCAL``); off here, so that a bare index ranks by the
+        discount alone.
     only : PartitionKey, optional
         Hold this partition alone, without its views: one tenant's descriptors of one
         version, read once (a duplicates job). None: every partition.
@@ -150,6 +155,7 @@ class ShapeIndex:
         rerank_factor: int = 2,
         projected_dims: int = 0,
         hub_neighbours: int = HUB_NEIGHBOURS,
+        reciprocal: bool = False,
         only: PartitionKey | None = None,
     ) -> None:
         self.sessions = sessions
@@ -160,6 +166,7 @@ class ShapeIndex:
         self.rerank_factor = rerank_factor
         self.projected_dims = projected_dims
         self.hub_neighbours = hub_neighbours
+        self.reciprocal = reciprocal
         self.revision = 0  # last change-feed revision applied
         self.changes = 0  # moves on every applied change: answers cached before are stale
         self._partitions: dict[PartitionKey, Partition] = {}
