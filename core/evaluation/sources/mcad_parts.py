@@ -29,7 +29,7 @@ import trimesh
 
 __all__ = ["KINDS", "parts"]
 
-# (diameter, length) of bolts: lengths 2 to 8 diameters, so a kind holds several proportions.
+# (diameter, length) of bolts: lengths 3 to 7 diameters, so a kind holds several proportions.
 _BOLTS = ((3, 10), (4, 25), (5, 16), (6, 40), (8, 30), (10, 70), (12, 45), (16, 100))
 # bearing.scad's own models: 6xx series of several widths over diameters.
 _BEARINGS = (603, 608, 625, 636, 674, 688, 695, 629)
