@@ -38,11 +38,13 @@ __all__ = ["BLEND", "EXPANSION", "RECIPROCAL_NEIGHBOURS", "RECIPROCAL_POOL", "po
 RECIPROCAL_NEIGHBOURS = 5
 EXPANSION = 3
 BLEND = 0.3
-#: The fewest plain nearest candidates a search re-ranks among themselves: 16 per result
-#: for 10 results (``bench/selection/reciprocal_depth.py``: their first 10 are the whole
-#: catalogue's for 75 % of the queries, precision at 10 within 0.006 of it; 4 per result,
-#: the hub discount's depth, 47 %).
-RECIPROCAL_POOL = 160
+#: The fewest plain nearest candidates a search re-ranks among themselves: 4 per result for
+#: 10 results, the hub discount's own depth, chosen for cost after the measurement
+#: (``bench/selection/reciprocal_depth.py`` on 326 parts: precision at 10 0.555 against the
+#: whole catalogue's re-rank 0.569 and the discount's 0.539, NN level; 160, where that
+#: script's fallback points, gives 0.563 at 2.3-3.5x the discount's time per query at 10^5
+#: models, 40 at 1.1-1.3x; docs/results.md).
+RECIPROCAL_POOL = 40
 
 
 def reciprocal_depth(k: int) -> int:

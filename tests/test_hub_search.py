@@ -277,7 +277,7 @@ def test_the_setting_reaches_the_index_and_zero_turns_the_discount_off(
 def test_the_reciprocal_re_rank_takes_its_pool_from_the_plain_nearest(
     sessions: sessionmaker[Session],
 ) -> None:
-    # 220 models: more than the pool (160), so the pool is the plain nearest 160, and the
+    # 220 models: more than the pool (40), so the pool is the plain nearest 40, and the
     # answers differ from the hub discount's alone.
     rows = unit_rows(220, 8, seed=12).astype(np.float32)
     vectors = {add_ready(sessions, row): row for row in rows}

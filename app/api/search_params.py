@@ -45,7 +45,7 @@ SCAN_MODE_HELP = (
     "compares whole models only, which suits complete meshes and merged scans better."
 )
 ORDER_HELP = (
-    " Order: with mode=shape the max(4k, 160) nearest models are ordered by distance^2 + r, "
+    " Order: with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, "
     "r a model's mean cosine to its 10 most alike other models (a hub discount, "
     "SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near everything comes a "
     "little later, and then re-ranked k-reciprocally among themselves (a model whose own "

@@ -318,8 +318,10 @@ def find_similar(
         )
     approximate = index.is_approximate(key)
     discounted = index.hub_neighbours > 0
-    # Plain nearest, re-ordered below; a k-reciprocal re-rank takes neighbourhoods among them.
-    depth = k if not discounted else reciprocal_depth(k) if index.reciprocal else rerank_depth(k)
+    # Plain nearest, re-ordered below; a k-reciprocal re-rank takes neighbourhoods among them
+    # (not with a size term: its combined distances are no vectors' distances).
+    reciprocal = discounted and index.reciprocal and size.weight == 0
+    depth = reciprocal_depth(k) if reciprocal else rerank_depth(k) if discounted else k
     wanted = depth + 1 if exclude is not None else depth
     fetch = index.rerank_candidates(key, wanted)
     if filtered and allowed is None:
@@ -370,9 +372,8 @@ def find_similar(
             nearest = certain[:depth]
             if not discounted:
                 return nearest
-            # A size term's combined distances are no vectors' distances: no neighbourhoods.
-            query = vector if size.weight == 0 else None
-            return _hub_ordered(index, key, nearest, exclude, query)[:k]
+            return _hub_ordered(index, key, nearest, exclude,
+                                vector if reciprocal else None)[:k]
         fetch *= 4
 
 
@@ -406,8 +407,9 @@ def _hub_answer(
             break
         fetch *= 4
     distances = dict(hits)
+    read: dict[int, np.ndarray] = {}  # the full vectors, for a k-reciprocal re-rank
     if index.is_approximate(key):  # estimates from the codes: exact ones from the full vectors
-        distances.update(_exact_distances(index, key, ids, vector))
+        distances.update(_exact_distances(index, key, ids, vector, read))
     nearest = sorted(ids, key=lambda i: (distances[i], i))[:depth]
     beyond = len(ids) > depth or not exhausted  # more candidates than those ordered here
     if min_score is not None:
@@ -416,7 +418,7 @@ def _hub_answer(
         nearest = qualifying
     # A query by model id is that model's own vector, at plain distances here.
     order = _hub_order(index, key, nearest, [distances[i] for i in nearest], exclude,
-                       query_is_excluded=True, query=vector)
+                       query_is_excluded=True, query=vector, read=read)
     matches: list[Match] = []
     for start in range(0, max(len(order), 1), k):
         chunk = order[start : start + k]
@@ -436,14 +438,16 @@ def _hub_answer(
 
 def _hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: list[float],
                exclude: int | None, query_is_excluded: bool = False,
-               query: np.ndarray | None = None) -> list[int]:
+               query: np.ndarray | None = None,
+               read: dict[int, np.ndarray] | None = None) -> list[int]:
     """``ids`` (nearest first, at plain ``distances``, or combined ones with a size term) in
     the order of the hub discount (``core.hubness.hub_keys``), the query model ``exclude``
     in no neighbourhood (``query_is_excluded``: the query vector is its own and the
     distances plain, so its cosines are known); ties in upload order. An id the index
     dropped since it was found (deleted a moment ago) takes the largest radius among the
     others. With the index's ``reciprocal`` and the ``query`` vector (plain distances),
-    that order is re-ranked k-reciprocally among ``ids`` (``_reciprocal_keys``)."""
+    that order is re-ranked k-reciprocally among ``ids`` (``_reciprocal_keys``; ``read``:
+    vectors already read, by id)."""
     # Then the excluded model's cosine to each candidate is 1 - d^2 / 2: no vectors read.
     known = query_is_excluded and exclude is not None
     radii = index.neighbourhood_radii(
@@ -453,16 +457,21 @@ def _hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: 
     largest = max(radii.values())
     keys = hub_keys(np.square(distances), np.array([radii.get(i, largest) for i in ids]))
     if index.reciprocal and query is not None:
-        keys = _reciprocal_keys(index, key, ids, keys, query)
+        keys = _reciprocal_keys(index, key, ids, keys, query, read or {})
     return [ids[j] for j in sorted(range(len(ids)), key=lambda j: (keys[j], ids[j]))]
 
 
 def _reciprocal_keys(index: ShapeIndex, key: PartitionKey, ids: list[int], hub: np.ndarray,
-                     query: np.ndarray) -> np.ndarray:
+                     query: np.ndarray, read: dict[int, np.ndarray]) -> np.ndarray:
     """``core.reciprocal.pool_keys`` of ``ids`` for ``query`` (their ``hub`` keys as its
-    blended term), from the vectors the index holds; an id it dropped since it was found
-    comes after the others. ``hub`` itself when fewer than two are held."""
-    found = index.exact_vectors(key, ids)
+    blended term), from the vectors the index holds (those in ``read`` already read); an
+    id it dropped since it was found comes after the others. ``hub`` itself when fewer than
+    two are held."""
+    if all(i in read for i in ids):
+        found: tuple[np.ndarray, np.ndarray] | None = (
+            np.array([read[i] for i in ids]), np.ones(len(ids), dtype=bool))
+    else:
+        found = index.exact_vectors(key, ids)
     if found is None or int(found[1].sum()) < 2:
         return hub
     vectors, held = found
@@ -498,15 +507,20 @@ def _without_query(rows: list[Row[Any]], query_id: int, key: PartitionKey) -> li
 
 
 def _exact_distances(
-    index: ShapeIndex, key: PartitionKey, ids: list[int], query: np.ndarray
+    index: ShapeIndex, key: PartitionKey, ids: list[int], query: np.ndarray,
+    read: dict[int, np.ndarray] | None = None,
 ) -> dict[int, float]:
     """Exact L2 distances from ``query`` to the full vectors of ``ids`` that partition
-    ``key`` holds, in one vectorised pass."""
+    ``key`` holds, in one vectorised pass; each vector read is also put in ``read`` (by id)
+    when given, for a re-rank that needs them again."""
     found = index.exact_vectors(key, ids) if ids else None
     if found is None:
         return {}
     vectors, held = found
     distances = np.linalg.norm(vectors - query, axis=1).tolist()
+    if read is not None:
+        read.update((i, row) for i, row, h in zip(ids, vectors, held.tolist(), strict=True)
+                    if h)
     return {i: d for i, d, h in zip(ids, distances, held.tolist(), strict=True) if h}
 
 
