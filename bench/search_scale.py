@@ -471,6 +471,21 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         print(f"in-process {label} k={K}: {percentiles(times)}; results min {min(counts)}")
         medians[label] = float(np.median(times))
     index.hub_neighbours, index.reciprocal = hub, reciprocal
+    for pool in args.reciprocal_pools:  # the re-rank's cost per pool size, same queries
+        import core.reciprocal
+
+        shipped, core.reciprocal.RECIPROCAL_POOL = core.reciprocal.RECIPROCAL_POOL, pool
+        index.reciprocal, times = True, []
+        for model_id in rng.choice(model_ids, size=args.queries):
+            t0 = time.perf_counter()
+            with reader.connect() as connection:
+                index_id, key = index.locate("default", uuid.UUID(str(model_id)))
+                find_similar(index, connection, key, index.vector(key, index_id), k=K,
+                             exclude=index_id, indexed_query=True)
+            times.append(time.perf_counter() - t0)
+        core.reciprocal.RECIPROCAL_POOL, index.reciprocal = shipped, reciprocal
+        print(f"in-process similar re-ranked among {pool}: {percentiles(times)}; "
+              f"{np.median(times) / medians[alone]:.2f}x the discount alone")
     if hub:
         print(f"in-process similar with the hub discount (k {hub}"
               f"{', re-ranked k-reciprocally' if reciprocal else ''}): "
@@ -905,6 +920,10 @@ def main() -> None:
         "--reciprocal", action=argparse.BooleanOptionalAction,
         default=Settings.model_fields["search_reciprocal"].default,
         help="SHAPESEARCH_SEARCH_RECIPROCAL",
+    )
+    parser.add_argument(
+        "--reciprocal-pools", type=int, nargs="*", default=[], metavar="N",
+        help="also time the k-reciprocal re-rank among N candidates (db phase, in-process)",
     )
     parser.add_argument(
         "--api-processes", type=int, default=2, help="SHAPESEARCH_API_PROCESSES (db phase)"
