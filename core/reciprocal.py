@@ -42,8 +42,8 @@ BLEND = 0.3
 #: 10 results, the hub discount's own depth, chosen for cost after the measurement
 #: (``bench/selection/reciprocal_depth.py`` on 326 parts: precision at 10 0.555 against the
 #: whole catalogue's re-rank 0.569 and the discount's 0.539, NN level; 160, where that
-#: script's fallback points, gives 0.563 at 2.3-3.5x the discount's time per query at 10^5
-#: models, 40 at 1.1-1.3x; docs/results.md).
+#: script's fallback points, gives 0.563 at 3.2x the discount's time per query in-process at
+#: 10^5 models, 40 at 1.4-1.6x: ``bench/search_scale.py --reciprocal-pools``).
 RECIPROCAL_POOL = 40
 
 

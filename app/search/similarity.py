@@ -39,9 +39,12 @@ Order: shape mode ranks with a hub discount (cross-domain similarity local scali
 candidate's mean cosine to its 10 most alike other models of the partition (the index's
 ``neighbourhood_radii``), so a part near everything comes a little later and the rest of
 the query's kind earlier (+0.01 mAP left out over seven tuning sources; docs/results.md).
-A candidate with the query's own descriptor stays first. ``distance`` and ``score`` stay
-plain (``min_score``, the calibration and the duplicates report keep their meaning). Scan
-mode keeps plain order: partial scans did not gain from the discount.
+Then, without a size term, those candidates are re-ranked k-reciprocally among themselves
+(``core.reciprocal.pool_keys``: a candidate whose own nearest hold the query comes earlier;
++0.04 mAP on a tuning source that no setting had seen). A candidate with the query's own
+descriptor stays first. ``distance`` and ``score`` stay plain (``min_score``, the
+calibration and the duplicates report keep their meaning). Scan mode keeps plain order:
+partial scans did not gain from the discount.
 """
 
 from __future__ import annotations
@@ -298,8 +301,10 @@ def find_similar(
 
     Shape mode orders its answer with the index's hub discount (``index.hub_neighbours``
     above 0): the ``rerank_depth(k)`` nearest candidates that pass, re-ordered by
-    ``core.hubness.hub_keys``, the first ``k`` returned; ``distance`` and ``score`` stay the
-    plain ones, so scores need not fall along the answer.
+    ``core.hubness.hub_keys`` and, with ``index.reciprocal`` and no size term, re-ranked
+    k-reciprocally among the ``reciprocal_depth(k)`` nearest (``core.reciprocal``), the
+    first ``k`` returned; ``distance`` and ``score`` stay the plain ones, so scores need not
+    fall along the answer.
     """
     filters = filters or {}
     size = size or SizeQuery()
