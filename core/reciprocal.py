@@ -20,7 +20,7 @@ round 2's candidate, +0.017 mAP left out over seven sources) and confirmed on an
 source that no setting had seen, OpenSCAD's MCAD parts (``bench/selection/mcad_check.py``:
 +0.039, 95 % +0.026 .. +0.052). ``reciprocal_keys`` ranks a whole catalogue (the
 evaluation); ``pool_keys`` ranks one query's nearest candidates among themselves (the search
-service, which re-orders the ``rerank_depth(k)`` nearest: a neighbourhood is then taken
+service, which re-orders the ``reciprocal_depth(k)`` nearest: a neighbourhood is then taken
 within those candidates, measured against the whole catalogue's order by
 ``bench/selection/reciprocal_depth.py``).
 """

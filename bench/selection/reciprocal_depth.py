@@ -16,6 +16,15 @@ the whole catalogue's order. For each factor it prints that share, NN and precis
 beside the hub discount's own (``factor`` 4, the service before this).
 
     nice -n 10 .venv/bin/python bench/selection/reciprocal_depth.py /work/study8
+
+**Result** (2026-11-27, eleventh session; docs/results.md, "An eighth source"): first 10 as
+the whole catalogue's for 47.2 % (factor 4), 61.0 % (8), 74.8 % (16) of the queries;
+precision at 10 0.5546, 0.5595, 0.5632 against 0.5687 (the hub discount alone: 0.5387); NN
+0.8528, 0.8497, 0.8497 against 0.8497. No factor met the rule's words, and ``choose`` then
+returns the largest factor, a fallback its docstring did not state (disclosed). The service
+re-ranks the hub discount's own 4 per result, at least 40 (``core.reciprocal.RECIPROCAL_POOL``),
+chosen for cost afterwards: 16 per result cost 3.2x the discount's time per query at 10^5
+models (``bench/search_scale.py --reciprocal-pools 40 80 160``), 4 per result 1.4-1.6x.
 """
 
 from __future__ import annotations

@@ -101,7 +101,7 @@ def per_class_table(record: dict[str, Any]) -> str:
     per_class = scored[name]["per_class"]
     # With --hub-discount, each kind's NN and mAP with it too.
     hub = scored[name].get("hub_per_class", {})
-    extra = " NN / mAP with the hub discount |" if hub else ""
+    extra = " NN / mAP in the service's order |" if hub else ""
     lines = [
         f"## Per kind (variant {name}, clean queries), worst mAP first",
         "",

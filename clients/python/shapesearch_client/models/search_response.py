@@ -27,7 +27,8 @@ class SearchResponse:
     """ 
         Attributes:
             query (SearchQuery): The uploaded scan as described for the search (nothing is stored).
-            results (list[SimilarResult]): Best first: in shape mode with the hub discount (see the endpoint).
+            results (list[SimilarResult]): Best first: in shape mode with the hub discount and its k-reciprocal re-rank (see
+                the endpoint).
      """
 
     query: SearchQuery

@@ -29,7 +29,7 @@ class SimilarResult:
             distance (float): L2 distance between the unit descriptors, in [0, 2].
             model (ModelSummary):
             score (float): 1 - distance^2 / 4, in [0, 1]; 1 for identical descriptors (the plain similarity, also where the
-                hub discount orders the results).
+                hub discount and its re-rank order the results).
             calibrated_score (float | None | Unset): The share of pairs of different kinds of part (measured on the tuning
                 sources) that score lower than this one: 0.99 means 1 % of different-kind pairs score as high. A threshold on it
                 is a false-match rate (README, What a score means). Null for a descriptor layout without a calibration.

@@ -193,11 +193,13 @@ def sync_detailed(
     (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
     model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
     scans better. Use mode=scan for a model that was uploaded as a partial scan (a model described
-    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the 4k
-    nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most alike other
-    models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near
-    everything comes a little later and score, the plain similarity, need not fall along the list; a
-    model with the query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
+    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the
+    max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most
+    alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part
+    near everything comes a little later, and then re-ranked k-reciprocally among themselves (a model
+    whose own nearest include the query comes earlier; SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the
+    discount's order); score, the plain similarity, need not fall along the list; a model with the
+    query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
     `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
     Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
@@ -301,11 +303,13 @@ def sync(
     (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
     model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
     scans better. Use mode=scan for a model that was uploaded as a partial scan (a model described
-    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the 4k
-    nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most alike other
-    models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near
-    everything comes a little later and score, the plain similarity, need not fall along the list; a
-    model with the query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
+    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the
+    max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most
+    alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part
+    near everything comes a little later, and then re-ranked k-reciprocally among themselves (a model
+    whose own nearest include the query comes earlier; SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the
+    discount's order); score, the plain similarity, need not fall along the list; a model with the
+    query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
     `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
     Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
@@ -404,11 +408,13 @@ async def asyncio_detailed(
     (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
     model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
     scans better. Use mode=scan for a model that was uploaded as a partial scan (a model described
-    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the 4k
-    nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most alike other
-    models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near
-    everything comes a little later and score, the plain similarity, need not fall along the list; a
-    model with the query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
+    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the
+    max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most
+    alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part
+    near everything comes a little later, and then re-ranked k-reciprocally among themselves (a model
+    whose own nearest include the query comes earlier; SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the
+    discount's order); score, the plain similarity, need not fall along the list; a model with the
+    query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
     `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
     Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
@@ -512,11 +518,13 @@ async def asyncio(
     (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
     model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
     scans better. Use mode=scan for a model that was uploaded as a partial scan (a model described
-    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the 4k
-    nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most alike other
-    models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near
-    everything comes a little later and score, the plain similarity, need not fall along the list; a
-    model with the query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
+    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the
+    max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most
+    alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part
+    near everything comes a little later, and then re-ranked k-reciprocally among themselves (a model
+    whose own nearest include the query comes earlier; SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the
+    discount's order); score, the plain similarity, need not fall along the list; a model with the
+    query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
     `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
     Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
