@@ -314,3 +314,23 @@ def test_a_bulk_change_forgets_every_neighbourhood_and_the_index_wants_them_agai
     small = ShapeIndex(sessions, hub_neighbours=200)
     small.rebuild()
     assert small.wants_neighbourhoods() is False and small.keep_neighbourhoods() == 0
+
+
+def test_a_candidate_the_index_dropped_comes_after_the_others_in_the_re_rank(
+    sessions: sessionmaker[Session],
+) -> None:
+    from app.search.similarity import _reciprocal_keys
+
+    rows = unit_rows(30, 6, seed=14).astype(np.float32)
+    ids = [add_ready(sessions, row) for row in rows]
+    index = ShapeIndex(sessions, hub_neighbours=4, reciprocal=True)
+    index.rebuild()
+    query = unit_rows(1, 6, seed=15)[0].astype(np.float32)
+    gone = max(ids) + 1000  # found a moment ago, no longer held by the index
+    candidates = [*ids[:10], gone]
+    hub = np.linspace(0.0, 1.0, len(candidates))
+    keys = _reciprocal_keys(index, KEY, candidates, hub, query, {})
+    assert np.isposinf(keys[-1]) and np.isfinite(keys[:-1]).all()
+    # The others are ranked among themselves, as if the dropped one had never been found.
+    expected = pool_keys(query, rows[:10], hub[:-1])
+    assert keys[:-1] == pytest.approx(expected, abs=1e-12)
