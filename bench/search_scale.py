@@ -64,6 +64,7 @@ import time
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
@@ -409,7 +410,6 @@ def fill(
 
 def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None:
     from app.db.session import make_engine, make_session_factory, read_only
-    from app.search.similarity import find_similar
     from app.search.sizing import SizeQuery
 
     engine = make_engine(url)
@@ -436,7 +436,7 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         ("keep", None, None, hub, reciprocal),
         ("similar", {}, None, hub, reciprocal),
         # The baselines of the same run: plain distance order, no radii to look up; the
-        # hub discount without the re-rank (its pool of 160 and their vectors).
+        # hub discount without the re-rank (no pairwise products among the candidates).
         (plain, {}, None, 0, False),
         (alone, {}, None, hub, False),
         ("similar, family=f7 (0.1%)", {"family": "f7"}, None, hub, reciprocal),
@@ -450,39 +450,17 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
                 print(f"hub-discount neighbourhoods of {kept} models kept in "
                       f"{time.perf_counter() - t0:.1f} s (an API process: in the background)")
             continue
-        times, counts = [], []
-        for model_id in rng.choice(model_ids, size=args.queries):
-            t0 = time.perf_counter()
-            with reader.connect() as connection:  # as the route does: vector from the index
-                index_id, key = index.locate("default", uuid.UUID(str(model_id)))
-                matches = find_similar(
-                    index,
-                    connection,
-                    key,
-                    index.vector(key, index_id),
-                    k=K,
-                    filters=filters,
-                    exclude=index_id,
-                    indexed_query=True,
-                    size=size,
-                )
-            times.append(time.perf_counter() - t0)
-            counts.append(len(matches))
+        times, counts = timed_similar(index, reader, rng.choice(model_ids, size=args.queries),
+                                      filters, size)
         print(f"in-process {label} k={K}: {percentiles(times)}; results min {min(counts)}")
         medians[label] = float(np.median(times))
     index.hub_neighbours, index.reciprocal = hub, reciprocal
-    for pool in args.reciprocal_pools:  # the re-rank's cost per pool size, same queries
+    for pool in args.reciprocal_pools:  # the re-rank's cost per pool size
         import core.reciprocal
 
         shipped, core.reciprocal.RECIPROCAL_POOL = core.reciprocal.RECIPROCAL_POOL, pool
-        index.reciprocal, times = True, []
-        for model_id in rng.choice(model_ids, size=args.queries):
-            t0 = time.perf_counter()
-            with reader.connect() as connection:
-                index_id, key = index.locate("default", uuid.UUID(str(model_id)))
-                find_similar(index, connection, key, index.vector(key, index_id), k=K,
-                             exclude=index_id, indexed_query=True)
-            times.append(time.perf_counter() - t0)
+        index.reciprocal = True
+        times, _ = timed_similar(index, reader, rng.choice(model_ids, size=args.queries))
         core.reciprocal.RECIPROCAL_POOL, index.reciprocal = shipped, reciprocal
         print(f"in-process similar re-ranked among {pool}: {percentiles(times)}; "
               f"{np.median(times) / medians[alone]:.2f}x the discount alone")
@@ -514,6 +492,26 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
 
 
 KEY = ("default", "bench")
+
+
+def timed_similar(index: Any, reader: Any, model_ids: np.ndarray,
+                  filters: dict[str, str] | None = None, size: Any = None
+                  ) -> tuple[list[float], list[int]]:
+    """Seconds and result counts of a similar query by each of ``model_ids`` (k ``K``), as
+    the route runs it: the query vector from the index, read-only connections."""
+    from app.search.similarity import find_similar
+
+    times, counts = [], []
+    for model_id in model_ids:
+        t0 = time.perf_counter()
+        with reader.connect() as connection:
+            index_id, key = index.locate("default", uuid.UUID(str(model_id)))
+            matches = find_similar(index, connection, key, index.vector(key, index_id), k=K,
+                                   filters=filters, exclude=index_id, indexed_query=True,
+                                   size=size)
+        times.append(time.perf_counter() - t0)
+        counts.append(len(matches))
+    return times, counts
 
 
 def ShapeIndexFromArgs(sessions: object, args: argparse.Namespace) -> object:  # noqa: N802

@@ -38,10 +38,10 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import Model
 from app.search.index import NeighbourGraph, ShapeIndex
+from app.search.sizing import extents_mm
 
 if TYPE_CHECKING:
     from app.settings import IndexOptions
-from app.search.sizing import extents_mm
 
 __all__ = [
     "DEFAULT_MIN_SCORE",

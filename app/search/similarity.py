@@ -412,7 +412,8 @@ def _hub_answer(
             break
         fetch *= 4
     distances = dict(hits)
-    read: dict[int, np.ndarray] = {}  # the full vectors, for a k-reciprocal re-rank
+    # The full vectors read for exact distances, kept only for a k-reciprocal re-rank.
+    read: dict[int, np.ndarray] | None = {} if index.reciprocal else None
     if index.is_approximate(key):  # estimates from the codes: exact ones from the full vectors
         distances.update(_exact_distances(index, key, ids, vector, read))
     nearest = sorted(ids, key=lambda i: (distances[i], i))[:depth]

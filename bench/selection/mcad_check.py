@@ -69,9 +69,9 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from extraction_select import NON_RIGID_SOURCES  # noqa: E402
 from hub_measures_select import PLAIN, REFERENCE  # noqa: E402
-from hubness_select import POOLED, family_rows, hub_discounted, pooled_rows  # noqa: E402
+from hubness_select import POOLED, family_rows, pooled_rows  # noqa: E402
 from profile_block_select import TIE, print_table, score_distances, study_command  # noqa: E402
-from reciprocal_rerank_select import hub_term, reciprocal_keys  # noqa: E402
+from reciprocal_rerank_select import candidate_grid  # noqa: E402
 from rerank_select import _bootstrap  # noqa: E402
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
@@ -84,15 +84,9 @@ CATALOGUE = (*POOLED, NEW_SOURCE)
 NN_SLACK = 0.01
 
 
-def keys_of(name: str, rows: np.ndarray) -> np.ndarray:
-    """Ranking keys ``(m, m)`` (lower first) of candidate ``name`` on unit ``rows``."""
-    if name == REFERENCE:
-        return hub_discounted(rows, 10, 1.0)
-    if name == PLAIN:
-        return hub_discounted(rows, 0, 0.0)
-    if name == ROUND_ONE:
-        return reciprocal_keys(rows, 5, 3)
-    return reciprocal_keys(rows, 5, 3, term=hub_term(rows))
+#: Each candidate's ranking keys ``(m, m)`` of unit rows: the reciprocal study's round-2
+#: grid, whose names these are.
+KEYS = dict(candidate_grid(2))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -105,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
 
     def candidates(rows: dict[str, np.ndarray]):  # noqa: ANN202
         for name in names:
-            yield name, {s.name: keys_of(name, rows[s.name]) for s in scored}
+            yield name, {s.name: KEYS[name](rows[s.name]) for s in scored}
 
     table, queries = score_distances(candidates(parts_rows), scored)
     mean = {c: float(np.mean([table[c][s]["map"] for s in sources])) for c in table}
@@ -128,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     vectors, labels = pooled_rows(study, CATALOGUE)
     catalogue = {}
     for name in names:
-        relevance = ranked_relevance(keys_of(name, vectors), labels, labels,
+        relevance = ranked_relevance(KEYS[name](vectors), labels, labels,
                                      np.eye(len(labels), dtype=bool))
         catalogue[name] = score_rankings(relevance)
         print(f"one catalogue ({len(labels)} parts, {len(set(labels))} kinds), {name}: "
