@@ -117,11 +117,13 @@ def hub_discounted(rows: np.ndarray, neighbours: int, beta: float) -> np.ndarray
                                exclude=np.eye(len(rows), dtype=bool))
 
 
-def pooled_rows(study: Study, pooled: tuple[str, ...] = POOLED
+def pooled_rows(study: Study, pooled: tuple[str, ...] = POOLED,
+                added: tuple[dict[str, np.ndarray], float] | None = None
                 ) -> tuple[np.ndarray, list[str]]:
     """``ss9`` unit rows of the ``pooled`` sources as one catalogue encodes them: one
     vocabulary for all, fitted on the other sources (none of the pooled ones), and the
-    kinds named by source."""
+    kinds named by source. ``added``: a candidate block ``(m, b)`` per source and its weight,
+    joined to ``ss9``'s weighted blocks before the one unit scaling."""
     by_name = {s.name: s for s in study.sources}
     fitted_on = [s for s in study.sources if s.name not in pooled]
     vocabulary = Vocabulary.fit([r for s in fitted_on for r in s.local["hks+sv"]], 64, seed=0,
@@ -133,7 +135,8 @@ def pooled_rows(study: Study, pooled: tuple[str, ...] = POOLED
         local = np.array([encode_vlad(f, a, vocabulary)
                           for f, a in zip(source.local["hks+sv"], source.areas, strict=True)])
         rest = np.hstack([source.bases["ss4-noprop"], local, SS6_RING_WEIGHT * ring[name]])
-        rows.append(joined(rest, caps[name], 1.0))
+        rows.append(joined(rest, caps[name], 1.0) if added is None else
+                    joined(np.hstack([rest, caps[name]]), added[0][name], added[1]))
         labels += [f"{name}/{label}" for label in source.labels]
     return np.vstack(rows), labels
 
