@@ -118,17 +118,19 @@ def hub_discounted(rows: np.ndarray, neighbours: int, beta: float) -> np.ndarray
 
 
 def pooled_rows(study: Study, pooled: tuple[str, ...] = POOLED,
-                added: tuple[dict[str, np.ndarray], float] | None = None
-                ) -> tuple[np.ndarray, list[str]]:
+                added: tuple[dict[str, np.ndarray], float] | None = None,
+                ring: dict[str, np.ndarray] | None = None) -> tuple[np.ndarray, list[str]]:
     """``ss9`` unit rows of the ``pooled`` sources as one catalogue encodes them: one
     vocabulary for all, fitted on the other sources (none of the pooled ones), and the
     kinds named by source. ``added``: a candidate block ``(m, b)`` per source and its weight,
-    joined to ``ss9``'s weighted blocks before the one unit scaling."""
+    joined to ``ss9``'s weighted blocks before the one unit scaling; ``ring``: a ring block
+    ``(m, 30)`` per source (weight 1) in place of ``ss9``'s."""
     by_name = {s.name: s for s in study.sources}
     fitted_on = [s for s in study.sources if s.name not in pooled]
     vocabulary = Vocabulary.fit([r for s in fitted_on for r in s.local["hks+sv"]], 64, seed=0,
                                 per_model=200)
-    ring, caps = default_ring_and_caps(study)
+    default_ring, caps = default_ring_and_caps(study)
+    ring = ring or default_ring
     rows, labels = [], []
     for name in pooled:
         source = by_name[name]

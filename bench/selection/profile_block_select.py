@@ -163,16 +163,19 @@ def _sample(file: Path) -> tuple[np.ndarray, np.ndarray]:
         return data["points"].astype(np.float64), data["areas"].astype(np.float64)
 
 
-def study_command(doc: str, argv: list[str] | None, rounds: tuple[int, ...] = ()
-                  ) -> tuple[argparse.Namespace, Study, Path]:
-    """A selector's command line (``OUT``, ``--json``, and ``--round`` among ``rounds`` when
-    given; ``doc``'s first line describes it), the clean study under ``OUT`` and the cache
-    folder the studies share."""
+def study_command(doc: str, argv: list[str] | None, rounds: tuple[int, ...] = (),
+                  models: bool = False) -> tuple[argparse.Namespace, Study, Path]:
+    """A selector's command line (``OUT``, ``--json``, ``--round`` among ``rounds`` when
+    given, ``--models`` (the sources' model folders, ``SOURCES/<source>/<class>/<file>``)
+    when ``models``; ``doc``'s first line describes it), the clean study under ``OUT`` and
+    the cache folder the studies share."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("out", type=Path)
     parser.add_argument("--json", type=Path)
     if rounds:
         parser.add_argument("--round", type=int, choices=rounds, default=rounds[0])
+    if models:
+        parser.add_argument("--models", type=Path, nargs="+", required=True)
     args = parser.parse_args(argv)
     cache = args.out / "profile_cache" / "clean"
     cache.mkdir(parents=True, exist_ok=True)

@@ -39,12 +39,42 @@ the rule's choice in the one catalogue scored by kind, plain and in the service'
 
     nice -n 10 .venv/bin/python bench/selection/twist_block_select.py /work/study8 \\
         --json /work/study8/twist.json
+
+**Round 1 result** (2026-11-27, twelfth session): declined. Every weight lowers the mean over
+the eight (0.8376; w1 0.8365, w2 0.8226, w4 0.7724), the rule keeps ``ss9`` without every
+source, leave-one-source-out +0.0000; py-gearworks does not move (0.587 -> 0.586). 1.7 ms
+per model. Why, looked at after the table: in the study's 3000-point samples the teeth of
+most gears are not there to see. Of py-gearworks' spur and helical gears only those with 12
+to 20 teeth show any power in the ring block's tooth bands (0.14-0.17 against a noise floor
+of 0.02); from 24 teeth up the rim's samples are too sparse and both blocks read noise, and
+so do most of MCAD's gears. The block adds that noise to every part. (Its values can pass 1
+a little: a pair of end slabs stronger than the mean slab.)
+
+**Round 2** (``--round 2``; written after round 1's table and the diagnosis above, disclosed
+as such, before any score of it): the Laplacian needs 3000 points, but the ring and twist
+blocks only need where the surface is, which is cheap to sample densely. The candidates
+measure them on a dense sample of the same mesh: ``core.io.load_points`` with ``max_points``
+``D`` and the service's seed, every point weighing the same (area-uniform samples):
+
+- ``ss9`` (the reference);
+- ``dense ring D``: ``ss9`` with its ring block (soft shells, weight 4) measured on ``D`` in
+  {12000, 30000} points instead of the Laplacian's 3000;
+- ``dense ring D + twist w``: and the ``twist`` block on the same sample at weight {1, 2}.
+
+7 candidates; the same rule and ship condition; ties within 0.002 to the narrower vector,
+then the grid's order (``ss9`` first). ``--models`` names the folders the study's models
+came from (a feature file is found by its model's sha256). The cost per model (sampling and
+blocks) is reported.
+
+    nice -n 10 .venv/bin/python bench/selection/twist_block_select.py /work/study8 --round 2 \\
+        --models /work/tuning /work/tuning-mcad --json /work/study8/twist2.json
 """
 
 from __future__ import annotations
 
 import os
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -56,9 +86,10 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from hubness_select import pooled_rows  # noqa: E402
-from local_features_select import joined  # noqa: E402
+from local_features_select import Study, joined  # noqa: E402
 from mcad_check import CANDIDATE, CATALOGUE, KEYS  # noqa: E402
 from profile_block_select import (  # noqa: E402
+    SS6_RING_WEIGHT,
     blocks_per_source,
     decide,
     score_candidates,
@@ -67,11 +98,18 @@ from profile_block_select import (  # noqa: E402
     study_samples,
 )
 
+from core.descriptor import ring_block  # noqa: E402
+from core.evaluation.dataset import load_dataset  # noqa: E402
 from core.extrinsic import ANGULAR_BANDS, principal_frame  # noqa: E402
+from core.io import load_points  # noqa: E402
+from core.settings import EngineSettings  # noqa: E402
 
 SS9 = "ss9"
 SLABS = 4
 WEIGHTS = (1.0, 2.0, 4.0)
+DENSE_POINTS = (12000, 30000)
+DENSE_TWIST_WEIGHTS = (1.0, 2.0)
+RING_WIDTH = 30
 
 
 def _slab_coefficients(across: np.ndarray, along: np.ndarray, weights: np.ndarray
@@ -123,34 +161,104 @@ def twist_block(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
     return values / np.sqrt(values.size)
 
 
-def main(argv: list[str] | None = None) -> int:
-    args, study, cache = study_command(__doc__, argv)
-    scored = study.scored
-    raw, caps = ss9_blocks(study, cache)
+def dense_blocks(study: Study, roots: list[Path], count: int, cache: Path
+                 ) -> dict[str, dict[str, np.ndarray]]:
+    """The ring block (the service's soft shells, weight 1) and the ``twist`` block of every
+    model on a dense sample of ``count`` points, ``{"ring": .., "twist": ..}`` of ``(m, 30)``
+    per source (capod-nonrigid included), in the study's file order; cached per source, and
+    the median milliseconds per model (sampling and both blocks) under ``"ms"``."""
+    settings = EngineSettings()
+    blocks: dict[str, dict[str, np.ndarray]] = {"ring": {}, "twist": {}, "ms": {}}
+    for source, folder in zip(study.sources, study.folders, strict=True):
+        path = cache / f"dense-{count}-{source.name}.npz"
+        if not path.exists():
+            models = {model.sha256[:24]: model.path for root in roots
+                      if (root / source.name).is_dir()
+                      for model in load_dataset(root / source.name).models}
+            rings, twists, spent = [], [], []
+            for file in sorted(folder.glob("*.npz")):
+                started = time.perf_counter()
+                points = load_points(models[file.stem], max_points=count,
+                                     seed=settings.sample_seed).points
+                weights = np.ones(len(points))
+                rings.append(ring_block(points, weights,
+                                        shell_centres=settings.descriptor.ring_shells))
+                twists.append(twist_block(points, weights))
+                spent.append(1000.0 * (time.perf_counter() - started))
+            np.savez(path, ring=np.array(rings), twist=np.array(twists), ms=np.array(spent))
+        with np.load(path) as stored:
+            for key in blocks:
+                blocks[key][source.name] = stored[key]
+        print(f"  dense {count}: {source.name} done", flush=True)
+    return {key: study.with_nonrigid(rows) for key, rows in blocks.items()}
+
+
+def round_one(study: Study, raw: dict[str, np.ndarray], caps: dict[str, np.ndarray]
+              ) -> Iterator[tuple[str, dict[str, np.ndarray]]]:
     timings: list[float] = []
-    samples = study_samples(study)
-    twist = study.with_nonrigid(blocks_per_source(samples, twist_block, timings))
+    twist = study.with_nonrigid(blocks_per_source(study_samples(study), twist_block, timings))
     print(f"twist block: median {np.median(timings):.1f} ms per model", flush=True)
+    yield SS9, {s.name: joined(raw[s.name], caps[s.name], 1.0) for s in study.scored}
+    for weight in WEIGHTS:
+        yield f"ss9 + twist w{weight:g}", {
+            s.name: joined(np.hstack([raw[s.name], caps[s.name]]), twist[s.name], weight)
+            for s in study.scored}
 
-    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
-        yield SS9, {s.name: joined(raw[s.name], caps[s.name], 1.0) for s in scored}
-        for weight in WEIGHTS:
-            yield f"ss9 + twist w{weight:g}", {
-                s.name: joined(np.hstack([raw[s.name], caps[s.name]]), twist[s.name], weight)
+
+def round_two(study: Study, raw: dict[str, np.ndarray], caps: dict[str, np.ndarray],
+              dense: dict[int, dict[str, dict[str, np.ndarray]]]
+              ) -> Iterator[tuple[str, dict[str, np.ndarray]]]:
+    scored = study.scored
+    yield SS9, {s.name: joined(raw[s.name], caps[s.name], 1.0) for s in scored}
+    ring_columns = raw["capod"].shape[1] - RING_WIDTH  # ss9's ring block is raw's last
+    for count, blocks in dense.items():
+        rows = {s.name: np.hstack([raw[s.name][:, :ring_columns],
+                                   SS6_RING_WEIGHT * blocks["ring"][s.name], caps[s.name]])
                 for s in scored}
+        yield f"dense ring {count}", {s.name: joined(rows[s.name], None, 0.0) for s in scored}
+        for weight in DENSE_TWIST_WEIGHTS:
+            yield f"dense ring {count} + twist w{weight:g}", {
+                s.name: joined(rows[s.name], blocks["twist"][s.name], weight) for s in scored}
 
-    table, widths, queries = score_candidates(candidates(), scored)
-    report = decide(table, queries, widths, "twist block", tuple(s.name for s in study.sources),
-                    SS9, args.json, widths=widths,
-                    extra={"cost_ms": float(np.median(timings))})
-    choice = str(report["chosen"])
-    added = None if choice == SS9 else (twist, float(choice.rsplit("w", 1)[1]))
-    rows, library_kinds = pooled_rows(study, CATALOGUE, added)
-    kinds = [KIND_OF.get(label, label) for label in library_kinds]
-    for order, name in (("plain", SS9), ("service", CANDIDATE)):
-        result = scores(KEYS[name](rows), kinds)
-        print(f"one catalogue by kind, {choice}, {order}: NN {result['nn']:.3f}, "
-              f"mAP {result['map']:.3f}, top-5 {result['top5']:.3f}")
+
+def catalogue_rows(study: Study, choice: str,
+                   dense: dict[int, dict[str, dict[str, np.ndarray]]]) -> np.ndarray:
+    """The one catalogue's unit rows as ``choice`` (a round-2 candidate) encodes them."""
+    if choice == SS9:
+        return pooled_rows(study, CATALOGUE)[0]
+    count = int(choice.split()[2])
+    added = None
+    if "twist" in choice:
+        added = (dense[count]["twist"], float(choice.rsplit("w", 1)[1]))
+    return pooled_rows(study, CATALOGUE, added, dense[count]["ring"])[0]
+
+
+def main(argv: list[str] | None = None) -> int:
+    args, study, cache = study_command(__doc__, argv, rounds=(1, 2), models=True)
+    raw, caps = ss9_blocks(study, cache)
+    dense: dict[int, dict[str, dict[str, np.ndarray]]] = {}
+    if args.round == 2:
+        for count in DENSE_POINTS:
+            dense[count] = dense_blocks(study, args.models, count, cache)
+            spent = np.concatenate([dense[count]["ms"][s.name] for s in study.sources])
+            print(f"dense {count}: median {np.median(spent):.0f} ms per model", flush=True)
+    candidates = (round_one(study, raw, caps) if args.round == 1
+                  else round_two(study, raw, caps, dense))
+    table, widths, queries = score_candidates(candidates, study.scored)
+    order = {name: rank for rank, name in enumerate(table)}
+    tie = {name: (widths[name], order[name]) for name in table}
+    report = decide(table, queries, tie, f"twist block, round {args.round}",
+                    tuple(s.name for s in study.sources), SS9, args.json,
+                    tie_key="width, grid order", widths=widths)
+    if args.round == 2:
+        _, library_kinds = pooled_rows(study, CATALOGUE)
+        kinds = [KIND_OF.get(label, label) for label in library_kinds]
+        for choice in dict.fromkeys((SS9, str(report["chosen"]))):
+            rows = catalogue_rows(study, choice, dense)
+            for order_name, name in (("plain", SS9), ("service", CANDIDATE)):
+                result = scores(KEYS[name](rows), kinds)
+                print(f"one catalogue by kind, {choice}, {order_name}: NN {result['nn']:.3f}, "
+                      f"mAP {result['map']:.3f}, top-5 {result['top5']:.3f}")
     return 0
 
 
