@@ -38,6 +38,14 @@ below the reference's and its NN not below by more than 0.01.
 
     nice -n 10 .venv/bin/python bench/selection/diffusion_select.py /work/study8 \\
         --json /work/study8/diffusion.json
+
+**Result** (2026-11-27, twelfth session; docs/results.md, "Diffusion"): declined. Every
+candidate's mean is below the reference's (0.8683; ``k`` 5, ``alpha`` 0.8: 0.8535; ``k`` 10,
+``alpha`` 0.95: 0.7643), the rule keeps the reference without every source (+0.0000 left
+out). Diffusion helps only capod (0.985 -> 0.990) and the non-rigid shapes; it costs
+py-gearworks (0.591 -> 0.560), our generator, pymadcad, MCAD (0.726 -> 0.690) and bd-vslot:
+with kinds of 8 to 10 members, the walk leaves the kind through look-alike kinds sooner
+than it reaches the rest of its own.
 """
 
 from __future__ import annotations
