@@ -34,6 +34,15 @@ the cost per model (sampling and the blocks).
 
     nice -n 10 .venv/bin/python bench/selection/dense_extrinsic_select.py /work/study8 \\
         --models /work/tuning /work/tuning-mcad --json /work/study8/dense_extrinsic.json
+
+**Result** (2026-11-27, twelfth session; docs/results.md, "The extrinsic blocks on a dense
+sample"): declined. The check passed (largest cosine difference 6.8e-06). Over the eight
+the rule picks ``extrinsic on 8000`` (0.8407 against 0.8376), but only because of MCAD
+(0.673 -> 0.697); without MCAD it keeps ``ss9``, so leave-one-source-out is +0.0001 (95 %
+-0.0016 .. +0.0019). Bent shapes lose (0.981 -> 0.973), as do py-gearworks (0.587 -> 0.581)
+and capod-nonrigid. The one catalogue by kind in the service's order: NN 0.850 -> 0.859, mAP
+0.663 -> 0.672 (reported, not a test). 113 ms (8000) and 148 ms (12000 without caps) per
+model, median, sampling and blocks.
 """
 
 from __future__ import annotations
