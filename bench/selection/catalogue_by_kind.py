@@ -99,6 +99,17 @@ def scores(keys: np.ndarray, labels: list[str]) -> dict[str, float]:
     return score_rankings(relevance)
 
 
+def print_orders(name: str, rows: np.ndarray, kinds: list[str]) -> dict[str, dict[str, float]]:
+    """Score unit ``rows`` of the one catalogue by ``kinds`` in plain cosine order and in the
+    service's; print and return both."""
+    results = {}
+    for order, keys in ORDERS.items():
+        results[order] = scores(KEYS[keys](rows), kinds)
+        print(f"one catalogue by kind, {name}, {order}: NN {results[order]['nn']:.3f}, "
+              f"mAP {results[order]['map']:.3f}, top-5 {results[order]['top5']:.3f}")
+    return results
+
+
 def first_answers(keys: np.ndarray, kinds: list[str]) -> dict[str, dict[str, object]]:
     """Per kind: its parts, how many first answers are of the kind, and the kinds taken."""
     masked = np.array(keys, dtype=np.float64)

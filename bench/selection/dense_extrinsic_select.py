@@ -60,10 +60,10 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from catalogue_by_kind import KIND_OF, scores  # noqa: E402
+from catalogue_by_kind import KIND_OF, print_orders  # noqa: E402
 from hubness_select import pooled_rows  # noqa: E402
 from local_features_select import Study, joined  # noqa: E402
-from mcad_check import CANDIDATE, CATALOGUE, KEYS  # noqa: E402
+from mcad_check import CATALOGUE  # noqa: E402
 from profile_block_select import (  # noqa: E402
     decide,
     default_local_blocks,
@@ -72,9 +72,9 @@ from profile_block_select import (  # noqa: E402
     study_command,
     study_samples,
 )
+from twist_block_select import model_paths  # noqa: E402
 
 from core.descriptor import DescriptorSpec  # noqa: E402
-from core.evaluation.dataset import load_dataset  # noqa: E402
 from core.io import load_points  # noqa: E402
 from core.local_features import Vocabulary, encode_vlad  # noqa: E402
 from core.settings import DescriptorSettings, EngineSettings  # noqa: E402
@@ -128,9 +128,7 @@ def dense_extrinsic(study: Study, roots: list[Path], count: int, cache: Path,
         name = f"dense-extrinsic-{count}{'-nocaps' if without_caps else ''}-{source.name}"
         path = cache / f"{name}.npz"
         if not path.exists():
-            models = {model.sha256[:24]: model.path for root in roots
-                      if (root / source.name).is_dir()
-                      for model in load_dataset(root / source.name).models}
+            models = model_paths(roots, source.name)
             blocks, timings = [], []
             for file in sorted(folder.glob("*.npz")):
                 started = time.perf_counter()
@@ -217,10 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     if chosen != SS9:
         catalogues[chosen] = catalogue_rows(study, spectral, dense[chosen])
     for name, vectors in catalogues.items():
-        for order_name, order_key in (("plain", SS9), ("service", CANDIDATE)):
-            result = scores(KEYS[order_key](vectors), kinds)
-            print(f"one catalogue by kind, {name}, {order_name}: NN {result['nn']:.3f}, "
-                  f"mAP {result['map']:.3f}, top-5 {result['top5']:.3f}")
+        print_orders(name, vectors, kinds)
     return 0
 
 

@@ -84,10 +84,10 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from catalogue_by_kind import KIND_OF, scores  # noqa: E402
+from catalogue_by_kind import KIND_OF, print_orders  # noqa: E402
 from hubness_select import pooled_rows  # noqa: E402
 from local_features_select import Study, joined  # noqa: E402
-from mcad_check import CANDIDATE, CATALOGUE, KEYS  # noqa: E402
+from mcad_check import CATALOGUE  # noqa: E402
 from profile_block_select import (  # noqa: E402
     SS6_RING_WEIGHT,
     blocks_per_source,
@@ -161,6 +161,13 @@ def twist_block(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
     return values / np.sqrt(values.size)
 
 
+def model_paths(roots: list[Path], source: str) -> dict[str, Path]:
+    """The model files of ``source`` under ``roots`` by the name of their feature files
+    (their sha256's first 24 hex digits)."""
+    return {model.sha256[:24]: model.path for root in roots if (root / source).is_dir()
+            for model in load_dataset(root / source).models}
+
+
 def dense_blocks(study: Study, roots: list[Path], count: int, cache: Path
                  ) -> dict[str, dict[str, np.ndarray]]:
     """The ring block (the service's soft shells, weight 1) and the ``twist`` block of every
@@ -172,9 +179,7 @@ def dense_blocks(study: Study, roots: list[Path], count: int, cache: Path
     for source, folder in zip(study.sources, study.folders, strict=True):
         path = cache / f"dense-{count}-{source.name}.npz"
         if not path.exists():
-            models = {model.sha256[:24]: model.path for root in roots
-                      if (root / source.name).is_dir()
-                      for model in load_dataset(root / source.name).models}
+            models = model_paths(roots, source.name)
             rings, twists, spent = [], [], []
             for file in sorted(folder.glob("*.npz")):
                 started = time.perf_counter()
@@ -254,11 +259,7 @@ def main(argv: list[str] | None = None) -> int:
         _, library_kinds = pooled_rows(study, CATALOGUE)
         kinds = [KIND_OF.get(label, label) for label in library_kinds]
         for choice in dict.fromkeys((SS9, str(report["chosen"]))):
-            rows = catalogue_rows(study, choice, dense)
-            for order_name, name in (("plain", SS9), ("service", CANDIDATE)):
-                result = scores(KEYS[name](rows), kinds)
-                print(f"one catalogue by kind, {choice}, {order_name}: NN {result['nn']:.3f}, "
-                      f"mAP {result['map']:.3f}, top-5 {result['top5']:.3f}")
+            print_orders(choice, catalogue_rows(study, choice, dense), kinds)
     return 0
 
 
