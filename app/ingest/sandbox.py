@@ -30,6 +30,8 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from typing import Any, TypeVar
 
+import numpy as np
+from scipy.linalg import blas
 from threadpoolctl import threadpool_limits
 
 from app.settings import Settings
@@ -48,12 +50,27 @@ class SandboxCrash(RuntimeError):
     """The child raised an unexpected exception (a bug, or an input nobody foresaw)."""
 
 
+def _warm_blas() -> None:
+    """Have numpy's and scipy's OpenBLAS allocate their work buffers now, before the limit.
+
+    OpenBLAS allocates a thread's buffer at its first matrix product, outside Python; under
+    the address-space limit a refused allocation makes it end the whole process (exit code
+    1, "Memory allocation still failed") instead of raising ``MemoryError``, so a file over
+    the limit would look like a crash rather than be refused as too large. 256 x 256 is
+    above OpenBLAS's small-matrix path, which uses no buffer.
+    """
+    square = np.ones((256, 256))
+    square @ square
+    blas.dgemm(1.0, square, square)
+
+
 def _child(
     connection: Connection, memory_bytes: int, function: Callable[..., Any], args: tuple
 ) -> None:
-    resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
     try:
         threadpool_limits(limits=1)  # one describe per child; children run side by side
+        _warm_blas()
+        resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
         outcome: tuple[str, Any] = ("ok", function(*args))
     except InvalidShapeError as error:
         outcome = ("invalid", (error.reason, error.message))
