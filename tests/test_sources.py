@@ -11,7 +11,15 @@ import pytest
 
 from core.evaluation.dataset import load_dataset
 from core.evaluation.sources import write_sources
-from core.evaluation.sources.bendable import KINDS, bend_points, centre_line, parts
+from core.evaluation.sources.bendable import (
+    IDENTITIES,
+    IDENTITY_KINDS,
+    KINDS,
+    bend_points,
+    centre_line,
+    identity_parts,
+    parts,
+)
 
 
 def test_centre_line_keeps_its_length_however_it_is_bent() -> None:
@@ -46,6 +54,28 @@ def test_every_bendable_pose_keeps_its_area(kind: str) -> None:
     assert all(mesh.is_watertight for mesh in meshes)
     extents = np.array([sorted(mesh.extents) for mesh in meshes])
     assert np.ptp(extents, axis=0).max() > 0.2 * extents[0].max()  # the poses really differ
+
+
+def test_the_poses_source_holds_shapes_in_shared_poses() -> None:
+    """FAUST's design: classes differ only in proportions, and every class takes the same
+    poses, so the same pose of another class looks alike in space but not intrinsically."""
+    meshes = {(label, name): mesh for label, name, mesh in identity_parts()}
+    labels = {label for label, _ in meshes}
+    assert len(labels) == len(IDENTITY_KINDS) * len(IDENTITIES)
+    assert len(meshes) == 8 * len(labels)
+    for label in labels:
+        areas = np.array([meshes[label, f"pose{pose}"].area for pose in range(8)])
+        assert areas.max() / areas.min() < 1.01  # no size jitter; a bend keeps the area
+    for kind in IDENTITY_KINDS:
+        short, long = (meshes[f"{kind}_x{factor:g}", "pose0"] for factor in (0.6, 1.6))
+        # Straight, the longer shape is about 1.6 / 0.6 as long and as thick: other
+        # proportions (a spring's wire adds a little to both ends).
+        assert max(long.extents) / max(short.extents) > 2.4
+        assert min(long.extents) == pytest.approx(min(short.extents), rel=0.02)
+        # In the last pose every shape of the kind is bent well away from its axis.
+        for factor in IDENTITIES:
+            bent = meshes[f"{kind}_x{factor:g}", "pose7"]
+            assert np.ptp(bent.vertices[:, 0]) > 0.2 * max(bent.extents)
 
 
 def test_sources_are_written_as_a_labelled_dataset_and_repeat(tmp_path: Path) -> None:

@@ -15,9 +15,10 @@ the libraries' own parametric models.
 | ``generated`` | ours (``core.evaluation.parts_generator``) | ours | 14 part families |
 | ``bendable`` | ours (``core.evaluation.sources.bendable``) | ours | 6 bendable kinds, 8 poses |
 | ``mcad`` | OpenSCAD's MCAD (``openscad-mcad``) | LGPL-2.1 | 11: bolts (3 heads), gears, ... |
+| ``poses`` | ours (``bendable.identity_parts``) | ours | 20 shapes of 4 kinds, 8 shared poses |
 
-``NON_RIGID`` names what bends: the whole ``bendable`` source and capod's articulated
-classes.
+``NON_RIGID`` names what bends: the whole ``bendable`` and ``poses`` sources and capod's
+articulated classes.
 """
 
 from __future__ import annotations
@@ -27,7 +28,9 @@ from pathlib import Path
 
 import trimesh
 
-__all__ = ["DEFAULT_SOURCES", "NON_RIGID", "SHARED", "SOURCES", "write_sources"]
+__all__ = [
+    "CHECK_SOURCES", "DEFAULT_SOURCES", "NON_RIGID", "SHARED", "SOURCES", "write_sources",
+]
 
 #: The shared datasets folder (next to the repository), for ``parts`` and ``capod``.
 SHARED = Path(__file__).resolve().parents[3].parent / "shared" / "datasets"
@@ -35,6 +38,7 @@ SHARED = Path(__file__).resolve().parents[3].parent / "shared" / "datasets"
 #: Source -> classes that bend or articulate (``None``: every class of the source).
 NON_RIGID: dict[str, tuple[str, ...] | None] = {
     "bendable": None,
+    "poses": None,
     "capod": ("Dog", "Hand", "Horse", "Human", "Spider"),
 }
 
@@ -65,6 +69,11 @@ def _mcad(seed: int, shared: Path) -> Parts:
     return parts()
 
 
+def _poses(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.bendable import identity_parts
+    return identity_parts()
+
+
 def _parts(seed: int, shared: Path) -> Parts:
     from core.evaluation.sources.real_parts import parts
 
@@ -88,13 +97,17 @@ def _bendable(seed: int, shared: Path) -> Parts:
 #: Every source that writes meshes (``capod`` is linked, not written).
 SOURCES: dict[str, Callable[[int, Path], Parts]] = {
     "madcad": _madcad, "gearworks": _gearworks, "vslot": _vslot, "parts": _parts,
-    "generated": _generated, "bendable": _bendable, "mcad": _mcad,
+    "generated": _generated, "bendable": _bendable, "mcad": _mcad, "poses": _poses,
 }
 
-#: The sources written when none are named: every one but ``mcad``, which needs the
-#: ``openscad`` program (not a wheel) and was added later, as a check on settings chosen
-#: without it.
-DEFAULT_SOURCES: tuple[str, ...] = (*(name for name in SOURCES if name != "mcad"), "capod")
+#: Sources written only when named: ``mcad`` needs the ``openscad`` program (not a wheel)
+#: and was added later, as a check on settings chosen without it; ``poses`` checks the
+#: descriptor families (shapes in shared poses) and is not a tuning source.
+CHECK_SOURCES: tuple[str, ...] = ("mcad", "poses")
+
+#: The sources written when none are named.
+DEFAULT_SOURCES: tuple[str, ...] = (
+    *(name for name in SOURCES if name not in CHECK_SOURCES), "capod")
 
 
 def write_sources(out: Path, names: list[str], seed: int = 0,

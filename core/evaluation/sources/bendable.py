@@ -16,7 +16,10 @@ from collections.abc import Callable, Iterator
 import numpy as np
 import trimesh
 
-__all__ = ["KINDS", "bend_check_shapes", "bend_points", "centre_line", "parts", "tube_mesh"]
+__all__ = [
+    "IDENTITIES", "IDENTITY_KINDS", "KINDS", "bend_check_shapes", "bend_points", "centre_line",
+    "identity_parts", "parts", "tube_mesh",
+]
 
 _STEPS = 240  # centre-line samples: fine enough that a bend's facets stay small
 
@@ -196,6 +199,26 @@ def parts(kinds: tuple[str, ...] = KINDS, seed: int = 0
         rng = np.random.default_rng([seed, KINDS.index(kind) if kind in KINDS else number])
         for pose, fraction, jitter in _poses(rng):
             yield kind, f"pose{pose}", _BUILDERS[kind](fraction, jitter)
+
+
+#: ``identity_parts``: the kinds, and the length (or pitch) factors that make one shape of a
+#: kind differ from another (its proportions, which bending keeps).
+IDENTITY_KINDS: tuple[str, ...] = ("hose", "bent_spring", "strip", "finger")
+IDENTITIES: tuple[float, ...] = (0.6, 0.8, 1.0, 1.25, 1.6)
+
+
+def identity_parts() -> Iterator[tuple[str, str, trimesh.Trimesh]]:
+    """``(class, name, mesh)``: shapes told apart only by their proportions, each in the same
+    eight poses, a class per shape (FAUST's design: ten people in the same ten poses).
+
+    A descriptor that sees the pose finds the same pose of another shape first; one that sees
+    only what bending keeps finds the same shape in another pose. Deterministic (no jitter).
+    """
+    for kind in IDENTITY_KINDS:
+        for factor in IDENTITIES:
+            for pose, fraction in enumerate(np.linspace(0.0, 1.0, 8)):
+                yield (f"{kind}_x{factor:g}", f"pose{pose}",
+                       _BUILDERS[kind](float(fraction), factor))
 
 
 def bend_check_shapes() -> dict[str, trimesh.Trimesh]:
