@@ -1,0 +1,94 @@
+"""Issue 24 follow-up: the ``bendable`` family's rule asked again in the search service's order.
+
+Measurement only (the family does not change in this step; a choice that ships is adopted in
+a later step, with its tests, the bend check and the cost). Why, disclosed: the family
+(``spectral`` and the idf word counts of HKS on 64 words at weight 2) was chosen by issue
+24's rule 4 on plain distances, before the search service ranked by the hub discount and the
+k-reciprocal re-rank. Looked at before this script was written (twelfth session): in the
+service's order, ``spectral`` alone scored above the family on the two non-rigid sources
+(bendable 0.983 against 0.975, capod-nonrigid 1.000 against 0.999), on capod (0.980 against
+0.905) and on the ``poses`` check built like FAUST (0.964 against 0.952), while in plain
+order the family leads on the two non-rigid sources (0.963 against 0.938, 0.989 against
+0.982), which is how it was chosen. So the question is asked again, by the rule as written,
+in the order the service answers in.
+
+Candidates: ``spectral`` with the family's words at weight {0 (``spectral`` alone), 0.5, 1,
+2 (the family as shipped)}, each source's words fitted on the other sources; every
+candidate ranked in the service's order (``mcad_check.CANDIDATE``). The rule (issue 24's
+rule 4, the ring study's test): mAP per source on the non-rigid sources (bendable,
+capod-nonrigid), the best mean, ties within 0.002 to the narrower vector; leave-one-source-
+out (each source scored by the candidate chosen on the other); it ships only if (1) the
+left-out mean is above the shipped family's by more than 0.002 with the 95 % paired bootstrap
+interval over queries above zero, and (2) its mean over all eight sources in the service's
+order is not below the shipped family's.
+
+    nice -n 10 .venv/bin/python bench/selection/bendable_order_select.py /work/study8 \\
+        --json /work/study8/bendable_order.json
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from extraction_select import BENDABLE_WORDS_WEIGHT, NON_RIGID_SOURCES  # noqa: E402
+from local_features_select import joined  # noqa: E402
+from mcad_check import CANDIDATE, KEYS  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    decide,
+    default_local_blocks,
+    score_distances,
+    study_command,
+)
+
+WORD_WEIGHTS = (0.0, 0.5, 1.0, BENDABLE_WORDS_WEIGHT)
+SHIPPED = f"spectral + words w{BENDABLE_WORDS_WEIGHT:g}"
+
+
+def name_of(weight: float) -> str:
+    return "spectral" if weight == 0 else f"spectral + words w{weight:g}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args, study, cache = study_command(__doc__, argv)
+    scored = study.scored
+    words = study.with_nonrigid(default_local_blocks(study.sources, cache, False, "hks", "bof"))
+    spectral = study.with_nonrigid({s.name: s.bases["spectral"] for s in study.sources})
+    widths = {name_of(w): spectral["capod"].shape[1] + (words["capod"].shape[1] if w else 0)
+              for w in WORD_WEIGHTS}
+
+    def candidates() -> Iterator[tuple[str, dict[str, np.ndarray]]]:
+        for weight in WORD_WEIGHTS:
+            yield name_of(weight), {
+                s.name: KEYS[CANDIDATE](joined(spectral[s.name], words[s.name] if weight else None,
+                                               weight)) for s in scored}
+
+    table, queries = score_distances(candidates(), scored)
+    order = list(table)
+    tie = {name: (widths[name], order.index(name)) for name in table}
+    report = decide(table, queries, tie, "the bendable family in the service's order",
+                    NON_RIGID_SOURCES, SHIPPED, args.json, tie_key="width, grid order",
+                    widths=widths)
+    chosen = str(report["chosen"])
+    everywhere = tuple(s.name for s in study.sources)
+    overall = {c: float(np.mean([table[c][s]["map"] for s in everywhere])) for c in table}
+    print("mean over the eight sources, the service's order:",
+          {c: round(v, 4) for c, v in overall.items()})
+    second = overall[chosen] >= overall[SHIPPED]
+    ships = bool(report["ships"]) and second
+    print(f"choice {chosen}: left-out test {report['ships']}, mean over eight "
+          f"{overall[chosen]:.4f} against the shipped family's {overall[SHIPPED]:.4f}: {second}; "
+          f"ships: {ships}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
