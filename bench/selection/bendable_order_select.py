@@ -24,6 +24,14 @@ order is not below the shipped family's.
 
     nice -n 10 .venv/bin/python bench/selection/bendable_order_select.py /work/study8 \\
         --json /work/study8/bendable_order.json
+
+**Result** (2026-11-27, twelfth session; docs/results.md, "Shapes in shared poses"): not
+shipped, the family stays. The rule picks ``spectral`` alone on the two non-rigid sources
+(0.9915; words at 0.5 tie, the narrower wins), left out +0.0048 against the family, but the
+95 % interval reaches below zero (-0.0009 .. +0.0122), and ``spectral``'s mean over the eight
+sources (0.8082) is below the family's (0.8094): the words help the rigid parts a bendable
+database may also hold (pymadcad 0.901 -> 0.940, MCAD 0.752 -> 0.773) and cost capod (0.980
+-> 0.905).
 """
 
 from __future__ import annotations
