@@ -26,6 +26,12 @@ def sleep(seconds: float) -> None:
     time.sleep(seconds)
 
 
+def product_into(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> float:
+    """A matrix product that allocates nothing in Python: only OpenBLAS's own buffers."""
+    np.matmul(a, b, out=out)
+    return float(out[0, 0])
+
+
 def kill_myself() -> None:
     os.kill(os.getpid(), signal.SIGKILL)
 
@@ -89,3 +95,13 @@ def test_the_worker_describes_in_the_sandbox(tmp_path) -> None:
     with pytest.raises(InvalidShapeError) as refused:
         describe_handler(tight)((PARTS / "cylinder.stl").read_bytes(), "cylinder.stl")
     assert refused.value.reason == "too_large"
+
+
+def test_blas_under_a_tight_limit_is_not_a_crash() -> None:
+    """OpenBLAS allocates its work buffer at a process's first product, outside Python;
+    under the limit that allocation fails (the product is refused as too large, or OpenBLAS
+    ends the process with exit code 1, as the describe test above saw). The child lets it
+    allocate before the limit, so a product whose arrays exist already runs."""
+    a, b, out = np.ones((300, 300)), np.ones((300, 300)), np.empty((300, 300))
+    tight = Sandbox(memory_bytes=256 * 1024 * 1024, timeout_seconds=30)
+    assert tight.run(product_into, a, b, out) == 300.0
