@@ -11,9 +11,10 @@ decided by what each library's part is, from its documentation and the source bu
 
 Disclosed: this script was written after the eleventh session's first-answer mistakes of the
 library-labelled catalogue had been looked at (12th session: 54 of 326 first answers wrong in
-the service's order; 29 of them py-gearworks' spur, helical and herringbone gears for each
-other, 10 MCAD's blocks and rounded boxes for each other, 7 a part of one library taken for
-the same kind from another). It reports; it chooses nothing.
+the service's order; 29 of them py-gearworks' gears taken for other gear kinds, 27 of those
+spur, helical and herringbone gears for each other; 10 MCAD's blocks and rounded boxes for
+each other; 5 a part of one library taken for the same kind from another). It reports; it
+chooses nothing.
 
 Reported for each descriptor family the service can hold, ``ss9`` (the rigid default),
 ``spectral`` (the intrinsic default before issue 12) and ``bendable`` (``spectral`` with the
