@@ -455,9 +455,9 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         print(f"in-process {label} k={K}: {percentiles(times)}; results min {min(counts)}")
         medians[label] = float(np.median(times))
     index.hub_neighbours, index.reciprocal = hub, reciprocal
-    for pool in args.reciprocal_pools:  # the re-rank's cost per pool size
-        import core.reciprocal
+    import core.reciprocal
 
+    for pool in args.reciprocal_pools:  # the re-rank's cost per pool size
         shipped, core.reciprocal.RECIPROCAL_POOL = core.reciprocal.RECIPROCAL_POOL, pool
         index.reciprocal = True
         times, _ = timed_similar(index, reader, rng.choice(model_ids, size=args.queries))

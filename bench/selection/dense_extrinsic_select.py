@@ -61,7 +61,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from catalogue_by_kind import KIND_OF, print_orders  # noqa: E402
-from hubness_select import pooled_rows  # noqa: E402
+from hubness_select import pooled_labels, pooled_local, pooled_rows  # noqa: E402
 from local_features_select import Study, joined  # noqa: E402
 from mcad_check import CATALOGUE  # noqa: E402
 from profile_block_select import (  # noqa: E402
@@ -76,7 +76,6 @@ from twist_block_select import model_paths  # noqa: E402
 
 from core.descriptor import DescriptorSpec  # noqa: E402
 from core.io import load_points  # noqa: E402
-from core.local_features import Vocabulary, encode_vlad  # noqa: E402
 from core.settings import DescriptorSettings, EngineSettings  # noqa: E402
 
 SS9 = "ss9"
@@ -166,18 +165,10 @@ def check_reproduced(study: Study, spectral: dict[str, np.ndarray], local: dict[
 def catalogue_rows(study: Study, spectral: dict[str, np.ndarray],
                    extrinsic: dict[str, np.ndarray]) -> np.ndarray:
     """The one catalogue's unit rows with ``extrinsic`` blocks, its local block encoded by
-    one vocabulary fitted on the other sources (as ``pooled_rows`` does), in its order."""
-    fitted_on = [s for s in study.sources if s.name not in CATALOGUE]
-    vocabulary = Vocabulary.fit([r for s in fitted_on for r in s.local["hks+sv"]], 64, seed=0,
-                                per_model=200)
-    by_name = {s.name: s for s in study.sources}
-    rows = []
-    for name in CATALOGUE:
-        source = by_name[name]
-        local = np.array([encode_vlad(f, a, vocabulary)
-                          for f, a in zip(source.local["hks+sv"], source.areas, strict=True)])
-        rows.append(joined(np.hstack([spectral[name], extrinsic[name], local]), None, 0.0))
-    return np.vstack(rows)
+    one vocabulary fitted on the other sources (``pooled_local``), in its order."""
+    local = pooled_local(study, CATALOGUE)
+    return np.vstack([joined(np.hstack([spectral[name], extrinsic[name], local[name]]), None,
+                             0.0) for name in CATALOGUE])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -209,9 +200,8 @@ def main(argv: list[str] | None = None) -> int:
                     tuple(s.name for s in study.sources), SS9, args.json,
                     tie_key="width, grid order", widths=widths)
     chosen = str(report["chosen"])
-    rows, library_kinds = pooled_rows(study, CATALOGUE)
-    kinds = [KIND_OF.get(label, label) for label in library_kinds]
-    catalogues = {SS9: rows}
+    kinds = [KIND_OF.get(label, label) for label in pooled_labels(study, CATALOGUE)]
+    catalogues = {SS9: pooled_rows(study, CATALOGUE)[0]}
     if chosen != SS9:
         catalogues[chosen] = catalogue_rows(study, spectral, dense[chosen])
     for name, vectors in catalogues.items():

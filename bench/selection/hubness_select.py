@@ -85,6 +85,7 @@ from profile_block_select import (  # noqa: E402
     Table,
     decide,
     default_ring_and_caps,
+    fold_words,
     score_distances,
     ss9_blocks,
     study_command,
@@ -92,7 +93,7 @@ from profile_block_select import (  # noqa: E402
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
 from core.hubness import hub_discounted_keys, neighbourhood_radii  # noqa: E402
-from core.local_features import Vocabulary, encode_vlad  # noqa: E402
+from core.local_features import encode_bof, encode_vlad  # noqa: E402
 
 SS9 = "ss9"
 NEIGHBOURS = (5, 10)
@@ -117,30 +118,45 @@ def hub_discounted(rows: np.ndarray, neighbours: int, beta: float) -> np.ndarray
                                exclude=np.eye(len(rows), dtype=bool))
 
 
+def pooled_labels(study: Study, pooled: tuple[str, ...] = POOLED) -> list[str]:
+    """The kinds of the ``pooled`` sources' models, named by source, in ``pooled_rows``'
+    order."""
+    by_name = {s.name: s for s in study.sources}
+    return [f"{name}/{label}" for name in pooled for label in by_name[name].labels]
+
+
+def pooled_local(study: Study, pooled: tuple[str, ...] = POOLED, features: str = "hks+sv",
+                 encoding: str = "vlad") -> dict[str, np.ndarray]:
+    """The local block ``(m, b)`` of each of the ``pooled`` sources as one catalogue encodes
+    them: one vocabulary for all, fitted on the other sources (none of the pooled ones);
+    ``features`` and ``encoding`` (``"bof"``) as ``default_local_blocks`` takes them."""
+    by_name = {s.name: s for s in study.sources}
+    vocabulary = fold_words(study.sources, pooled, features)
+    encode = encode_vlad if encoding == "vlad" else encode_bof
+    return {name: np.array([encode(f, a, vocabulary) for f, a in
+                            zip(by_name[name].local[features], by_name[name].areas, strict=True)])
+            for name in pooled}
+
+
 def pooled_rows(study: Study, pooled: tuple[str, ...] = POOLED,
                 added: tuple[dict[str, np.ndarray], float] | None = None,
                 ring: dict[str, np.ndarray] | None = None) -> tuple[np.ndarray, list[str]]:
-    """``ss9`` unit rows of the ``pooled`` sources as one catalogue encodes them: one
-    vocabulary for all, fitted on the other sources (none of the pooled ones), and the
-    kinds named by source. ``added``: a candidate block ``(m, b)`` per source and its weight,
-    joined to ``ss9``'s weighted blocks before the one unit scaling; ``ring``: a ring block
-    ``(m, 30)`` per source (weight 1) in place of ``ss9``'s."""
+    """``ss9`` unit rows of the ``pooled`` sources as one catalogue encodes them
+    (``pooled_local``), and the kinds named by source (``pooled_labels``). ``added``: a
+    candidate block ``(m, b)`` per source and its weight, joined to ``ss9``'s weighted
+    blocks before the one unit scaling; ``ring``: a ring block ``(m, 30)`` per source
+    (weight 1) in place of ``ss9``'s."""
     by_name = {s.name: s for s in study.sources}
-    fitted_on = [s for s in study.sources if s.name not in pooled]
-    vocabulary = Vocabulary.fit([r for s in fitted_on for r in s.local["hks+sv"]], 64, seed=0,
-                                per_model=200)
+    local = pooled_local(study, pooled)
     default_ring, caps = default_ring_and_caps(study)
     ring = ring or default_ring
-    rows, labels = [], []
+    rows = []
     for name in pooled:
-        source = by_name[name]
-        local = np.array([encode_vlad(f, a, vocabulary)
-                          for f, a in zip(source.local["hks+sv"], source.areas, strict=True)])
-        rest = np.hstack([source.bases["ss4-noprop"], local, SS6_RING_WEIGHT * ring[name]])
+        rest = np.hstack([by_name[name].bases["ss4-noprop"], local[name],
+                          SS6_RING_WEIGHT * ring[name]])
         rows.append(joined(rest, caps[name], 1.0) if added is None else
                     joined(np.hstack([rest, caps[name]]), added[0][name], added[1]))
-        labels += [f"{name}/{label}" for label in source.labels]
-    return np.vstack(rows), labels
+    return np.vstack(rows), pooled_labels(study, pooled)
 
 
 def fetch_depths(rows: np.ndarray, neighbours: int, beta: float, results: int = 10

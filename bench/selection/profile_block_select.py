@@ -491,10 +491,13 @@ def fold_key(sources: list[Source], held: str, features: str = "hks+sv") -> str:
     return f"{features}-64-{held}-" + "-".join(f"{s.name}{len(s.labels)}" for s in others)
 
 
-def fold_words(sources: list[Source], held: str, features: str = "hks+sv") -> Vocabulary:
-    """The 64 words that encode source ``held``: fitted on every other source's
-    ``features``, as the service's words are fitted on every source."""
-    others = [s for s in sources if s.name != held]
+def fold_words(sources: list[Source], held: str | tuple[str, ...], features: str = "hks+sv"
+               ) -> Vocabulary:
+    """The 64 words that encode source ``held`` (or several sources, one catalogue): fitted
+    on every other source's ``features``, as the service's words are fitted on every
+    source."""
+    held_names = (held,) if isinstance(held, str) else held
+    others = [s for s in sources if s.name not in held_names]
     return Vocabulary.fit([r for s in others for r in s.local[features]], 64, seed=0,
                           per_model=200)
 

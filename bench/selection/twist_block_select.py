@@ -85,7 +85,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from catalogue_by_kind import KIND_OF, print_orders  # noqa: E402
-from hubness_select import pooled_rows  # noqa: E402
+from hubness_select import pooled_labels, pooled_rows  # noqa: E402
 from local_features_select import Study, joined  # noqa: E402
 from mcad_check import CATALOGUE  # noqa: E402
 from profile_block_select import (  # noqa: E402
@@ -256,8 +256,7 @@ def main(argv: list[str] | None = None) -> int:
                     tuple(s.name for s in study.sources), SS9, args.json,
                     tie_key="width, grid order", widths=widths)
     if args.round == 2:
-        _, library_kinds = pooled_rows(study, CATALOGUE)
-        kinds = [KIND_OF.get(label, label) for label in library_kinds]
+        kinds = [KIND_OF.get(label, label) for label in pooled_labels(study, CATALOGUE)]
         for choice in dict.fromkeys((SS9, str(report["chosen"]))):
             print_orders(choice, catalogue_rows(study, choice, dense), kinds)
     return 0
