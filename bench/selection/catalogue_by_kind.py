@@ -20,7 +20,8 @@ Reported for each descriptor family the service can hold, ``ss9`` (the rigid def
 ``spectral`` (the intrinsic default before issue 12) and ``bendable`` (``spectral`` with the
 idf word counts of HKS on 64 words at weight 2), plain cosine order and the search service's
 order (k-reciprocal ``k1`` 5, ``k2`` 3, ``lambda`` 0.3 with the hub discount's keys as its
-distance term, ``core.reciprocal``): NN, mAP and top-5 over the catalogue (leave-one-out), by
+distance term, ``core.reciprocal``), and (added in the same session, after the results
+below) the hub discount alone: NN, mAP and top-5 over the catalogue (leave-one-out), by
 kind and by library kind; then the service order's first answers by kind. Every local block
 is encoded by one vocabulary fitted on the other four sources (none of the catalogue's).
 
@@ -45,13 +46,13 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from extraction_select import BENDABLE_WORDS_WEIGHT  # noqa: E402
-from hubness_select import pooled_rows  # noqa: E402
+from hub_measures_select import REFERENCE  # noqa: E402
+from hubness_select import pooled_labels, pooled_local, pooled_rows  # noqa: E402
 from local_features_select import Study, joined  # noqa: E402
 from mcad_check import CANDIDATE, CATALOGUE, KEYS  # noqa: E402
 from profile_block_select import study_command  # noqa: E402
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
-from core.local_features import Vocabulary, encode_bof  # noqa: E402
 
 #: Library kinds that are one kind of part: a sealed 6xx bearing of bd-vslot is a deep-groove
 #: ball bearing; pymadcad's "flat head" screws are countersunk; MCAD's bolts are the screws
@@ -67,23 +68,18 @@ SHARED_KINDS: dict[str, tuple[str, ...]] = {
 }
 KIND_OF = {member: kind for kind, members in SHARED_KINDS.items() for member in members}
 PLAIN_ORDER = "ss9"  # the plain-cosine candidate's name in ``KEYS``
-ORDERS = {"plain": PLAIN_ORDER, "service": CANDIDATE}
+#: Plain cosine, the hub discount alone (the service's order until the eleventh session) and
+#: the service's order.
+ORDERS = {"plain": PLAIN_ORDER, "discount": REFERENCE, "service": CANDIDATE}
 
 
 def bendable_rows(study: Study) -> np.ndarray:
     """The ``bendable`` family's unit rows of the catalogue, its words fitted on the other
     sources (the catalogue's order of ``pooled_rows``)."""
     by_name = {s.name: s for s in study.sources}
-    fitted_on = [s for s in study.sources if s.name not in CATALOGUE]
-    vocabulary = Vocabulary.fit([r for s in fitted_on for r in s.local["hks"]], 64, seed=0,
-                                per_model=200)
-    rows = []
-    for name in CATALOGUE:
-        source = by_name[name]
-        words = np.array([encode_bof(f, a, vocabulary)
-                          for f, a in zip(source.local["hks"], source.areas, strict=True)])
-        rows.append(joined(source.bases["spectral"], words, BENDABLE_WORDS_WEIGHT))
-    return np.vstack(rows)
+    words = pooled_local(study, CATALOGUE, "hks", "bof")
+    return np.vstack([joined(by_name[name].bases["spectral"], words[name],
+                             BENDABLE_WORDS_WEIGHT) for name in CATALOGUE])
 
 
 def family_rows(study: Study) -> dict[str, np.ndarray]:
@@ -127,7 +123,7 @@ def first_answers(keys: np.ndarray, kinds: list[str]) -> dict[str, dict[str, obj
 
 def main(argv: list[str] | None = None) -> int:
     args, study, _ = study_command(__doc__, argv)
-    _, library_kinds = pooled_rows(study, CATALOGUE)
+    library_kinds = pooled_labels(study, CATALOGUE)
     kinds = [KIND_OF.get(label, label) for label in library_kinds]
     print(f"one catalogue: {len(kinds)} parts, {len(set(library_kinds))} library kinds, "
           f"{len(set(kinds))} kinds")
