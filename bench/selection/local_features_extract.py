@@ -11,13 +11,16 @@ saved, so that stage 2 (``bench/selection/local_features_select.py``) only recom
 
     .venv/bin/python bench/selection/local_features_extract.py SOURCES OUT [--scan KIND]
         [--feature-share S] [--max-points N] [--cutoff-t T] [--hks-scale F] [--wks-sigma W]
+        [--seed S]
 
 ``--feature-share`` samples clean models feature-aware (``core.evaluation.feature_sampling``)
 instead of uniformly, ``--max-points`` changes the point budget (the engine's default 3000),
 ``--cutoff-t`` the adaptive cutoff's ``t`` (default 0.01), ``--hks-scale`` multiplies the
 16 heat-kernel times (default 1: 0.001 to 0.1), ``--wks-sigma`` sets the wave kernel's band
 width in energy steps (default 2): the studies of ``bench/selection/extraction_select.py``, one
-``OUT`` per setting.
+``OUT`` per setting. ``--seed`` draws another extraction of the same models: the sample seed
+``S`` (the engine's default 0) and the rotation seed ``ROTATION_SEED + S``, for checks that a
+result is not one sample's (``bench/selection/reciprocal_seeds_check.py``).
 
 Eigenpairs are cached under ``OUT/cache`` (the evaluation's cache layout), features under
 ``OUT/features/<kind>/<source>/``; a re-run resumes.
@@ -49,8 +52,8 @@ from core.settings import EngineSettings  # noqa: E402
 def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
             feature_share: float = 0.0, max_points: int | None = None,
             cutoff_t: float | None = None, hks_scale: float = 1.0,
-            wks_sigma: float | None = None) -> None:
-    settings = EngineSettings()
+            wks_sigma: float | None = None, seed: int = 0) -> None:
+    settings = replace(EngineSettings(), sample_seed=seed)
     if hks_scale != 1.0:
         times = tuple(hks_scale * time for time in settings.descriptor.hks_times)
         settings = replace(settings, descriptor=replace(settings.descriptor, hks_times=times))
@@ -65,7 +68,7 @@ def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
     ones = replace(settings.descriptor, **unit)
     spec = DescriptorSpec.from_settings(ones)
     cache = out / "cache"
-    sampling = sampling_of(settings, ROTATION_SEED, scan, feature_share)
+    sampling = sampling_of(settings, ROTATION_SEED + seed, scan, feature_share)
     for source in sorted(p for p in sources.iterdir() if p.is_dir()):
         if only and source.name not in only:
             continue
@@ -122,9 +125,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cutoff-t", type=float)
     parser.add_argument("--hks-scale", type=float, default=1.0)
     parser.add_argument("--wks-sigma", type=float)
+    parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
     extract(args.sources, args.out, args.scan, args.only, args.feature_share, args.max_points,
-            args.cutoff_t, args.hks_scale, args.wks_sigma)
+            args.cutoff_t, args.hks_scale, args.wks_sigma, args.seed)
     return 0
 
 
