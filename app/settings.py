@@ -110,9 +110,10 @@ class Settings(BaseSettings):
 
     describe_memory_bytes: int = Field(
         default=4 * 1024 * MIB,
-        ge=256 * MIB,
-        description="Address-space limit (RLIMIT_AS) of the child process that parses and "
-        "describes each file; above it the file is refused as too large (413 or a failed job).",
+        ge=64 * MIB,
+        description="Address space the child process that parses and describes each file may "
+        "take beyond its start (its RLIMIT_AS is its start plus this); above it the file is "
+        "refused as too large (413 or a failed job).",
     )
     describe_timeout_seconds: float = Field(
         default=300.0,

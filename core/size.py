@@ -134,6 +134,8 @@ def box_extents(points: np.ndarray, trim: float = 0.0) -> tuple[float, float, fl
     try:
         to_box, _ = trimesh.bounds.oriented_bounds(points)
         local = trimesh.transform_points(points, to_box)
+    except MemoryError:
+        raise
     except Exception:  # qhull refuses flat or collinear points
         centred = points - points.mean(axis=0)
         local = centred @ np.linalg.svd(centred, full_matrices=False)[2].T

@@ -426,6 +426,21 @@ def test_truncated_binary_stl_is_unparsable(tmp_path):
     assert info.value.reason == "unparsable" and "truncated" in info.value.message
 
 
+@pytest.mark.parametrize("name", ["part.stl", "part.xyz"])
+def test_a_parser_out_of_memory_is_not_called_unreadable(tmp_path, monkeypatch, name):
+    """Under the sandbox's limit a parser raises ``MemoryError``; it must reach the sandbox,
+    which refuses the file as too large, not be reported as a corrupt file."""
+    def out_of_memory(*args, **kwargs):
+        raise MemoryError
+
+    monkeypatch.setattr(trimesh, "load_scene", out_of_memory)
+    monkeypatch.setattr(np, "loadtxt", out_of_memory)
+    path = _write(tmp_path, name, _sphere().export(file_type="stl") if name.endswith("stl")
+                  else "0 0 0\n1 0 0\n0 1 0\n0 0 1\n")
+    with pytest.raises(MemoryError):
+        load_points(path)
+
+
 def test_truncated_binary_pcd_and_packed_records_called_compressed(tmp_path):
     data = _pcd(_cloud(), binary=True)
     assert _reason(_write(tmp_path, "cut.pcd", data[:-100])) == "unparsable"

@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pytest
+import trimesh
 from conftest import PARTS, make_settings
 
 from app.ingest.sandbox import Sandbox, SandboxCrash
@@ -16,10 +17,17 @@ from app.jobs.worker import describe_handler
 from core.errors import InvalidShapeError, SolverError
 
 GIB = 1024**3
+MIB = 1024**2
 
 
 def allocate(gib: float) -> int:
     return int(np.ones(int(gib * GIB) // 8).sum())
+
+
+def address_space() -> int:
+    """The calling process's address space in bytes, as Linux counts it for RLIMIT_AS."""
+    with open("/proc/self/statm") as statm:
+        return int(statm.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
 
 
 def sleep(seconds: float) -> None:
@@ -84,17 +92,29 @@ def test_a_killed_child_is_a_refusal_and_other_errors_keep_their_kind() -> None:
 
 def test_the_worker_describes_in_the_sandbox(tmp_path) -> None:
     """The production handler describes a real part, and refuses one that needs more
-    memory than its limit without the worker process growing."""
+    memory than its limit as too large (the parser's ``MemoryError`` is not a corrupt file)
+    without the worker process growing."""
     settings = make_settings(f"sqlite:///{tmp_path / 'db.sqlite'}")
     columns = describe_handler(settings)((PARTS / "cylinder.stl").read_bytes(), "cylinder.stl")
     assert columns["n_points"] > 0 and len(columns["descriptor"]) > 0
 
-    tight = make_settings(
-        f"sqlite:///{tmp_path / 'db.sqlite'}", describe_memory_bytes=256 * 1024 * 1024
-    )
+    tight = make_settings(f"sqlite:///{tmp_path / 'db.sqlite'}", describe_memory_bytes=64 * MIB)
+    dense = trimesh.creation.icosphere(subdivisions=7).export(file_type="stl")  # 16 MB
     with pytest.raises(InvalidShapeError) as refused:
-        describe_handler(tight)((PARTS / "cylinder.stl").read_bytes(), "cylinder.stl")
+        describe_handler(tight)(dense, "sphere.stl")
     assert refused.value.reason == "too_large"
+
+
+def test_the_limit_counts_from_the_childs_start(tmp_path) -> None:
+    """A child starts with the engine's libraries mapped, far more address space than a
+    small part's describe needs; the setting is what the describe may add, so a budget
+    below that start still describes the part."""
+    start = Sandbox(4 * GIB, 60).run(address_space)
+    budget = 64 * MIB
+    assert start > budget
+    tight = make_settings(f"sqlite:///{tmp_path / 'db.sqlite'}", describe_memory_bytes=budget)
+    columns = describe_handler(tight)((PARTS / "cylinder.stl").read_bytes(), "cylinder.stl")
+    assert columns["n_points"] > 0
 
 
 def test_blas_under_a_tight_limit_is_not_a_crash() -> None:

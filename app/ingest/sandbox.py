@@ -3,9 +3,16 @@
 A shape file can be a bomb that no cheap check foresees: a parser may expand it to
 gigabytes, or spin for minutes. Running that inside the API or worker process would grow it
 (Python rarely hands memory back) or kill it. ``Sandbox.run(function, *args)`` instead runs
-``function`` in a fresh child process with ``RLIMIT_AS`` set to ``memory_bytes`` and waits
-at most ``timeout_seconds`` for it; the parent's own memory never holds more than the input
-and the (small) result.
+``function`` in a fresh child process that may take ``memory_bytes`` of address space beyond
+what it holds when it starts (``RLIMIT_AS`` is set to the sum) and waits at most
+``timeout_seconds`` for it; the parent's own memory never holds more than the input and the
+(small) result.
+
+Why beyond the start: a child begins with the engine's libraries mapped, several hundred MB
+of address space that depends on the machine's BLAS and on what the parent imported (378 MB
+under ``shapesearch serve`` on one machine, 820 MB under a test runner); a limit counted from
+zero would leave a file whatever that start happens to leave, and a low setting would refuse
+every file.
 
 Children come from a *forkserver* that has imported the engine once, so a child starts in
 milliseconds without re-importing numpy/scipy/trimesh, and without inheriting the threads
@@ -64,13 +71,24 @@ def _warm_blas() -> None:
     blas.dgemm(1.0, square, square)
 
 
+def _address_space() -> int:
+    """This process's address space now, in bytes (Linux's ``/proc``; 0 where there is
+    none, so that the limit counts from zero there)."""
+    try:
+        with open("/proc/self/statm") as statm:
+            return int(statm.read().split()[0]) * resource.getpagesize()
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
 def _child(
     connection: Connection, memory_bytes: int, function: Callable[..., Any], args: tuple
 ) -> None:
     try:
         threadpool_limits(limits=1)  # one describe per child; children run side by side
         _warm_blas()
-        resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
+        limit = _address_space() + memory_bytes
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
         outcome: tuple[str, Any] = ("ok", function(*args))
     except InvalidShapeError as error:
         outcome = ("invalid", (error.reason, error.message))
@@ -90,8 +108,8 @@ def _child(
 
 @dataclass(frozen=True)
 class Sandbox:
-    """Runs functions in a child process limited to ``memory_bytes`` of address space and
-    ``timeout_seconds`` of wall-clock time."""
+    """Runs functions in a child process limited to ``memory_bytes`` of address space beyond
+    its start and ``timeout_seconds`` of wall-clock time."""
 
     memory_bytes: int
     timeout_seconds: float

@@ -92,10 +92,11 @@ def _parse(data: bytes, fmt: str) -> RawGeometry:
 
 
 def _parse_safely(data: bytes, fmt: str) -> RawGeometry:
-    """``_parse`` with every unexpected exception turned into ``unparsable``."""
+    """``_parse`` with every unexpected exception but ``MemoryError`` (the sandbox's limit:
+    too large) turned into ``unparsable``."""
     try:
         return _parse(data, fmt)
-    except InvalidShapeError:
+    except (InvalidShapeError, MemoryError):  # a memory limit means too large, not unreadable
         raise
     except Exception as exc:  # any library error on a bad file means the same to the user
         logger.info("unparsable .%s upload: %r", fmt, exc)
@@ -156,6 +157,8 @@ def _mesh_size(geometry: RawGeometry) -> ShapeSize | None:
     sampled points instead): size is told beside the shape, never a reason to refuse it."""
     try:
         return ShapeSize.of_mesh(geometry.vertices, geometry.faces)
+    except MemoryError:
+        raise
     except Exception as exc:  # a library error on odd geometry must not fail the describe
         logger.info("mesh size not measured: %r", exc)
         return None

@@ -142,6 +142,8 @@ def _no_geometry(fmt: str, data: bytes) -> InvalidShapeError:
 def _load_scene(data: bytes, fmt: str) -> trimesh.Scene:
     try:
         return trimesh.load_scene(io.BytesIO(data), file_type=fmt, process=False)
+    except MemoryError:  # the file is too large for the memory it may take, not unreadable
+        raise
     except Exception as exc:  # trimesh raises many types for bad input; all mean "bad file"
         raise _unparsable(fmt, f"{type(exc).__name__}: {str(exc)[:120]}") from exc
 
