@@ -1,6 +1,7 @@
 """k-reciprocal re-ranking (``core.reciprocal``): the vectorised keys against a count by the
 paper's set definitions, the service's pool against the whole catalogue, what reciprocity
-changes in an order, the query's own part first, and rotation invariance."""
+changes in an order, the hub discount's first answer kept, the query's own part first, and
+rotation invariance."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from core.hubness import (
 )
 from core.reciprocal import (
     RECIPROCAL_POOL,
+    first_kept,
     pool_keys,
     reciprocal_depth,
     reciprocal_keys,
@@ -54,7 +56,13 @@ def set_count_keys(rows: np.ndarray, k1: int, k2: int, blend: float,
                          / np.maximum(weights[i], weights[j]).sum() for j in range(m)]
                         for i in range(m)])
     keys = (1 - blend) * jaccard + blend * (scaled if term is None else term)
-    return np.where(np.sqrt(squared) <= SAME_DESCRIPTOR, -np.inf, keys)
+    keys = np.where(np.sqrt(squared) <= SAME_DESCRIPTOR, -np.inf, keys)
+    if term is not None:  # the term's first answer among the others goes first
+        for i in range(m):
+            others = [j for j in range(m) if np.isfinite(keys[i, j])]
+            first = min(others, key=lambda j, i=i: (term[i, j], j))
+            keys[i, first] = min(keys[i, j] for j in others) - 1
+    return keys
 
 
 @pytest.mark.parametrize(("k1", "k2"), [(5, 3), (5, 1), (3, 2), (8, 3)])
@@ -104,11 +112,32 @@ def test_a_near_group_without_the_query_in_its_nearest_comes_after_the_reciproca
     assert list(np.argsort(squared, kind="stable")[:5]) == [5, 6, 0, 1, 2]
     # Without the local expansion (k2 1): the query's five nearest are the group's first
     # two and three classmates; only the classmates have the query among their own five,
-    # so they come first; the group's two follow, before the classmates the query does not
-    # hold. (With k2 3 the query's row averages its two nearest's, the group's: the group
-    # then stays first, which is why the expansion is small.)
+    # so they come before the group's second, which follows before the classmates the query
+    # does not hold. The group's first is the term's first answer (plain distances here),
+    # kept first. (With k2 3 the query's row averages its two nearest's, the group's: the
+    # group then stays first, which is why the expansion is small.)
     keys = pool_keys(query, candidates, squared, expansion=1)
-    assert list(np.argsort(keys, kind="stable")[:5]) == [0, 1, 2, 5, 6]
+    assert list(np.argsort(keys, kind="stable")[:5]) == [5, 0, 1, 2, 6]
+
+
+def test_the_term_s_first_answer_goes_first_and_the_rest_keep_their_order() -> None:
+    keys = np.array([0.5, 0.2, 0.9, -np.inf, 0.4])
+    term = np.array([0.1, 0.3, 0.05, -5.0, 0.05])  # the own part's term is not an answer
+    kept = first_kept(keys, term)
+    assert list(np.argsort(kept, kind="stable")) == [3, 2, 1, 4, 0]  # 2 before 4: a tie
+    assert np.array_equal(keys, [0.5, 0.2, 0.9, -np.inf, 0.4])  # the input is not changed
+    rows = unit_rows(40, 6, seed=5)
+    term = rescaled_rows(hub_discounted_keys(rows, rows, 10, 1.0,
+                                             exclude=np.eye(40, dtype=bool)))
+    plain = set_count_keys(rows, 5, 3, 0.3, None)  # any keys: the paper's, no answer kept
+    kept = first_kept(plain, term)
+    for i in range(40):
+        others = np.delete(np.arange(40), i)
+        first = others[np.argmin(term[i, others])]
+        order = others[np.argsort(kept[i, others], kind="stable")]
+        assert order[0] == first
+        rest = others[np.argsort(plain[i, others], kind="stable")]
+        assert list(order[1:]) == [j for j in rest if j != first]
 
 
 def test_the_query_s_own_part_comes_first_and_does_not_stretch_the_term() -> None:

@@ -49,9 +49,10 @@ ORDER_HELP = (
     "r a model's mean cosine to its 10 most alike other models (a hub discount, "
     "SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near everything comes a "
     "little later, and then re-ranked k-reciprocally among themselves (a model whose own "
-    "nearest include the query comes earlier; SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the "
-    "discount's order); score, the plain similarity, need not fall along the list; a model "
-    "with the query's own descriptor stays first. With mode=scan, by distance."
+    "nearest include the query comes earlier), the discount's first answer kept first "
+    "(SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain "
+    "similarity, need not fall along the list; a model with the query's own descriptor "
+    "stays first. With mode=scan, by distance."
 )
 ModeQuery = Annotated[
     SearchMode,

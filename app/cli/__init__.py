@@ -265,8 +265,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="also score every ranking as the search service orders shape-mode answers: "
         "the hub discount (CSLS over each candidate's K nearest; default: the service's "
         "SHAPESEARCH_SEARCH_HUB_NEIGHBOURS default, 10, when the set holds 3 models or more), "
-        "re-ranked k-reciprocally over the whole set for clean queries; 0: plain distance "
-        "order only",
+        "re-ranked k-reciprocally over the whole set for clean queries (the discount's first "
+        "answer kept first); 0: plain distance order only",
     )
     evaluate.set_defaults(handler=_eval)
 

@@ -41,8 +41,9 @@ candidate's mean cosine to its 10 most alike other models of the partition (the 
 the query's kind earlier (+0.01 mAP left out over seven tuning sources; docs/results.md).
 Then, without a size term, those candidates are re-ranked k-reciprocally among themselves
 (``core.reciprocal.pool_keys``: a candidate whose own nearest hold the query comes earlier;
-+0.04 mAP on a tuning source that no setting had seen). A candidate with the query's own
-descriptor stays first. ``distance`` and ``score`` stay plain (``min_score``, the
++0.04 mAP on a tuning source that no setting had seen), the hub discount's first answer
+kept first (the re-rank alone moved right first answers down). A candidate with the query's
+own descriptor stays first. ``distance`` and ``score`` stay plain (``min_score``, the
 calibration and the duplicates report keep their meaning). Scan mode keeps plain order:
 partial scans did not gain from the discount.
 """

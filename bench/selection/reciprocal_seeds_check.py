@@ -48,6 +48,13 @@ Each extraction's verdicts are printed beside, for the spread; they decide nothi
     done
     nice -n 10 .venv/bin/python bench/selection/reciprocal_seeds_check.py /work/seed1 \\
         /work/seed2 /work/seed3 /work/seed4 --json /work/seeds_check.json
+
+**Result** (2026-11-27, thirteenth session; docs/results.md, "The first answer kept"): step 2,
+``first kept``. Means of four: the re-rank fails test 4 (one catalogue NN 0.847 -> 0.835,
+mAP 0.676 -> 0.711; it fails on three extractions of four); ``first kept`` passes on the
+means and on each extraction: mean of eight 0.8459 -> 0.8668 (the re-rank 0.8670), one
+catalogue mAP 0.712 at the discount's NN 0.847, by kind NN 0.867 / mAP 0.640 -> 0.664, the
+``bendable`` family 0.9509 -> 0.9534. It ships as ``core.reciprocal.first_kept``.
 """
 
 from __future__ import annotations
@@ -121,11 +128,12 @@ def measure(out: Path) -> dict[str, dict[str, object]]:
     result: dict[str, dict[str, object]] = {}
     for order in ORDERS:
         sources = {s: scores(per_source[s][order], labels[s]) for s in per_source}
+        family = {s: scores(bendable[s][order], labels[s])["map"] for s in NON_RIGID_SOURCES}
         result[order] = {
             "sources": sources,
             "mean": float(np.mean([sources[s]["map"] for s in names])),
-            "bendable": float(np.mean([scores(bendable[s][order], labels[s])["map"]
-                                       for s in NON_RIGID_SOURCES])),
+            "bendable": float(np.mean(list(family.values()))),
+            "bendable_sources": family,
             "catalogue": scores(catalogue[order], library_kinds),
             "by_kind": scores(catalogue[order], kinds),
         }
@@ -184,6 +192,9 @@ def print_row(label: str, row: dict[str, dict[str, object]]) -> None:
               f"{r['catalogue']['nn']:.3f} / {r['catalogue']['map']:.3f} | "
               f"{r['by_kind']['nn']:.3f} / {r['by_kind']['map']:.3f} | " + " | ".join(cells)
               + " |")
+    for order in ORDERS:  # added after the result: where the family's spread lies
+        print(f"{order}, bendable family per source: "
+              + ", ".join(f"{s} {v:.4f}" for s, v in row[order]["bendable_sources"].items()))
     print(f"re-rank, mcad_check's tests: {mcad_tests(row)}; first kept: {kept_tests(row)}; "
           f"rule: {decide(row)}")
 

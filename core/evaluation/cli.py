@@ -130,9 +130,10 @@ def _ranking_inputs(
     """What ranks ``queries`` against ``database`` leave-one-out: distances (or the
     service's keys), the query and database labels and the excluded pairs (a query's own
     model). With ``hub_neighbours``, clean queries (the database itself) rank as the service
-    does, by the hub discount re-ranked k-reciprocally over the whole catalogue
-    (``core.reciprocal``); scans by the hub discount alone (a scan is no member of the
-    catalogue whose neighbourhoods the re-rank compares)."""
+    does, by the hub discount re-ranked k-reciprocally over the whole catalogue, the
+    discount's first answer kept first (``core.reciprocal``); scans by the hub discount
+    alone (a scan is no member of the catalogue whose neighbourhoods the re-rank
+    compares)."""
     names = sorted(database)
     query_names = sorted(queries)
     base = np.array([database[name].descriptor for name in names])

@@ -73,7 +73,8 @@ def hub_table(record: dict[str, Any]) -> str:
     lines = [
         f"## With a hub discount (CSLS, k {hub['neighbours']}, weight {hub['weight']:g})"
         + (f", re-ranked k-reciprocally (k1 {again['neighbours']}, k2 {again['expansion']}, "
-           f"lambda {again['blend']:g}) for clean queries" if again else ""),
+           f"lambda {again['blend']:g}; the discount's first answer kept first) for clean "
+           "queries" if again else ""),
         "",
         "The search service orders shape-mode answers this way (its default, k 10); the "
         "tables above rank by plain distance, the descriptor's own order. Scans are "
