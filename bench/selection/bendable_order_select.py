@@ -32,6 +32,18 @@ shipped, the family stays. The rule picks ``spectral`` alone on the two non-rigi
 sources (0.8082) is below the family's (0.8094): the words help the rigid parts a bendable
 database may also hold (pymadcad 0.901 -> 0.940, MCAD 0.752 -> 0.773) and cost capod (0.980
 -> 0.905).
+
+**Repeated over four more extractions** (thirteenth session; written and committed before
+any of these runs, after ``reciprocal_seeds_check.py`` had shown the family's non-rigid mean
+moving 0.93-0.97 between extractions): the script runs unchanged on each of
+``/work/seed1`` .. ``/work/seed4`` (sample seeds 1-4, as that check extracted them). A report
+for the next step, nothing ships in this one: the family is to be replaced by the choice only
+if the choice is the same on all four and both of its tests pass on all four; otherwise it
+stays, and the spread is what is reported.
+
+    for seed in 1 2 3 4; do nice -n 5 .venv/bin/python \\
+        bench/selection/bendable_order_select.py /work/seed$seed \\
+        --json /work/seed$seed/bendable_order.json; done
 """
 
 from __future__ import annotations
