@@ -138,7 +138,7 @@ def first_kept(keys: np.ndarray, term: np.ndarray) -> np.ndarray:
 
 def reciprocal_keys(rows: np.ndarray, term: np.ndarray | None = None,
                     neighbours: int = RECIPROCAL_NEIGHBOURS, expansion: int = EXPANSION,
-                    blend: float = BLEND) -> np.ndarray:
+                    blend: float = BLEND, keep_first: bool = True) -> np.ndarray:
     """Ranking keys of every model (row) for every other: a whole catalogue.
 
     Parameters
@@ -152,6 +152,9 @@ def reciprocal_keys(rows: np.ndarray, term: np.ndarray | None = None,
         given (the paper's, no answer kept).
     neighbours, expansion, blend : int, int, float
         ``k1``, ``k2`` and ``lambda``.
+    keep_first : bool
+        With ``term``, keep its first answer first (step 5); False gives the re-rank as the
+        studies before the thirteenth session measured it.
 
     Returns
     -------
@@ -166,7 +169,7 @@ def reciprocal_keys(rows: np.ndarray, term: np.ndarray | None = None,
     jaccard = np.vstack([_jaccard(weights, i) for i in range(len(rows))])
     keys = (1.0 - blend) * jaccard + blend * (scaled if term is None else term)
     keys = np.where(np.sqrt(squared) <= SAME_DESCRIPTOR, -np.inf, keys)
-    return keys if term is None else first_kept(keys, term)
+    return first_kept(keys, term) if keep_first and term is not None else keys
 
 
 def pool_keys(query: np.ndarray, candidates: np.ndarray, hub: np.ndarray,

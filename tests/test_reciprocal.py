@@ -167,3 +167,14 @@ def test_a_rotation_of_every_vector_changes_no_key() -> None:
 def test_the_service_re_ranks_at_least_the_pool_and_the_hub_depth(k: int) -> None:
     assert reciprocal_depth(k) == max(rerank_depth(k), RECIPROCAL_POOL)
     assert reciprocal_depth(k) >= k
+
+
+def test_the_re_rank_as_studied_is_the_service_s_without_the_kept_answer() -> None:
+    """The selection studies re-run the re-rank as they measured it (``keep_first=False``);
+    keeping the term's first answer on top of it gives the service's keys."""
+    rows = unit_rows(30, 6, seed=2)
+    term = rescaled_rows(hub_discounted_keys(rows, rows, 10, 1.0,
+                                             exclude=np.eye(30, dtype=bool)))
+    studied = reciprocal_keys(rows, term, keep_first=False)
+    assert not np.array_equal(studied, reciprocal_keys(rows, term))
+    assert np.array_equal(first_kept(studied, term), reciprocal_keys(rows, term))

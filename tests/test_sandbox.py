@@ -12,7 +12,7 @@ import pytest
 import trimesh
 from conftest import PARTS, make_settings
 
-from app.ingest.sandbox import Sandbox, SandboxCrash
+from app.ingest.sandbox import Sandbox, SandboxCrash, _address_space
 from app.jobs.worker import describe_handler
 from core.errors import InvalidShapeError, SolverError
 
@@ -22,12 +22,6 @@ MIB = 1024**2
 
 def allocate(gib: float) -> int:
     return int(np.ones(int(gib * GIB) // 8).sum())
-
-
-def address_space() -> int:
-    """The calling process's address space in bytes, as Linux counts it for RLIMIT_AS."""
-    with open("/proc/self/statm") as statm:
-        return int(statm.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
 
 
 def sleep(seconds: float) -> None:
@@ -109,7 +103,7 @@ def test_the_limit_counts_from_the_childs_start(tmp_path) -> None:
     """A child starts with the engine's libraries mapped, far more address space than a
     small part's describe needs; the setting is what the describe may add, so a budget
     below that start still describes the part."""
-    start = Sandbox(4 * GIB, 60).run(address_space)
+    start = Sandbox(4 * GIB, 60).run(_address_space)
     budget = 64 * MIB
     assert start > budget
     tight = make_settings(f"sqlite:///{tmp_path / 'db.sqlite'}", describe_memory_bytes=budget)

@@ -90,8 +90,11 @@ def reciprocal_keys(rows: np.ndarray, k1: int, k2: int, weight: float = LAMBDA,
     """``(m, m)`` final distances (lower first) of k-reciprocal re-ranking of unit ``rows``
     (``core.reciprocal.reciprocal_keys``, since the eleventh session: the loop this study
     first ran, moved there and vectorised, gives the same keys to the last bit on random
-    vectors); ``term``: the blended distance term in place of the scaled squared distance."""
-    return core_reciprocal_keys(rows, term, k1, k2, weight)
+    vectors); ``term``: the blended distance term in place of the scaled squared distance.
+    The re-rank as studied: without the first answer kept (``core.reciprocal.first_kept``,
+    since the thirteenth session the service's step 5), so that every study re-runs as it
+    ran."""
+    return core_reciprocal_keys(rows, term, k1, k2, weight, keep_first=False)
 
 
 def candidate_grid(round_: int = 1) -> list[Candidate]:

@@ -73,7 +73,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from catalogue_by_kind import KIND_OF  # noqa: E402
+from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from extraction_select import NON_RIGID_SOURCES  # noqa: E402
 from hub_measures_select import REFERENCE  # noqa: E402
 from hubness_select import family_rows, pooled_labels, pooled_rows  # noqa: E402
@@ -81,23 +81,9 @@ from local_features_select import load_study  # noqa: E402
 from mcad_check import CANDIDATE, CATALOGUE, KEYS, NEW_SOURCE, NN_SLACK  # noqa: E402
 from positional_features_select import TIE  # noqa: E402
 
-from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
+from core.reciprocal import first_kept  # noqa: E402
 
 ORDERS = ("discount", "re-rank", "first kept")
-Scores = dict[str, float]
-
-
-def first_kept(rerank: np.ndarray, discount: np.ndarray) -> np.ndarray:
-    """``(m, m)`` keys: ``rerank``'s order with each row's first answer by ``discount`` (its
-    lowest key off the diagonal) moved to the front."""
-    keys = np.array(rerank, dtype=np.float64)
-    masked = np.array(discount, dtype=np.float64)
-    np.fill_diagonal(masked, np.inf)
-    first = masked.argmin(axis=1)
-    rows = np.arange(len(keys))
-    off = np.where(np.eye(len(keys), dtype=bool), np.inf, keys)
-    keys[rows, first] = off.min(axis=1) - 1.0
-    return keys
 
 
 def order_keys(rows: np.ndarray) -> dict[str, np.ndarray]:
@@ -105,11 +91,6 @@ def order_keys(rows: np.ndarray) -> dict[str, np.ndarray]:
     discount, rerank = KEYS[REFERENCE](rows), KEYS[CANDIDATE](rows)
     return {"discount": discount, "re-rank": rerank,
             "first kept": first_kept(rerank, discount)}
-
-
-def scores(keys: np.ndarray, labels: list[str]) -> Scores:
-    return score_rankings(ranked_relevance(keys, labels, labels,
-                                           np.eye(len(labels), dtype=bool)))
 
 
 def measure(out: Path) -> dict[str, dict[str, object]]:
