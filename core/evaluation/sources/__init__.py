@@ -15,6 +15,7 @@ the libraries' own parametric models.
 | ``generated`` | ours (``core.evaluation.parts_generator``) | ours | 14 part families |
 | ``bendable`` | ours (``core.evaluation.sources.bendable``) | ours | 6 bendable kinds, 8 poses |
 | ``mcad`` | OpenSCAD's MCAD (``openscad-mcad``) | LGPL-2.1 | 11: bolts (3 heads), gears, ... |
+| ``bosl2`` | BOSL2 (its ``.scad`` in ``solidpython2``) | BSD-2-Clause | 15: screws, nuts, ... |
 | ``poses`` | ours (``bendable.identity_parts``) | ours | 20 shapes of 4 kinds, 8 shared poses |
 
 ``NON_RIGID`` names what bends: the whole ``bendable`` and ``poses`` sources and capod's
@@ -69,6 +70,12 @@ def _mcad(seed: int, shared: Path) -> Parts:
     return parts()
 
 
+def _bosl2(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.bosl2_parts import parts
+
+    return parts()
+
+
 def _poses(seed: int, shared: Path) -> Parts:
     from core.evaluation.sources.bendable import identity_parts
     return identity_parts()
@@ -97,13 +104,15 @@ def _bendable(seed: int, shared: Path) -> Parts:
 #: Every source that writes meshes (``capod`` is linked, not written).
 SOURCES: dict[str, Callable[[int, Path], Parts]] = {
     "madcad": _madcad, "gearworks": _gearworks, "vslot": _vslot, "parts": _parts,
-    "generated": _generated, "bendable": _bendable, "mcad": _mcad, "poses": _poses,
+    "generated": _generated, "bendable": _bendable, "mcad": _mcad, "bosl2": _bosl2,
+    "poses": _poses,
 }
 
-#: Sources written only when named: ``mcad`` needs the ``openscad`` program (not a wheel)
-#: and was added later, as a check on settings chosen without it; ``poses`` checks the
+#: Sources written only when named: ``mcad`` and ``bosl2`` need the ``openscad`` program
+#: (not a wheel) and were added later, as checks on settings chosen without them (``bosl2``
+#: after every other); ``poses`` checks the
 #: descriptor families (shapes in shared poses) and is not a tuning source.
-CHECK_SOURCES: tuple[str, ...] = ("mcad", "poses")
+CHECK_SOURCES: tuple[str, ...] = ("mcad", "bosl2", "poses")
 
 #: The sources written when none are named.
 DEFAULT_SOURCES: tuple[str, ...] = (
