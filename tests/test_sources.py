@@ -4,6 +4,8 @@ lengths (the bendable source must be near-isometric to test what it claims)."""
 from __future__ import annotations
 
 import hashlib
+import shutil
+from itertools import islice
 from pathlib import Path
 
 import numpy as np
@@ -116,3 +118,18 @@ def test_vslot_source_makes_every_kind_in_distinct_sizes() -> None:
     # Eight parts per kind, no two of one kind alike (625 and 688 bearings share their
     # envelope and differ by the bore, T-nuts by the hole: the area tells them apart).
     assert {kind: len(found) for kind, found in areas.items()} == dict.fromkeys(VSLOT, 8)
+
+
+def test_bosl2_source_renders_closed_parts_of_distinct_sizes() -> None:
+    pytest.importorskip("solid2", reason="solidpython2 (the tune extra, BOSL2) is not installed")
+    if shutil.which("openscad") is None:
+        pytest.skip("openscad (apt-get install openscad) is not installed")
+    from core.evaluation.sources.bosl2_parts import KINDS as BOSL2
+    from core.evaluation.sources.bosl2_parts import parts as bosl2_parts
+
+    # The ball bearings take ~10 s each to render (their balls): every other kind, and the
+    # first two sizes of each (the source renders lazily), which must differ.
+    for kind in (kind for kind in BOSL2 if kind != "ball_bearing"):
+        meshes = [mesh for _, _, mesh in islice(bosl2_parts((kind,)), 2)]
+        assert all(mesh.is_watertight and len(mesh.faces) > 50 for mesh in meshes), kind
+        assert meshes[0].area != meshes[1].area, kind

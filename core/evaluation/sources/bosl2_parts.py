@@ -39,11 +39,12 @@ _SCREWS = ((3, 8), (4, 20), (5, 30), (6, 16), (8, 50), (10, 35), (12, 80), (16, 
 _HEX_SCREWS = ((5, 12), (6, 30), (8, 20), (10, 60), (12, 40), (16, 100), (20, 70), (24, 120))
 _PAN_SCREWS = ((2, 6), (2.5, 12), (3, 16), (4, 10), (5, 25), (6, 20), (8, 40), (10, 30))
 _SET_SCREWS = ((3, 4), (4, 8), (5, 6), (6, 12), (8, 10), (10, 20), (12, 16), (16, 25))
-# Nut thickness after ISO 4035 / 4032 / 4033 ("thin", "normal", "thick") and DIN.
-_HEX_NUTS = ((3, "normal"), (4, "thick"), (5, "thin"), (6, "normal"), (8, "thick"),
-             (10, "thin"), (12, "normal"), (16, "DIN"))
-_SQUARE_NUTS = ((3, "normal"), (4, "thin"), (5, "normal"), (6, "thin"), (8, "normal"),
-                (10, "thin"), (12, "normal"), (16, "normal"))
+# Nut thickness after ISO 4035 / 4032 / 4033 ("thin", "normal", "thick") and DIN, where
+# BOSL2's tables hold the size (no thin M8 nut, no thick hex nut below M5).
+_HEX_NUTS = ((3, "normal"), (4, "DIN"), (5, "thin"), (6, "thick"), (8, "normal"),
+             (10, "thin"), (12, "thick"), (16, "DIN"))
+_SQUARE_NUTS = ((3, "normal"), (4, "thin"), (5, "thick"), (6, "normal"), (8, "thick"),
+                (10, "thin"), (12, "normal"), (16, "thick"))
 _BALL_BEARINGS = ("608", "625", "6001", "6202", "6205", "6303", "R8", "6007")
 _LINEAR_BEARINGS = (4, 6, 8, 10, 12, 16, 20, 25)
 # (module, teeth, thickness, shaft diameter)
