@@ -45,7 +45,7 @@ _HEX_NUTS = ((3, "normal"), (4, "DIN"), (5, "thin"), (6, "thick"), (8, "normal")
              (10, "thin"), (12, "thick"), (16, "DIN"))
 _SQUARE_NUTS = ((3, "normal"), (4, "thin"), (5, "thick"), (6, "normal"), (8, "thick"),
                 (10, "thin"), (12, "normal"), (16, "thick"))
-_BALL_BEARINGS = ("608", "625", "6001", "6202", "6205", "6303", "R8", "6007")
+_BALL_BEARINGS = ("608", "635", "6001", "6202", "6205", "6303", "R8", "6007")
 _LINEAR_BEARINGS = (4, 6, 8, 10, 12, 16, 20, 25)
 # (module, teeth, thickness, shaft diameter)
 _SPUR_GEARS = ((1, 12, 4, 3), (1.5, 17, 8, 5), (1, 20, 10, 5), (2, 24, 12, 8),
@@ -124,8 +124,10 @@ def _render(statement: str, folder: Path, library: Path) -> trimesh.Trimesh:
     source, stl = folder / "part.scad", folder / "part.stl"
     source.write_text(f"{_HEADER}\n{statement}\n")
     environment = {**os.environ, "OPENSCADPATH": str(library)}
-    subprocess.run(["openscad", "-q", "-o", str(stl), str(source)], check=True,
-                   capture_output=True, timeout=600, env=environment)
+    run = subprocess.run(["openscad", "-q", "-o", str(stl), str(source)],
+                         capture_output=True, text=True, timeout=600, env=environment)
+    if run.returncode:  # BOSL2 asserts on sizes its tables lack: say which and why
+        raise RuntimeError(f"openscad could not render {statement!r}: {run.stderr.strip()}")
     mesh = trimesh.load_mesh(stl, process=True)
     stl.unlink()
     return mesh
