@@ -268,6 +268,26 @@ def test_422_for_content_refused_at_upload(client: TestClient) -> None:
     assert client.get("/v1/models").json()["items"] == []
 
 
+def test_503_not_422_when_the_quick_check_runs_out_of_memory(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A small file is parsed in the API's own process: a MemoryError there is the service's
+    # shortage, not the file's fault, so the client is told to retry, not that it is broken.
+    def out_of_memory(*args: Any) -> None:
+        raise MemoryError
+
+    monkeypatch.setattr("app.api.uploads.quick_check", out_of_memory)
+    body = assert_problem(upload(client, CUBE), 503)
+    assert body["type"].endswith(":busy") and "retry" in body["detail"].lower()
+    assert int(upload(client, CUBE).headers["Retry-After"]) > 0
+    put = client.put("/v1/models/by-external-id/P-1",
+                     files={"file": ("cube.stl", CUBE.read_bytes())})
+    assert_problem(put, 503)
+    assert client.get("/v1/models").json()["items"] == []
+    monkeypatch.undo()  # memory back: the same file is accepted
+    assert upload(client, CUBE).status_code == 202
+
+
 def test_422_for_metadata_that_is_not_an_object(client: TestClient) -> None:
     for bad in ("[1, 2]", "3", "{broken", '"text"'):
         body = assert_problem(upload(client, CUBE, metadata=bad), 422)

@@ -2,7 +2,8 @@
 
 413 above the size limit (counted while hashing), 415 for a format we do not read, 413/422
 when the header promises more than the file holds or than we accept (every size), 422 for
-content that fails a quick parse (empty, unparsable, non-finite, too few points). The quick
+content that fails a quick parse (empty, unparsable, non-finite, too few points), 503 when
+this process has no memory left for that parse (the file is not blamed). The quick
 parse samples only ``upload_check_points`` points; the full description runs later.
 
 The upload arrives as Starlette's spooled temporary file (on disk beyond 1 MiB); it is
@@ -72,6 +73,10 @@ def _hash_limited(stream: BinaryIO, max_bytes: int) -> str:
     return digest.hexdigest()
 
 
+#: Retry-After of the 503 when this process has no memory for a quick check, in seconds.
+MEMORY_RETRY_AFTER_SECONDS = 5
+
+
 def _bounded_by_size(content: bytes, fmt: str) -> bool:
     """Whether parsing ``content`` in this process is safe: a small file of a format whose
     geometry grows with its size (not GLB, whose scene can instance a mesh many times, nor
@@ -113,6 +118,17 @@ def read_checked_upload(
                 sandbox_of(settings).run(quick_check, *check)
     except InvalidShapeError as error:
         raise invalid_shape_problem(error) from error
+    except MemoryError as error:
+        # Only a small file of a format that cannot expand is parsed in this process (the
+        # sandbox's limit makes any other 413 too-large): here the service is short of
+        # memory right now, and the file is not at fault.
+        log.error("quick check of %r: this process is out of memory", name)
+        raise Problem(
+            "busy",
+            "The service is short of memory right now; the file was not checked. Retry in "
+            f"{MEMORY_RETRY_AFTER_SECONDS} s.",
+            headers={"Retry-After": str(MEMORY_RETRY_AFTER_SECONDS)},
+        ) from error
     except Exception as error:  # a parser bug must not become a 500 for the client
         log.exception("quick check of %r failed", name)
         raise invalid_shape_problem(

@@ -71,7 +71,7 @@ def _duplicate(session: Session, tenant: str, external_id: str) -> Problem | Non
     "/models",
     status_code=202,
     response_model=ModelResource,
-    responses=problem_responses(401, 409, 413, 415, 422),
+    responses=problem_responses(401, 409, 413, 415, 422, 503),
     summary="Upload a part; it is described in the background",
 )
 def upload_model(

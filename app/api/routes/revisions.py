@@ -106,7 +106,7 @@ def _revision_resource(revision: ModelRevision) -> RevisionResource:
     responses={
         201: {"description": "Created, with its describe job", "model": ModelResource},
         202: {"description": "A new revision; its job is describing it", "model": ModelResource},
-        **problem_responses(401, 413, 415, 422),
+        **problem_responses(401, 413, 415, 422, 503),
     },
     summary="Create or update the model with this external id",
     description="Absent: created (201 + job). Present with the same file (sha256): only "
