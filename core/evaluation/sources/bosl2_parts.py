@@ -19,14 +19,13 @@ never for the service or its tests.
 from __future__ import annotations
 
 import importlib.util
-import os
-import shutil
-import subprocess
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import trimesh
+
+from core.evaluation.sources._openscad import render, require_openscad
 
 __all__ = ["KINDS", "bosl2_folder", "parts"]
 
@@ -119,20 +118,6 @@ def bosl2_folder() -> Path:
     return folder
 
 
-def _render(statement: str, folder: Path, library: Path) -> trimesh.Trimesh:
-    """The mesh OpenSCAD renders from one BOSL2 ``statement`` (its STL read back)."""
-    source, stl = folder / "part.scad", folder / "part.stl"
-    source.write_text(f"{_HEADER}\n{statement}\n")
-    environment = {**os.environ, "OPENSCADPATH": str(library)}
-    run = subprocess.run(["openscad", "-q", "-o", str(stl), str(source)],
-                         capture_output=True, text=True, timeout=600, env=environment)
-    if run.returncode:  # BOSL2 asserts on sizes its tables lack: say which and why
-        raise RuntimeError(f"openscad could not render {statement!r}: {run.stderr.strip()}")
-    mesh = trimesh.load_mesh(stl, process=True)
-    stl.unlink()
-    return mesh
-
-
 def parts(kinds: tuple[str, ...] = KINDS) -> Iterator[tuple[str, str, trimesh.Trimesh]]:
     """``(kind, name, mesh)`` of every part of ``kinds``, in a fixed order.
 
@@ -142,10 +127,10 @@ def parts(kinds: tuple[str, ...] = KINDS) -> Iterator[tuple[str, str, trimesh.Tr
         ``openscad`` is not on the path, or ``solidpython2`` (which carries BOSL2) is not
         installed.
     """
-    if shutil.which("openscad") is None:
-        raise FileNotFoundError("openscad is not installed: apt-get install openscad")
+    require_openscad("openscad")
     library, programs = bosl2_folder(), _programs()
     with tempfile.TemporaryDirectory(prefix="bosl2-") as folder:
         for kind in kinds:
             for index, statement in enumerate(programs[kind]):
-                yield kind, f"{kind}_{index:02d}", _render(statement, Path(folder), library)
+                program = f"{_HEADER}\n{statement}\n"
+                yield kind, f"{kind}_{index:02d}", render(program, Path(folder), library)

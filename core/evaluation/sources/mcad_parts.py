@@ -19,13 +19,13 @@ not Python wheels, so this source is for bench runs, never for the service or it
 
 from __future__ import annotations
 
-import shutil
-import subprocess
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import trimesh
+
+from core.evaluation.sources._openscad import render, require_openscad
 
 __all__ = ["KINDS", "parts"]
 
@@ -104,17 +104,6 @@ KINDS: tuple[str, ...] = ("cap_bolt", "countersunk_bolt", "hex_bolt", "ball_bear
                           "tube", "rounded_box")
 
 
-def _render(program: str, folder: Path) -> trimesh.Trimesh:
-    """The mesh OpenSCAD renders from ``program`` (its STL read back by trimesh)."""
-    source, stl = folder / "part.scad", folder / "part.stl"
-    source.write_text(program)
-    subprocess.run(["openscad", "-q", "-o", str(stl), str(source)], check=True,
-                   capture_output=True, timeout=600)
-    mesh = trimesh.load_mesh(stl, process=True)
-    stl.unlink()
-    return mesh
-
-
 def parts(kinds: tuple[str, ...] = KINDS) -> Iterator[tuple[str, str, trimesh.Trimesh]]:
     """``(kind, name, mesh)`` of every part of ``kinds``, in a fixed order.
 
@@ -123,11 +112,9 @@ def parts(kinds: tuple[str, ...] = KINDS) -> Iterator[tuple[str, str, trimesh.Tr
     FileNotFoundError
         ``openscad`` is not on the path (``apt-get install openscad openscad-mcad``).
     """
-    if shutil.which("openscad") is None:
-        raise FileNotFoundError("openscad is not installed: apt-get install openscad "
-                                "openscad-mcad")
+    require_openscad("openscad openscad-mcad")
     programs = _programs()
     with tempfile.TemporaryDirectory(prefix="mcad-") as folder:
         for kind in kinds:
             for index, program in enumerate(programs[kind]):
-                yield kind, f"{kind}_{index:02d}", _render(program, Path(folder))
+                yield kind, f"{kind}_{index:02d}", render(program, Path(folder))
