@@ -22,7 +22,8 @@ Written down before any score on BOSL2 was seen (2026-11-27, fourteenth session)
    set's scoring, with five libraries' styles per kind.
 3. **Scans** (issue 24, item 5): BOSL2's parts as single-view and three-view scans queried
    in scan mode against the clean parts, reported beside the other sources' (aim: single
-   view mAP >= 0.6).
+   view mAP >= 0.6; ``core.evaluation.scan_retrieval`` with 3 views, as the other sources'
+   scans were measured; ``eval --scans`` queries the whole parts only, without view entries).
 4. **Reading**: nothing changes on the strength of these figures (a judge, not a tuning
    source). The claim "the shipped default is better than the naive baseline on standard
    parts it never saw" stands if, on both 1 and 2, the default's mAP is above the
@@ -42,6 +43,8 @@ Commands (the study's; ``openscad`` from Debian, BOSL2 from the ``tune`` extra):
     .venv/bin/shapesearch eval /work/tuning/bosl2 \\
         --variants default baseline spectral bendable ss4 --scans single multi \\
         --out /work/eval_bosl2
+    .venv/bin/python -m core.evaluation.scan_retrieval /work/tuning/bosl2 \\
+        --out /work/scan_bosl2 --per-class 0 --views 3 --kinds clean multi+sor single+sor
     .venv/bin/python bench/selection/bosl2_check.py /work/tuning /work/catalogue5
     .venv/bin/shapesearch eval /work/catalogue5 \\
         --variants default baseline spectral bendable --out /work/eval_catalogue5
