@@ -17,6 +17,7 @@ from fastapi import FastAPI
 from app.api.inputs import invalid_input
 from app.api.limits import too_large_problem
 from app.api.problems import PROBLEM_JSON, Problem, problem_response
+from app.api.uploads import out_of_memory_problem
 from app.problems import blank_problem, problem
 from core.cutoff import CutoffRecord
 from core.io import SUPPORTED_FORMATS
@@ -121,6 +122,7 @@ _NOT_READY = _problem("model-not-ready",
                       f"Model {_ID} is processing; similarity needs a ready model.",
                       model_status="processing")
 _TOO_LARGE = _raised(too_large_problem(67108864))
+_OUT_OF_MEMORY = _raised(out_of_memory_problem())
 # FastAPI's refusal of a body it cannot parse (app/api/problems.py turns it into problem+json).
 _MALFORMED = blank_problem(400, "There was an error parsing the body")
 _UNKNOWN_FORMAT = _problem("unknown-format",
@@ -188,6 +190,7 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
             413: _TOO_LARGE,
             415: _UNKNOWN_FORMAT,
             422: _TOO_FEW_POINTS,
+            503: _OUT_OF_MEMORY,
         },
     },
     ("get", "/v1/models"): {
@@ -297,6 +300,7 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
             413: _TOO_LARGE,
             415: _UNKNOWN_FORMAT,
             422: _raised(invalid_input("/metadata", "must be a JSON object")),
+            503: _OUT_OF_MEMORY,
         },
     },
     ("get", "/v1/models/{model_id}/revisions"): {

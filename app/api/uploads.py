@@ -26,7 +26,10 @@ from app.settings import Settings
 from core.errors import InvalidShapeError
 from core.io import EXPANDING_FORMATS, SUPPORTED_FORMATS, check_header, detect_format
 
-__all__ = ["UPLOAD_FILE_HELP", "CheckedUpload", "invalid_shape_problem", "read_checked_upload"]
+__all__ = [
+    "UPLOAD_FILE_HELP", "CheckedUpload", "invalid_shape_problem", "out_of_memory_problem",
+    "read_checked_upload",
+]
 
 #: The OpenAPI description of every shape upload field.
 UPLOAD_FILE_HELP = (
@@ -77,6 +80,17 @@ def _hash_limited(stream: BinaryIO, max_bytes: int) -> str:
 MEMORY_RETRY_AFTER_SECONDS = 5
 
 
+def out_of_memory_problem() -> Problem:
+    """The 503 of a quick check that found this process out of memory (not the file's
+    fault: retry later)."""
+    return Problem(
+        "busy",
+        "The service is short of memory right now; the file was not checked. Retry in "
+        f"{MEMORY_RETRY_AFTER_SECONDS} s.",
+        headers={"Retry-After": str(MEMORY_RETRY_AFTER_SECONDS)},
+    )
+
+
 def _bounded_by_size(content: bytes, fmt: str) -> bool:
     """Whether parsing ``content`` in this process is safe: a small file of a format whose
     geometry grows with its size (not GLB, whose scene can instance a mesh many times, nor
@@ -123,12 +137,7 @@ def read_checked_upload(
         # sandbox's limit makes any other 413 too-large): here the service is short of
         # memory right now, and the file is not at fault.
         log.error("quick check of %r: this process is out of memory", name)
-        raise Problem(
-            "busy",
-            "The service is short of memory right now; the file was not checked. Retry in "
-            f"{MEMORY_RETRY_AFTER_SECONDS} s.",
-            headers={"Retry-After": str(MEMORY_RETRY_AFTER_SECONDS)},
-        ) from error
+        raise out_of_memory_problem() from error
     except Exception as error:  # a parser bug must not become a 500 for the client
         log.exception("quick check of %r failed", name)
         raise invalid_shape_problem(
