@@ -6,7 +6,9 @@ head and its own size, and seven of its own head and other sizes. If the descrip
 head first, a screw's own-head screws would rank above the other heads of its size. This
 script describes the 24 screws with the shipped default (``core.pipeline.describe``) and
 reports, in plain cosine order, how often a same-size screw of another head ranks above
-the median screw of the query's own head, and both groups' ranks. It chooses nothing.
+the median screw of the query's own head, and both groups' ranks: for the whole descriptor
+and for each of its blocks alone (``DescriptorSpec.blocks``), to show which blocks see the
+head and which the proportions. It chooses nothing.
 
     .venv/bin/python bench/selection/screw_heads_report.py /work/tuning/bosl2
 """
@@ -22,7 +24,9 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
+from core.descriptor import DescriptorSpec  # noqa: E402
 from core.pipeline import describe  # noqa: E402
+from core.settings import EngineSettings  # noqa: E402
 
 HEADS: tuple[str, ...] = ("socket_head_screw", "button_head_screw", "countersunk_screw")
 SIZES = 8
@@ -51,22 +55,33 @@ def ranks(descriptors: np.ndarray, heads: list[str], sizes: list[int]
     return own_head, own_size, above, pairs
 
 
+def report(name: str, rows: np.ndarray, heads: list[str], sizes: list[int]) -> None:
+    own_head, own_size, above, pairs = ranks(rows, heads, sizes)
+    print(f"{name:10s} {above:3d} / {pairs} = {above / pairs:.2f}   own head's median rank "
+          f"{np.median(own_head):5.1f}   same size, other head: mean rank {np.mean(own_size):5.1f}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("bosl2", type=Path, help="the bosl2 folder core.evaluation.sources wrote")
     args = parser.parse_args(argv)
-    descriptors, heads, sizes = [], [], []
+    spec = DescriptorSpec.from_settings(EngineSettings().descriptor)
+    whole, blocks, heads, sizes = [], [], [], []
     for head in HEADS:
         for size in range(SIZES):
-            descriptors.append(describe(args.bosl2 / head / f"{head}_{size:02d}.ply").descriptor)
+            found = describe(args.bosl2 / head / f"{head}_{size:02d}.ply")
+            whole.append(found.descriptor)
+            blocks.append(spec.blocks(found.signature, found.areas, found.eigenvalues,
+                                      found.points))
             heads.append(head)
             sizes.append(size)
-    own_head, own_size, above, pairs = ranks(np.array(descriptors, dtype=np.float64), heads,
-                                             sizes)
     print(f"a same-size screw of another head ranks above the median screw of the query's "
-          f"own head: {above} / {pairs} = {above / pairs:.2f}")
-    print(f"rank among the other {len(heads) - 1}: own head's median {np.median(own_head):.1f}; "
-          f"same size, other head, mean {np.mean(own_size):.1f}")
+          f"own head (of pairs); ranks among the other {len(heads) - 1}:")
+    report("whole", np.array(whole, dtype=np.float64), heads, sizes)
+    for name in blocks[0]:
+        rows = np.array([found[name] for found in blocks], dtype=np.float64)
+        if np.all(np.linalg.norm(rows, axis=1) > 0):
+            report(name, rows, heads, sizes)
     return 0
 
 
