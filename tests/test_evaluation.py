@@ -387,3 +387,40 @@ def test_eval_scores_the_service_s_order_unless_told_otherwise() -> None:
     assert hub_neighbours_for(default, 245) == HUB_NEIGHBOURS == 10
     assert hub_neighbours_for(default, 2) == 0  # too few models for any neighbourhood
     assert hub_neighbours_for(0, 245) == 0 and hub_neighbours_for(5, 245) == 5
+
+
+def test_eval_ranks_scans_by_the_hub_discount_alone_not_as_their_own_model() -> None:
+    # Scans are named after their models. The k-reciprocal re-rank compares a query's
+    # neighbourhood with the catalogue's, which only clean queries (the catalogue itself)
+    # have: re-ranking a scan as if it were its clean model would lend it that model's
+    # neighbourhood. Scans of pure noise must score what the hub discount alone gives them.
+    from core.cutoff import CutoffRecord
+    from core.evaluation.cli import score_variant
+    from core.evaluation.metrics import ranked_relevance, score_rankings
+    from core.evaluation.runner import ModelResult
+    from core.hubness import hub_discounted_keys
+
+    rng = np.random.default_rng(3)
+    record = CutoffRecord(mode="fixed", n=10, solver_calls=1, predicted=[])
+    centres = rng.normal(size=(6, 32))
+    names = [f"m{i:02d}" for i in range(30)]
+    labels = {name: f"class{i // 5}" for i, name in enumerate(names)}
+
+    def results(vectors: np.ndarray) -> dict[str, ModelResult]:
+        unit = vectors / np.linalg.norm(vectors, axis=1, keepdims=True)
+        return {name: ModelResult(record, 0.0, 0.0, row, 100)
+                for name, row in zip(names, unit, strict=True)}
+
+    clean = results(np.repeat(centres, 5, axis=0) + 0.3 * rng.normal(size=(30, 32)))
+    noise = results(rng.normal(size=(30, 32)))
+    base = np.array([clean[name].descriptor for name in names])
+    own = np.eye(30, dtype=bool)
+    keys = hub_discounted_keys(np.array([noise[n].descriptor for n in names]), base, 3,
+                               exclude=own)
+    label_list = [labels[n] for n in names]
+    alone = score_rankings(ranked_relevance(keys, label_list, label_list, own))
+
+    scans = score_variant(clean, noise, labels, hub_neighbours=3)[0]
+    assert scans == alone
+    assert scans["map"] < 0.5  # noise finds its class by chance only
+    assert score_variant(clean, clean, labels, hub_neighbours=3, clean=True)[0]["map"] > 0.9

@@ -126,14 +126,15 @@ def _ranking_inputs(
     queries: dict[str, ModelResult],
     labels: dict[str, str],
     hub_neighbours: int,
+    clean: bool,
 ) -> tuple[np.ndarray, list[str], list[str], np.ndarray]:
     """What ranks ``queries`` against ``database`` leave-one-out: distances (or the
     service's keys), the query and database labels and the excluded pairs (a query's own
-    model). With ``hub_neighbours``, clean queries (the database itself) rank as the service
-    does, by the hub discount re-ranked k-reciprocally over the whole catalogue, the
+    model). With ``hub_neighbours``, ``clean`` queries (the database itself) rank as the
+    service does, by the hub discount re-ranked k-reciprocally over the whole catalogue, the
     discount's first answer kept first (``core.reciprocal``); scans by the hub discount
-    alone (a scan is no member of the catalogue whose neighbourhoods the re-rank
-    compares)."""
+    alone (a scan is no member of the catalogue whose neighbourhoods the re-rank compares:
+    said by ``clean``, since a scan is named after its model)."""
     names = sorted(database)
     query_names = sorted(queries)
     base = np.array([database[name].descriptor for name in names])
@@ -143,7 +144,7 @@ def _ranking_inputs(
         distances = pairwise_distances(query, base)
     else:
         distances = hub_discounted_keys(query, base, hub_neighbours, HUB_WEIGHT, exclude)
-        if query_names == names:
+        if clean:
             distances = reciprocal_keys(base, rescaled_rows(distances))
     return distances, [labels[q] for q in query_names], [labels[d] for d in names], exclude
 
@@ -154,6 +155,7 @@ def score_variant(
     labels: dict[str, str],
     hub_neighbours: int = 0,
     per_class: bool = False,
+    clean: bool = False,
 ) -> tuple[dict[str, float], tuple[np.ndarray, np.ndarray], dict[str, Any] | None]:
     """Leave-one-out scores of ``queries`` against ``database``, the mean PR curve and, with
     ``per_class``, ``per_class_scores`` (else None) of the same ranking.
@@ -161,9 +163,10 @@ def score_variant(
     A query is left out of the database under its own model name (itself for clean queries,
     its source model for scans). ``hub_neighbours`` above 0 ranks with the hub discount
     (``core.hubness``, that ``k`` and the chosen weight), the left-out model counted in no
-    candidate's neighbourhood.
+    candidate's neighbourhood; ``clean`` queries (the database itself) are then re-ranked
+    k-reciprocally as the service's shape mode does, scans are not.
     """
-    inputs = _ranking_inputs(database, queries, labels, hub_neighbours)
+    inputs = _ranking_inputs(database, queries, labels, hub_neighbours, clean)
     relevance = ranked_relevance(*inputs)
     curves = [precision_recall_curve(r) for r in relevance if r.any()]
     recall = curves[0][0] if curves else np.linspace(0.05, 1, 20)
@@ -346,7 +349,8 @@ def evaluate(
             record["variants"][name]["per_class"] = classes
             if hub_neighbours > 0:
                 hub_scores, _, hub_classes = score_variant(
-                    clean[name], clean[name], labels, hub_neighbours, per_class=True)
+                    clean[name], clean[name], labels, hub_neighbours, per_class=True,
+                    clean=True)
                 record["variants"][name]["hub"] = {"clean": hub_scores}
                 record["variants"][name]["hub_per_class"] = hub_classes
         chosen_scan = {n: variants[n] for n in scan_variants if n in variants}
