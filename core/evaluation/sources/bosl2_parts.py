@@ -77,8 +77,7 @@ def _programs() -> dict[str, list[str]]:
         "countersunk_screw": _screws("flat", "hex"),
         "hex_head_screw": _screws("hex", "none", _HEX_SCREWS),
         "pan_head_screw": _screws("pan", "phillips", _PAN_SCREWS),
-        "set_screw": [f'screw("M{d}", length={length}, head="none", drive="hex", '
-                      "thread=false);" for d, length in _SET_SCREWS],
+        "set_screw": _screws("none", "hex", _SET_SCREWS),
         "hex_nut": [f'nut("M{d}", shape="hex", thickness="{t}", thread=false);'
                     for d, t in _HEX_NUTS],
         "square_nut": [f'nut("M{d}", shape="square", thickness="{t}", thread=false);'
