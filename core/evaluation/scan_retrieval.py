@@ -142,9 +142,10 @@ class Described:
 
 
 def describe(
-    model: Model, kind: str, settings: EngineSettings, cache_dir: Path | None, factory: Any
+    model: Model, kind: str, settings: EngineSettings, cache_dir: Path | None, factory: Any,
+    variants: tuple[str, ...] = tuple(DESCRIPTORS),
 ) -> Described:
-    """Every ``DESCRIPTORS`` variant of ``model`` under scan ``kind`` (``clean`` too)."""
+    """The ``DESCRIPTORS`` ``variants`` of ``model`` under scan ``kind`` (``clean`` too)."""
     sampling = sampling_of(settings, ROTATION_SEED, kind)
     store = describe_sampling(model, sampling, settings, cache_dir, factory)
     result = run_variants(store, {"default": settings})["default"]
@@ -157,7 +158,8 @@ def describe(
     weights = boundary_weights(points)
     weight_seconds = time.perf_counter() - started
     descriptors = {}
-    for name, (descriptor, down_weight) in DESCRIPTORS.items():
+    for name in variants:
+        descriptor, down_weight = DESCRIPTORS[name]
         areas = store.areas * weights if down_weight else store.areas
         variant = replace(settings, descriptor=descriptor)
         descriptors[name] = descriptor_from_eigenpairs(
@@ -206,8 +208,11 @@ def run(
     points: int = EVAL_POINTS,
     cached_only: bool = False,
     merged: tuple[str, ...] = (),
+    variants: tuple[str, ...] = tuple(DESCRIPTORS),
 ) -> dict[str, Any]:
     """Describe catalogue and queries, score every (mode, descriptor, query kind).
+
+    ``variants`` names the ``DESCRIPTORS`` computed and scored (default: all of them).
 
     ``merged`` names merged virtual views (e.g. ``("merge012of4", "merge123of4")``) that add
     the catalogue modes ``merged`` (clean + those) and ``merged+views`` (+ the single views).
@@ -240,7 +245,7 @@ def run(
             for kind in kinds:
                 try:
                     described[kind][model.name] = describe(
-                        model, kind, settings, cache_dir, factory
+                        model, kind, settings, cache_dir, factory, variants
                     )
                 except (InvalidShapeError, SolverError, ValueError, RuntimeError) as error:
                     failures.append(f"{model.name} ({kind}): {error}")
@@ -264,7 +269,7 @@ def run(
             }
     scores: dict[str, Any] = {}
     for mode, catalogue in catalogues.items():
-        for descriptor in DESCRIPTORS:
+        for descriptor in variants:
             for kind in query_kinds:
                 scores[f"{mode}|{descriptor}|{kind}"] = _scores(
                     described[kind], catalogue, labels, descriptor
@@ -327,12 +332,15 @@ def main(argv: list[str] | None = None) -> int:
                         help="query kinds (default: %(default)s)")
     parser.add_argument("--merged", nargs="*", default=[],
                         help="merged virtual-view entry kinds, e.g. merge012of4 merge123of4")
+    parser.add_argument("--descriptors", nargs="+", default=list(DESCRIPTORS),
+                        choices=list(DESCRIPTORS),
+                        help="descriptor variants to compute and score (default: all)")
     parser.add_argument("--cached-only", action="store_true",
                         help="score only the models an earlier run fully cached")
     args = parser.parse_args(argv)
     record = run(args.dataset, args.out, args.per_class or None, args.views,
                  query_kinds=tuple(args.kinds), cached_only=args.cached_only,
-                 merged=tuple(args.merged))
+                 merged=tuple(args.merged), variants=tuple(args.descriptors))
     print(markdown(record))
     print(json.dumps(record["seconds"], indent=1))
     return 0
