@@ -375,8 +375,9 @@ class Settings(BaseSettings):
         "4 k nearest models re-ordered by distance^2 + r, r a candidate's mean cosine to "
         "its this many most alike other models, so a part that is near everything (a hub) "
         "comes a little later; `score` stays the plain similarity. 0: plain distance "
-        "order. Chosen on seven tuning sources, +0.01 mAP left out (README, Order of the "
-        "results).",
+        "order, in scan mode too. Chosen on seven tuning sources, +0.01 mAP left out "
+        "(README, Order of the results). Scan mode's discount has its own k (5) and weight "
+        "(0.5): core.hubness.SCAN_HUB_NEIGHBOURS.",
     )
     search_reciprocal: bool = Field(
         default=True,

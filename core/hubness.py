@@ -15,6 +15,15 @@ it. The search service ranks shape-mode answers this way (``app.search.similarit
 fetches the ``rerank_depth(k)`` nearest models in plain distance order, takes their radii
 from the index and re-orders them by ``hub_keys``; a model whose descriptor equals the
 query's (``SAME_DESCRIPTOR``: the same part) stays first.
+
+Scan mode (a partial scan against each model's whole descriptor and its virtual views) has a
+discount of its own, since a scan is a query from another domain than whole models: a
+catalogue entry's radius is its nearness to the *other models* as a scan could meet them,
+the mean over its ``SCAN_HUB_NEIGHBOURS`` most alike other models of its largest cosine to
+any of their entries (``model_radii``), weight ``SCAN_HUB_WEIGHT``; a model's key is its
+best entry's ``hub_keys``. Chosen by ``bench/selection/scan_hubs_select.py`` (+0.006 mAP
+of single-view scans left out over seven sources, every pre-registered test passed;
+docs/results.md).
 """
 
 from __future__ import annotations
@@ -26,8 +35,12 @@ __all__ = [
     "HUB_RERANK_FACTOR",
     "HUB_WEIGHT",
     "SAME_DESCRIPTOR",
+    "SCAN_HUB_NEIGHBOURS",
+    "SCAN_HUB_WEIGHT",
     "hub_discounted_keys",
     "hub_keys",
+    "model_radii",
+    "model_radii_among",
     "neighbourhood_radii",
     "rerank_depth",
 ]
@@ -43,6 +56,10 @@ HUB_RERANK_FACTOR = 4
 #: one file described twice): such a candidate is the query's own part and is never
 #: discounted below another.
 SAME_DESCRIPTOR = 1e-4
+#: Scan mode's ``k`` and ``weight`` (bench/selection/scan_hubs_select.py: radii over every
+#: entry of the other models, the smallest ``k`` and ``weight`` of its grid).
+SCAN_HUB_NEIGHBOURS = 5
+SCAN_HUB_WEIGHT = 0.5
 
 
 def rerank_depth(k: int) -> int:
@@ -72,6 +89,74 @@ def hub_keys(squared_distances: np.ndarray, radii: np.ndarray,
     squared = np.asarray(squared_distances, dtype=np.float64)
     keys = squared + weight * np.asarray(radii)
     return np.where(squared <= SAME_DESCRIPTOR**2, squared - 1.0 - 2.0 * abs(weight), keys)
+
+
+def model_radii(cosines: np.ndarray, owners: np.ndarray,
+                neighbours: int = SCAN_HUB_NEIGHBOURS) -> np.ndarray:
+    """Scan mode's ``r(e)``: per entry, the mean over the ``neighbours`` models it is most
+    alike of its largest cosine to each model's entries.
+
+    Parameters
+    ----------
+    cosines : (e, h) float
+        Each entry's cosine to ``h`` catalogue entries (all of them, or its nearest: exact
+        when those hold every entry of its ``neighbours`` most alike models that beats their
+        best).
+    owners : (e, h) int
+        The model of each of those entries; negative ones are not counted (the entry's own
+        model, a query's model left out of the catalogue, padding).
+    neighbours : int
+        ``k``; fewer models average those there are.
+
+    Returns
+    -------
+    radii : (e,) float
+        0 for an entry with no other model.
+    """
+    radii = np.zeros(len(cosines))
+    for row, (values, models) in enumerate(zip(np.asarray(cosines), np.asarray(owners),
+                                               strict=True)):
+        best: dict[int, float] = {}
+        for model, value in zip(models.tolist(), values.tolist(), strict=True):
+            if model >= 0 and value > best.get(model, -np.inf):
+                best[model] = value
+        if best:
+            top = sorted(best.values(), reverse=True)[:neighbours]
+            radii[row] = sum(top) / len(top)
+    return radii
+
+
+def model_radii_among(entries: np.ndarray, owners: np.ndarray,
+                      neighbours: int = SCAN_HUB_NEIGHBOURS) -> np.ndarray:
+    """``model_radii`` with the catalogue cut down to ``entries``: a lower bound of each
+    entry's ``r(e)`` in any catalogue that holds them (the mean of the ``neighbours``
+    largest of more values is no smaller).
+
+    Parameters
+    ----------
+    entries : (e, d) float
+        Unit rows.
+    owners : (e,) int
+        The model of each.
+    neighbours : int
+        ``k``.
+
+    Returns
+    -------
+    bounds : (e,) float
+        -1 (the least a mean cosine can be) where ``entries`` hold fewer than ``neighbours``
+        models besides the entry's own, since a catalogue with fewer would average fewer.
+    """
+    entries = np.asarray(entries, dtype=np.float64)
+    models, column = np.unique(np.asarray(owners), return_inverse=True)
+    if len(models) - 1 < neighbours:
+        return np.full(len(entries), -1.0)
+    cosines = entries @ entries.T
+    per_model = np.stack([cosines[:, column == m].max(axis=1) for m in range(len(models))],
+                         axis=1)
+    per_model[np.arange(len(entries)), column] = -np.inf
+    top = -np.partition(-per_model, neighbours - 1, axis=1)[:, :neighbours]
+    return top.mean(axis=1)
 
 
 def neighbourhood_radii(database: np.ndarray, neighbours: int,

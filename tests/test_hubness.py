@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from core.evaluation.metrics import pairwise_distances
-from core.hubness import hub_discounted_keys, neighbourhood_radii
+from core.hubness import hub_discounted_keys, model_radii, model_radii_among, neighbourhood_radii
 
 
 def unit_rows(count: int, dims: int, seed: int) -> np.ndarray:
@@ -107,3 +107,38 @@ def test_exclude_must_leave_out_at_most_one_vector_per_query() -> None:
     exclude[0, :2] = True
     with pytest.raises(ValueError, match="at most one"):
         neighbourhood_radii(rows, 2, exclude)
+
+
+def test_model_radii_average_each_other_models_best_cosine() -> None:
+    rng = np.random.default_rng(4)
+    cosines = rng.uniform(-1, 1, size=(5, 12))
+    owners = rng.integers(-1, 6, size=(5, 12))  # -1: not counted
+    radii = model_radii(cosines, owners, neighbours=3)
+    for row in range(5):
+        best: dict[int, float] = {}
+        for model, value in zip(owners[row], cosines[row], strict=True):
+            if model >= 0:
+                best[int(model)] = max(best.get(int(model), -2.0), float(value))
+        top = sorted(best.values(), reverse=True)[:3]
+        assert radii[row] == pytest.approx(sum(top) / len(top))
+    # Fewer models than neighbours average those there are; none gives 0.
+    few = model_radii(np.array([[0.9, 0.8, 0.1]]), np.array([[2, 2, -1]]), neighbours=5)
+    assert few[0] == pytest.approx(0.9)
+    assert model_radii(np.array([[0.9]]), np.array([[-1]]))[0] == 0.0
+
+
+def test_radii_among_some_entries_bound_the_radii_among_all_from_below() -> None:
+    rng = np.random.default_rng(5)
+    entries = rng.normal(size=(40, 6))
+    entries /= np.linalg.norm(entries, axis=1, keepdims=True)
+    owners = np.repeat(np.arange(10), 4)  # 10 models of 4 entries each
+    cosines = entries @ entries.T
+    hit_owners = np.where(owners[None, :] == owners[:, None], -1, owners[None, :])
+    everything = model_radii(cosines, hit_owners, neighbours=3)
+    # Among all the entries the bound is the radius itself.
+    assert model_radii_among(entries, owners, neighbours=3) == pytest.approx(everything)
+    some = owners < 6  # the entries of six models
+    bounds = model_radii_among(entries[some], owners[some], neighbours=3)
+    assert (bounds <= everything[some] + 1e-12).all() and (bounds < everything[some]).any()
+    # Too few other models for a bound: -1, the least a mean cosine can be.
+    assert (model_radii_among(entries[:12], owners[:12], neighbours=3) == -1.0).all()

@@ -13,6 +13,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db.feed import record_event
 from app.db.models import Model
 from app.search.index import ShapeIndex
+from app.search.index._entry_neighbours import KEPT_MODELS, KeptEntryNeighbours, nearest_models
 from app.search.similarity import find_similar, metadata_matches, score_of
 
 
@@ -130,3 +131,30 @@ def test_scores_and_metadata_matching() -> None:
     assert metadata_matches(meta, {"material": "steel", "qty": "3", "ok": "true"})
     assert not metadata_matches(meta, {"material": "brass"})
     assert not metadata_matches(meta, {"colour": "red"})
+
+
+def test_nearest_models_keep_each_models_best_cosine_but_not_the_entrys_own() -> None:
+    hits = [(3, 0.9), (1, 0.95), (3, 0.97), (7, 0.5), (2, 0.97), (5, 0.8), (6, 0.7), (8, 0.6)]
+    models, cosines = nearest_models(hits, own=1)
+    assert models.tolist() == [2, 3, 5, 6, 8, 7][:KEPT_MODELS]  # ties in model order
+    assert cosines.tolist() == [0.97, 0.97, 0.8, 0.7, 0.6, 0.5][:KEPT_MODELS]
+    few_models, few_cosines = nearest_models([(4, 0.3), (1, 0.9)], own=1)
+    assert few_models.tolist() == [4] + [-1] * (KEPT_MODELS - 1)
+    assert few_cosines[0] == 0.3 and not few_cosines[1:].any()
+
+
+def test_kept_entry_neighbours_forget_an_older_stamp_and_stay_bounded() -> None:
+    kept = KeptEntryNeighbours(capacity=5)
+    neighbours = nearest_models([(2, 0.5)], own=1)
+    kept.put("a", (1, 1), {10: neighbours, 11: neighbours})
+    kept.put("b", (1, 1), {20: neighbours})
+    assert kept.get("a", (1, 1), [10, 12])[0] is neighbours
+    assert kept.get("a", (1, 1), [10, 12])[1] is None
+    assert kept.get("a", (1, 2), [10]) == [None]  # the partition changed since
+    kept.put("a", (1, 2), {12: neighbours})
+    assert kept.get("a", (1, 1), [10]) == [None] and len(kept) == 2
+    kept.put("b", (1, 1), {21: neighbours, 22: neighbours, 23: neighbours})
+    assert len(kept) <= 5
+    assert kept.get("b", (1, 1), [23])[0] is neighbours
+    kept.put("c", 0, {i: neighbours for i in range(6)})  # more than it may hold: not kept
+    assert len(kept) <= 5 and kept.get("c", 0, [0]) == [None]

@@ -32,6 +32,7 @@ from app.ingest.describing import ingest_columns
 from app.search.index import VIEW_ID_BASE, ShapeIndex, view_id, view_of, views_key
 from app.search.similarity import find_similar, score_of
 from app.settings import engine_settings
+from core.hubness import SCAN_HUB_NEIGHBOURS, SCAN_HUB_WEIGHT, rerank_depth
 from core.pipeline import describe_points, scan_weights
 from core.settings import EngineSettings, ViewSettings
 from core.views import hidden_point_removal, view_directions, virtual_views
@@ -191,7 +192,7 @@ def test_one_result_per_model_even_when_several_of_its_views_are_near(
     near_views = unit(query + 0.05 * rng.normal(size=(4, 8)))
     crowd = add_ready(sessions, -query, near_views)  # far whole, four near views
     others = [add_ready(sessions, rng.normal(size=8), rng.normal(size=(4, 8))) for _ in range(3)]
-    index = ShapeIndex(sessions)
+    index = ShapeIndex(sessions, hub_neighbours=0)  # plain order
     index.rebuild()
     assert len(index) == 4 and index.partition_size(views_key(KEY)) == 16
     found = scan_search(index, sessions, query, k=3)
@@ -209,7 +210,7 @@ def test_best_view_scoring_agrees_with_a_direct_computation(
     sessions: sessionmaker[Session],
 ) -> None:
     entries = catalogue(sessions, 40, views=3, seed=5)
-    index = ShapeIndex(sessions)
+    index = ShapeIndex(sessions, hub_neighbours=0)  # plain order
     index.rebuild()
     rng = np.random.default_rng(6)
     for _ in range(5):
@@ -258,7 +259,7 @@ def test_a_filter_that_few_models_pass_widens_the_search_in_rounds(
         entries[index_id] = rows
         if kind == "rare":
             rare.add(index_id)
-    index = ShapeIndex(sessions)
+    index = ShapeIndex(sessions, hub_neighbours=0)  # plain order
     index.rebuild()
     query = unit(rng.normal(size=8))
     expected = [(i, d) for i, d in brute_force(entries, query) if i in rare][:5]
@@ -266,6 +267,134 @@ def test_a_filter_that_few_models_pass_widens_the_search_in_rounds(
     assert [m.model.index_id for m in found] == [i for i, _ in expected]
     for match, (_, distance) in zip(found, expected, strict=True):
         assert match.distance == pytest.approx(distance, abs=1e-5)
+
+
+def discounted_order(
+    entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None
+) -> list[int]:
+    """Scan mode's hub discount computed directly over the whole catalogue: the
+    ``rerank_depth(k)`` nearest models by best entry, each keyed by its least
+    ``|q - e|^2 + SCAN_HUB_WEIGHT r(e)``, ``r(e)`` the mean over the 5 other models (not
+    ``exclude``) most alike ``e`` of ``e``'s largest cosine to their entries."""
+    catalogue_ids = [i for i in entries if i != exclude]
+    plain = [i for i, _ in brute_force({i: entries[i] for i in catalogue_ids}, query)]
+    keys = {}
+    for model in plain[: rerank_depth(k)]:
+        entry_keys = []
+        for entry in entries[model]:
+            others = [other for other in catalogue_ids if other != model]
+            best = sorted((float((entries[o] @ entry).max()) for o in others), reverse=True)
+            best = best[:SCAN_HUB_NEIGHBOURS]
+            radius = sum(best) / len(best)
+            entry_keys.append(float(np.sum((entry - query) ** 2)) + SCAN_HUB_WEIGHT * radius)
+        keys[model] = min(entry_keys)
+    return sorted(keys, key=lambda i: (keys[i], i))[:k]
+
+
+def test_scan_mode_orders_by_its_hub_discount_as_a_direct_computation(
+    sessions: sessionmaker[Session],
+) -> None:
+    entries = catalogue(sessions, 40, views=3, seed=5)
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    rng = np.random.default_rng(7)
+    moved = 0
+    for _ in range(6):
+        query = unit(rng.normal(size=8))
+        expected = discounted_order(entries, query, 7)
+        found = scan_search(index, sessions, query, k=7)
+        assert [m.model.index_id for m in found] == expected
+        # Distances and scores stay the plain best entry's.
+        plain = dict(brute_force(entries, query))
+        for match in found:
+            assert match.distance == pytest.approx(plain[match.model.index_id], abs=1e-5)
+        moved += expected != [i for i, _ in brute_force(entries, query)[:7]]
+    assert moved > 0  # the discount changed some answers, or this test would show nothing
+    # A query by model id: that model is in no radius and no answer.
+    own = list(entries)[3]
+    expected = discounted_order(entries, entries[own][0], 5, exclude=own)
+    found = scan_search(index, sessions, entries[own][0], k=5, exclude=own)
+    assert [m.model.index_id for m in found] == expected
+
+
+def test_kept_entry_neighbours_follow_the_catalogue_as_it_changes(
+    sessions: sessionmaker[Session],
+) -> None:
+    """The entry neighbours a query found are kept for the next; a model added, re-added or
+    deleted (here or through another process's change feed) is seen at once."""
+    entries = catalogue(sessions, 30, views=3, seed=8)
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    rng = np.random.default_rng(9)
+    queries = unit(rng.normal(size=(3, 8)))
+    for query in queries:
+        assert [m.model.index_id for m in scan_search(index, sessions, query, k=5)] == (
+            discounted_order(entries, query, 5)
+        )
+    kept = len(index._entry_neighbours)
+    # Entries are searched best bound first, only as far as the answer needs: fewer than
+    # the 4 k candidates' 4 entries each.
+    assert 0 < kept < 3 * rerank_depth(5) * 4
+    scan_search(index, sessions, queries[0], k=5)
+    assert len(index._entry_neighbours) == kept  # the same entries: nothing searched again
+    # New models crowd around the first answer's best view: the index's neighbours of that
+    # entry name them at once, here and in the order.
+    first = scan_search(index, sessions, queries[0], k=1)[0]
+    owner = first.model.index_id
+    entry = owner if first.view is None else view_id(owner, first.view)
+    crowded = entries[owner][0 if first.view is None else 1 + first.view]
+    before, _ = index.entry_neighbours(KEY, [entry], [owner], crowded[None, :])
+    crowd = set()
+    for _ in range(6):
+        near = unit(crowded + 0.05 * rng.normal(size=8))
+        crowd.add(add_ready(sessions, near, near[None, :]))
+        entries[max(crowd)] = np.stack([near, near])
+    assert index.sync() == 6
+    after, cosines = index.entry_neighbours(KEY, [entry], [owner], crowded[None, :])
+    assert not crowd & set(before[0].tolist()) and set(after[0].tolist()) >= crowd
+    assert cosines[0][:6].min() > 0.95
+    for query in queries:
+        assert [m.model.index_id for m in scan_search(index, sessions, query, k=5)] == (
+            discounted_order(entries, query, 5)
+        )
+    gone = first.model.index_id
+    delete_model(sessions, gone)
+    index.remove(gone)
+    del entries[gone]
+    assert [m.model.index_id for m in scan_search(index, sessions, queries[0], k=5)] == (
+        discounted_order(entries, queries[0], 5)
+    )
+
+
+def test_a_view_near_every_model_comes_after_a_model_as_near_the_scan(
+    sessions: sessionmaker[Session],
+) -> None:
+    """A hub: one model's view lies a little nearer the scan than the right model's view,
+    and next to six other models. Plain order puts the hub first, scan mode's discount the
+    model whose entries lie apart."""
+    d = 16
+    basis = np.eye(d)
+    query = basis[0]
+    right = add_ready(sessions, basis[1], (query + 0.52 * basis[2])[None, :])
+    hub_view = unit(query + 0.5 * basis[3])
+    hub = add_ready(sessions, basis[4], hub_view[None, :])
+    for number in range(6):
+        crowd = unit(hub_view + 0.3 * basis[3] + 0.12 * basis[5 + number])  # cosine 0.97
+        add_ready(sessions, crowd, crowd[None, :])
+    plain_index = ShapeIndex(sessions, hub_neighbours=0)
+    plain_index.rebuild()
+    assert [m.model.index_id for m in scan_search(plain_index, sessions, query, k=2)] == [
+        hub,
+        right,
+    ]
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    found = scan_search(index, sessions, query, k=2)
+    assert [m.model.index_id for m in found] == [right, hub]
+    assert found[0].score == score_of(found[0].distance)  # the plain score, unchanged
+    right_view = unit(query + 0.52 * basis[2])
+    assert found[0].distance == pytest.approx(float(np.linalg.norm(right_view - query)), abs=1e-5)
+    assert found[0].view == 0
 
 
 def box_points(n: int, seed: int = 0) -> np.ndarray:
@@ -298,7 +427,8 @@ def test_scan_mode_on_compressed_partitions_agrees_with_a_direct_computation(
     sessions: sessionmaker[Session],
 ) -> None:
     entries = catalogue(sessions, 60, views=3, seed=12, d=16)
-    index = ShapeIndex(sessions, exact_max=100)  # the 180 views are IVF-SQ8, the models flat
+    # The 180 views are IVF-SQ8, the models flat; plain order.
+    index = ShapeIndex(sessions, exact_max=100, hub_neighbours=0)
     index.rebuild()
     assert index.describe(views_key(KEY)) == "ivf-sq8" and index.describe(KEY) == "flat"
     query = unit(np.random.default_rng(13).normal(size=16))

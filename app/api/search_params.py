@@ -52,7 +52,9 @@ ORDER_HELP = (
     "nearest include the query comes earlier), the discount's first answer kept first "
     "(SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain "
     "similarity, need not fall along the list; a model with the query's own descriptor "
-    "stays first. With mode=scan, by distance."
+    "stays first. With mode=scan, the 4k nearest models by best view are ordered by their "
+    "best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models "
+    "most alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0)."
 )
 ModeQuery = Annotated[
     SearchMode,

@@ -55,6 +55,14 @@ only if all hold:
 
     .venv/bin/python bench/selection/scan_hubs_select.py /work/scanhub \\
         --json /work/scanhub/select.json
+
+**Result** (2026-11-27, fifteenth session; docs/results.md, "A hub discount among partial
+views"): the rule chose ``entries k5 b0.5`` on the seven and without each of them;
+single-view scans left out +0.0057 (95 % +0.0016 .. +0.0097) against ``plain`` (mean of
+seven 0.5997 -> 0.6054); merged scans 0.6898 -> 0.6977, clean queries 0.8082 -> 0.8155;
+BOSL2 0.560 -> 0.569; the ``bendable`` family 0.7460 -> 0.7591: all four tests pass, it
+ships (``core.hubness.SCAN_HUB_NEIGHBOURS``, ``SCAN_HUB_WEIGHT``; the service's scan mode
+since). Disclosed: the choice is the grid's corner (smallest ``k`` and ``beta``).
 """
 
 from __future__ import annotations

@@ -62,6 +62,7 @@ from sqlalchemy.orm import QueryableAttribute, Session, sessionmaker
 
 from app.db.models import FeedState, IndexEvent, Model
 from app.search.index._builder import Builder
+from app.search.index._entry_neighbours import KEPT_MODELS, KeptEntryNeighbours, nearest_models
 from app.search.index._heap import trim_heap
 from app.search.index._neighbours import (
     NeighbourGraph,
@@ -134,7 +135,8 @@ class ShapeIndex:
         (``_projection``); 0, the default: every dimension.
     hub_neighbours : int
         ``k`` of the hub discount that similar queries rank by (``core.hubness``,
-        ``neighbourhood_radii``); 0: plain distance order.
+        ``neighbourhood_radii``); 0: plain distance order, in scan mode too (whose discount
+        has its own ``k``, ``core.hubness.SCAN_HUB_NEIGHBOURS``).
     reciprocal : bool
         With ``hub_neighbours`` above 0: similar queries re-rank the hub discount's order
         k-reciprocally (``core.reciprocal``). The service's default is on
@@ -177,6 +179,7 @@ class ShapeIndex:
         # objects: ~170 bytes per model for both maps.
         self._index_id_of: dict[int, int] = {}
         self._public_id_of: dict[int, int] = {}
+        self._entry_neighbours = KeptEntryNeighbours()  # scan mode's, per partition pair
         self._sync_lock = threading.Lock()  # one writer of the maps at a time
 
     # --- reading ----------------------------------------------------------------------
@@ -277,6 +280,43 @@ class ShapeIndex:
         with partition.lock.reading():
             return neighbourhood_radii(partition, ids, self.hub_neighbours, exclude,
                                        excluded_cosines)
+
+    def entry_neighbours(
+        self,
+        key: PartitionKey,
+        entry_ids: Sequence[int],
+        owners: Sequence[int],
+        vectors: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Scan mode's ``(e, KEPT_MODELS)`` most alike other models of each entry of
+        partition ``key`` and their cosines, -1 and 0 where there are fewer
+        (``_entry_neighbours.nearest_models``).
+
+        ``entry_ids`` are the entries' ids (a model's ``index_id``, or a ``view_id``),
+        ``owners`` their models, ``vectors : (e, d) float`` the entries. Each entry's nearest
+        ``KEPT_MODELS + 1`` models and as many times the views a model has on average are
+        searched in one batch per partition (exact while no model has more views than the
+        average and the partitions are exact; an approximate partition's estimates
+        otherwise), and kept until either partition changes.
+        """
+        partitions = (self._partitions.get(key), self._partitions.get(views_key(key)))
+        stamp = tuple(None if p is None else (p.serial, p.version) for p in partitions)
+        found = self._entry_neighbours.get(key, stamp, entry_ids)
+        missing = [row for row, neighbours in enumerate(found) if neighbours is None]
+        if missing:
+            sizes = [0 if p is None else int(p.index.ntotal) for p in partitions]
+            per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
+            rows = np.ascontiguousarray(np.asarray(vectors)[missing], dtype=np.float32)
+            model_hits = self.search_batch(key, rows, KEPT_MODELS + 1)
+            view_hits = self.search_batch(views_key(key), rows, (KEPT_MODELS + 1) * per_model)
+            fresh = {}
+            for place, row in enumerate(missing):
+                hits = [(i, 1.0 - d * d / 2.0) for i, d in model_hits[place]]
+                hits += [(view_of(i)[0], 1.0 - d * d / 2.0) for i, d in view_hits[place]]
+                found[row] = fresh[entry_ids[row]] = nearest_models(hits, owners[row])
+            self._entry_neighbours.put(key, stamp, fresh)
+        kept = [neighbours for neighbours in found if neighbours is not None]
+        return np.stack([k[0] for k in kept]), np.stack([k[1] for k in kept])
 
     def keep_neighbourhoods(self) -> int:
         """Compute every model's hub-discount neighbourhood now, partition by partition

@@ -15,6 +15,7 @@ candidates."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -36,6 +37,7 @@ _QUANTIZERS = {8: faiss.ScalarQuantizer.QT_8bit, 4: faiss.ScalarQuantizer.QT_4bi
 # where 8-bit codes need 20 (a one-off comparison at 2x10^5: recall@10 0.988 with 20, 0.998
 # with 40; at 10^6 with 40, 0.994: bench/search_scale.py --phases index).
 _RERANK_SCALE = {8: 1, 4: 2}
+_SERIALS = itertools.count(1)  # each partition object its own, never reused
 
 
 class Partition:
@@ -60,6 +62,10 @@ class Partition:
         self.lock = ReadWriteLock()
         # The hub discount's neighbourhoods, kept while a change does not move them.
         self.kept = KeptNeighbourhoods()
+        # (serial, version) names what the partition holds: version counts its changes, so
+        # what was computed from it (scan mode's entry neighbours) is known to be current.
+        self.serial = next(_SERIALS)
+        self.version = 0
 
     @property
     def kind(self) -> str:
@@ -146,12 +152,14 @@ class Partition:
         return coded
 
     def add(self, ids: np.ndarray, vectors: np.ndarray) -> None:
+        self.version += 1
         self.kept.changed(self, ids, vectors)
         if self.full is not None:  # first: when its disk is full, nothing is added
             self.full.put(ids.tolist(), vectors)
         self.index.add_with_ids(self.codable(vectors), ids)
 
     def remove(self, ids: np.ndarray) -> None:
+        self.version += 1
         self.kept.changed(self, ids)  # first: it reads the leaving vectors
         # An array selector: the IVF direct map (a hashtable) then removes without a scan.
         self.index.remove_ids(faiss.IDSelectorArray(len(ids), faiss.swig_ptr(ids)))

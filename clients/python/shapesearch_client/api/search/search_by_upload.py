@@ -218,14 +218,16 @@ def sync_detailed(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
-    `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
-    Size (sizes compare in millimetres where the models' units are known, as given otherwise):
-    `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
-    before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within +-10% of
-    the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over
-    the three extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's
-    size is the upload's, in its `units`; a partial scan under-measures.
+    query's own descriptor stays first. With mode=scan, the 4k nearest models by best view are ordered
+    by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
+    alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
+    millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
+    `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
+    `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
+    `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
+    extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's size is the
+    upload's, in its `units`; a partial scan under-measures.
 
     Args:
         k (int | Unset):  Default: 10.
@@ -328,14 +330,16 @@ def sync(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
-    `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
-    Size (sizes compare in millimetres where the models' units are known, as given otherwise):
-    `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
-    before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within +-10% of
-    the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over
-    the three extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's
-    size is the upload's, in its `units`; a partial scan under-measures.
+    query's own descriptor stays first. With mode=scan, the 4k nearest models by best view are ordered
+    by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
+    alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
+    millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
+    `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
+    `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
+    `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
+    extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's size is the
+    upload's, in its `units`; a partial scan under-measures.
 
     Args:
         k (int | Unset):  Default: 10.
@@ -433,14 +437,16 @@ async def asyncio_detailed(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
-    `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
-    Size (sizes compare in millimetres where the models' units are known, as given otherwise):
-    `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
-    before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within +-10% of
-    the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over
-    the three extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's
-    size is the upload's, in its `units`; a partial scan under-measures.
+    query's own descriptor stays first. With mode=scan, the 4k nearest models by best view are ordered
+    by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
+    alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
+    millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
+    `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
+    `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
+    `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
+    extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's size is the
+    upload's, in its `units`; a partial scan under-measures.
 
     Args:
         k (int | Unset):  Default: 10.
@@ -543,14 +549,16 @@ async def asyncio(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, by distance. Numeric metadata:
-    `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
-    Size (sizes compare in millimetres where the models' units are known, as given otherwise):
-    `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
-    before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within +-10% of
-    the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over
-    the three extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's
-    size is the upload's, in its `units`; a partial scan under-measures.
+    query's own descriptor stays first. With mode=scan, the 4k nearest models by best view are ordered
+    by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
+    alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
+    millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
+    `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
+    `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
+    `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
+    extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's size is the
+    upload's, in its `units`; a partial scan under-measures.
 
     Args:
         k (int | Unset):  Default: 10.

@@ -1,0 +1,140 @@
+"""Benchmark: scan-mode search at catalogue scale, plain order against the hub discount.
+
+Scan mode (``find_similar(..., mode="scan")``) compares a scan with every model's whole
+descriptor and its virtual views; since the fifteenth session it re-orders the ``4 k``
+nearest models by scan mode's hub discount, whose radii cost a search of both partitions per
+entry, taken best bound first until the answer is certain
+(``app.search.similarity._scan_hub_order``). This measures what that costs.
+
+A SQLite database is filled with ``--models`` ready models, each a synthetic descriptor
+(``search_scale.synthetic_chunk``: real descriptors mixed and noised, unit length) with
+``--views`` views (the model's vector moved half-way towards other synthetic vectors, so a
+view is near its model and unlike its siblings, as real views are). One in-process
+``ShapeIndex`` serves both orders: each query runs once in plain order
+(``hub_neighbours`` 0) and once with the discount, interleaved, the query a fresh synthetic
+vector (an upload: no model left out), ``k`` 10. The index keeps the entry neighbours
+it searched while the catalogue stays as it is (``app/search/index/_entry_neighbours.py``),
+so later queries search only for entries no earlier query met; ``--cold`` forgets them
+before every query (a catalogue that changes between any two queries). Printed: build
+seconds, median and p90 seconds per order and the ratio of medians, with the machine's load.
+
+    nice -n 10 .venv/bin/python bench/scan_search.py [--models 20000] [--queries 100] [--cold]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import tempfile
+import time
+import uuid
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from search_scale import (  # noqa: E402
+    CHUNK,
+    load_average,
+    queries,
+    real_descriptors,
+    synthetic_chunk,
+)
+
+K = 10
+KEY = ("default", "bench")
+
+
+def fill(url: str, real: np.ndarray, models: int, views: int) -> None:
+    """``models`` ready models with ``views`` view descriptors each."""
+    from sqlalchemy import insert
+
+    from app.db.migrate import upgrade
+    from app.db.models import Model, utcnow
+    from app.db.session import make_engine
+
+    engine = make_engine(url)
+    upgrade(engine)
+    now = utcnow()
+    with engine.begin() as connection:
+        for start in range(0, models, CHUNK):
+            size = min(CHUNK, models - start)
+            vectors = synthetic_chunk(real, start, size, 0.08)
+            others = [synthetic_chunk(real, 10**8 * (1 + v) + start, size, 0.08)
+                      for v in range(views)]
+            rows = []
+            for offset, vector in enumerate(vectors):
+                entries = np.stack([vector + other[offset] for other in others])
+                entries /= np.linalg.norm(entries, axis=1, keepdims=True)
+                rows.append({
+                    "id": uuid.uuid4(), "tenant": KEY[0], "metadata": {}, "status": "ready",
+                    "file_name": "part.stl", "file_size": 1, "file_sha256": "0" * 64,
+                    "file_format": "stl", "descriptor": vector.tobytes(),
+                    "view_descriptors": entries.astype(np.float32).tobytes(),
+                    "descriptor_version": KEY[1], "created_at": now, "updated_at": now,
+                })
+            connection.execute(insert(Model.__table__), rows)
+    engine.dispose()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", type=int, default=20_000)
+    parser.add_argument("--views", type=int, default=3)
+    parser.add_argument("--queries", type=int, default=100)
+    parser.add_argument("--real", type=int, default=40, help="real models to describe")
+    parser.add_argument("--cold", action="store_true",
+                        help="forget the kept entry neighbours before every query")
+    args = parser.parse_args()
+
+    from app.db.session import make_engine, make_session_factory
+    from app.search.index import ShapeIndex, views_key
+    from app.search.index._entry_neighbours import KeptEntryNeighbours
+    from app.search.similarity import find_similar
+    from core.hubness import HUB_NEIGHBOURS
+
+    real = real_descriptors(args.real, 3000)
+    with tempfile.TemporaryDirectory() as folder:
+        url = f"sqlite:///{folder}/bench.db"
+        started = time.perf_counter()
+        fill(url, real, args.models, args.views)
+        print(f"filled {args.models} models x {args.views} views, d {real.shape[1]}: "
+              f"{time.perf_counter() - started:.0f} s")
+        engine = make_engine(url)
+        index = ShapeIndex(make_session_factory(engine))
+        started = time.perf_counter()
+        index.rebuild()
+        print(f"index built in {time.perf_counter() - started:.0f} s: models "
+              f"{index.describe(KEY)}, views {index.describe(views_key(KEY))}")
+        seconds: dict[str, list[float]] = {"plain": [], "discount": []}
+        same_first = 0
+        for query in queries(real, args.queries, 0.08, batch=3):
+            answers = {}
+            for order, neighbours in (("plain", 0), ("discount", HUB_NEIGHBOURS)):
+                index.hub_neighbours = neighbours
+                if args.cold:
+                    index._entry_neighbours = KeptEntryNeighbours()
+                t0 = time.perf_counter()
+                with engine.connect() as connection:
+                    answers[order] = find_similar(index, connection, KEY, query, k=K,
+                                                  mode="scan")
+                seconds[order].append(time.perf_counter() - t0)
+            same_first += (answers["plain"][0].model.index_id
+                           == answers["discount"][0].model.index_id)
+        medians = {order: statistics.median(times) for order, times in seconds.items()}
+        for order, times in seconds.items():
+            p90 = float(np.percentile(times, 90))
+            print(f"{order:8s} median {1000 * medians[order]:.1f} ms, p90 {1000 * p90:.1f} ms")
+        print(f"discount / plain: {medians['discount'] / medians['plain']:.2f}x; the same "
+              f"first answer for {same_first} of {args.queries} queries; entries kept "
+              f"{len(index._entry_neighbours)}; load {load_average()}")
+        engine.dispose()
+
+
+if __name__ == "__main__":
+    main()
