@@ -1,0 +1,101 @@
+"""Does the search service's scan mode reproduce ``scan_hubs_select.py``'s figures?
+
+The study scores its candidates with its own code over the whole catalogue. The service
+orders the ``4 k`` nearest models by best entry, taking entries best bound first, with
+radii from its index (``app.search.similarity._scan_hub_order``). This puts a source's
+saved descriptors (``scan_retrieval``'s, as the study read them) into a SQLite database as
+ready models with their views, and asks ``find_similar(mode="scan")`` for every single-view
+scan with the scanned model left out (``exclude``: out of the answer and of every radius,
+the study's leave-one-out) and ``k`` the whole catalogue, in plain order
+(``hub_neighbours`` 0) and with the discount. Printed: mAP and NN of both, to set beside the
+study's rows for the source.
+
+    .venv/bin/python bench/selection/scan_hubs_service_check.py /work/scanhub/bosl2 \\
+        /work/scanhub/mcad /work/scanhub/vslot
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import uuid
+from pathlib import Path
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from scan_hubs_select import load_catalogue  # noqa: E402
+
+from core.evaluation.metrics import average_precision  # noqa: E402
+
+KEY = ("default", "check")
+
+
+def check(folder: Path) -> dict[str, tuple[float, float]]:
+    """mAP and NN of the single-view scans of ``folder``'s source, per order."""
+    from app.db.feed import record_event
+    from app.db.migrate import upgrade
+    from app.db.models import Model
+    from app.db.session import make_engine, make_session_factory
+    from app.search.index import ShapeIndex
+    from app.search.similarity import find_similar
+    from core.hubness import HUB_NEIGHBOURS
+
+    catalogue = load_catalogue(folder, "default")
+    with tempfile.TemporaryDirectory() as directory:
+        engine = make_engine(f"sqlite:///{directory}/check.db")
+        upgrade(engine)
+        sessions = make_session_factory(engine)
+        index_ids = []
+        for model in range(len(catalogue.models)):
+            rows = catalogue.entries[catalogue.owners == model].astype(np.float32)
+            with sessions.begin() as session:
+                row = Model(id=uuid.uuid4(), tenant=KEY[0], meta={}, status="ready",
+                            file_name="x.stl", file_size=1, file_sha256="0" * 64,
+                            file_format="stl", descriptor=rows[0].tobytes(),
+                            descriptor_version=KEY[1], view_descriptors=rows[1:].tobytes())
+                session.add(row)
+                session.flush()
+                record_event(session, row.index_id, "ready", KEY[0])
+                index_ids.append(row.index_id)
+        label_of = dict(zip(index_ids, catalogue.labels, strict=True))
+        index = ShapeIndex(sessions)
+        index.rebuild()
+        scores = {}
+        for order, neighbours in (("plain", 0), ("discount", HUB_NEIGHBOURS)):
+            index.hub_neighbours = neighbours
+            precisions, firsts = [], []
+            queries = catalogue.queries["single+sor"]
+            for query, model in zip(queries, catalogue.query_models["single+sor"], strict=True):
+                own = index_ids[model]
+                with engine.connect() as connection:
+                    found = find_similar(index, connection, KEY, query, mode="scan",
+                                         k=len(index_ids) - 1, exclude=own)
+                relevant = np.array([label_of[m.model.index_id] == label_of[own] for m in found])
+                if relevant.any():
+                    precisions.append(average_precision(relevant))
+                    firsts.append(bool(relevant[0]))
+            scores[order] = (float(np.mean(precisions)), float(np.mean(firsts)))
+        engine.dispose()
+    return scores
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("folders", type=Path, nargs="+")
+    args = parser.parse_args(argv)
+    print("| source | plain: mAP / NN | scan discount: mAP / NN |\n|---|---|---|")
+    for folder in args.folders:
+        scores = check(folder)
+        print(f"| {folder.name} | {scores['plain'][0]:.3f} / {scores['plain'][1]:.3f} | "
+              f"{scores['discount'][0]:.3f} / {scores['discount'][1]:.3f} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
