@@ -41,6 +41,7 @@ __all__ = [
     "hub_keys",
     "model_radii",
     "model_radii_among",
+    "scan_hub_keys",
     "neighbourhood_radii",
     "rerank_depth",
 ]
@@ -157,6 +158,82 @@ def model_radii_among(entries: np.ndarray, owners: np.ndarray,
     per_model[np.arange(len(entries)), column] = -np.inf
     top = -np.partition(-per_model, neighbours - 1, axis=1)[:, :neighbours]
     return top.mean(axis=1)
+
+
+def scan_hub_keys(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
+                  left_out: np.ndarray, neighbours: int = SCAN_HUB_NEIGHBOURS,
+                  weight: float = SCAN_HUB_WEIGHT, pool: np.ndarray | None = None
+                  ) -> np.ndarray:
+    """Scan mode's ranking keys of every model over a whole catalogue, lower first: each
+    model's least ``hub_keys(|q - e|^2, r(e))`` over its entries (what the search service
+    computes for its ``4 k`` nearest, ``app.search.similarity``).
+
+    Parameters
+    ----------
+    queries : (q, d) float
+        Unit rows.
+    entries : (e, d) float
+        Unit rows: every model's entries (its whole descriptor and its views).
+    owners : (e,) int
+        The model of each entry, ``0 .. m - 1``.
+    left_out : (q,) int
+        The model each query leaves out of the catalogue (its own, leave-one-out), or -1:
+        no radius counts it (its keys are still given; the caller leaves it out).
+    neighbours, weight : int, float
+        ``k`` and the weight of ``r``.
+    pool : (e,) bool, optional
+        The entries a radius looks at (default all: ``model_radii``'s choice; the views
+        alone were a candidate of ``bench/selection/scan_hubs_select.py``).
+
+    Returns
+    -------
+    keys : (q, m) float
+    """
+    entries = np.asarray(entries)  # float32 as stored, or float64
+    owners = np.asarray(owners)
+    models = int(owners.max()) + 1
+    pool = np.ones(len(owners), dtype=bool) if pool is None else np.asarray(pool, dtype=bool)
+    cosines = entries @ entries[pool].T
+    per_model = np.full((len(owners), models), -np.inf)
+    for model in range(models):
+        mine = owners[pool] == model
+        if mine.any():
+            per_model[:, model] = cosines[:, mine].max(axis=1)
+    per_model[np.arange(len(owners)), owners] = -np.inf
+    radii = _left_out_radii(per_model, np.asarray(left_out), neighbours)
+    squared = np.maximum(2.0 - 2.0 * np.asarray(queries) @ entries.T, 0.0)
+    entry_keys = hub_keys(squared, radii, weight)
+    keys = np.full((len(squared), models), np.inf)
+    for model in range(models):
+        keys[:, model] = entry_keys[:, owners == model].min(axis=1)
+    return keys
+
+
+def _left_out_radii(per_model: np.ndarray, left_out: np.ndarray, k: int) -> np.ndarray:
+    """``(q, e)`` means of each row's ``k`` largest finite values of ``per_model : (e, m)``
+    without column ``left_out[q]`` (-1: none); fewer where fewer are finite."""
+    order = np.argsort(-per_model, axis=1)[:, : k + 1]
+    nearest = np.take_along_axis(per_model, order, axis=1)
+    if nearest.shape[1] <= k or not np.isfinite(nearest).all():
+        # A small catalogue (or entries without k + 1 models to compare): row by row.
+        radii = np.zeros((len(left_out), len(per_model)))
+        for row, model in enumerate(left_out.tolist()):
+            values = per_model.copy()
+            if model >= 0:
+                values[:, model] = -np.inf
+            for entry, entry_values in enumerate(values):
+                finite = np.sort(entry_values[np.isfinite(entry_values)])[::-1][:k]
+                radii[row, entry] = finite.mean() if len(finite) else 0.0
+        return radii
+    sums = nearest[:, :k].sum(axis=1)
+    radii = np.broadcast_to(sums / k, (len(left_out), len(sums))).copy()
+    # A left-out model among an entry's k nearest: the (k+1)-th takes its place.
+    for row, model in enumerate(left_out.tolist()):
+        if model >= 0:
+            inside = (order[:, :k] == model).any(axis=1)
+            radii[row, inside] = (sums[inside] - per_model[inside, model]
+                                  + nearest[inside, k]) / k
+    return radii
 
 
 def neighbourhood_radii(database: np.ndarray, neighbours: int,

@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 
 from core.evaluation.metrics import pairwise_distances
-from core.hubness import hub_discounted_keys, model_radii, model_radii_among, neighbourhood_radii
+from core.hubness import (
+    hub_discounted_keys,
+    model_radii,
+    model_radii_among,
+    neighbourhood_radii,
+    scan_hub_keys,
+)
 
 
 def unit_rows(count: int, dims: int, seed: int) -> np.ndarray:
@@ -142,3 +148,29 @@ def test_radii_among_some_entries_bound_the_radii_among_all_from_below() -> None
     assert (bounds <= everything[some] + 1e-12).all() and (bounds < everything[some]).any()
     # Too few other models for a bound: -1, the least a mean cosine can be.
     assert (model_radii_among(entries[:12], owners[:12], neighbours=3) == -1.0).all()
+
+
+@pytest.mark.parametrize(("models", "k"), [(8, 3), (4, 5)])  # (4, 5): fewer models than k
+def test_scan_hub_keys_are_each_models_best_discounted_entry_without_the_left_out(
+    models: int, k: int
+) -> None:
+    rng = np.random.default_rng(6)
+    entries = rng.normal(size=(4 * models, 5))
+    entries /= np.linalg.norm(entries, axis=1, keepdims=True)
+    owners = np.repeat(np.arange(models), 4)
+    queries = rng.normal(size=(3, 5))
+    queries /= np.linalg.norm(queries, axis=1, keepdims=True)
+    left_out = np.array([2, -1, models - 1])
+    keys = scan_hub_keys(queries, entries, owners, left_out, neighbours=k, weight=0.5)
+    for row, query in enumerate(queries):
+        for model in range(models):
+            expected = np.inf
+            for entry in np.flatnonzero(owners == model):
+                best = sorted(
+                    (float((entries[owners == other] @ entries[entry]).max())
+                     for other in range(models) if other not in (model, left_out[row])),
+                    reverse=True,
+                )[:k]
+                key = float(np.sum((entries[entry] - query) ** 2)) + 0.5 * np.mean(best)
+                expected = min(expected, key)
+            assert keys[row, model] == pytest.approx(expected)

@@ -119,3 +119,6 @@ def test_the_scan_study_runs_end_to_end_on_a_tiny_set(tmp_path: Path) -> None:
     assert record["failures"] == [] and record["models"] == 4
     # A box is nearer to the other box than to a cylinder (and so on): every NN is right.
     assert record["scores"]["global|default|clean"]["nn"] == 1.0
+    # Catalogues with views are scored in the service's scan-mode order too.
+    assert {"views1|default|clean", "views1+hub|default|clean"} <= set(record["scores"])
+    assert "global+hub|default|clean" not in record["scores"]

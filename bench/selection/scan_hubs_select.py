@@ -84,6 +84,7 @@ from local_features_select import NON_RIGID_CAPOD  # noqa: E402
 from profile_block_select import TIE, Table, decide  # noqa: E402
 
 from core.evaluation.metrics import average_precision, ranked_relevance, score_rankings  # noqa: E402
+from core.hubness import scan_hub_keys  # noqa: E402
 
 RULE_SOURCES = ("madcad", "gearworks", "vslot", "mcad", "generated", "bendable", "capod")
 JUDGE = "bosl2"
@@ -148,49 +149,19 @@ def load_catalogue(folder: Path, descriptor: str, classes: tuple[str, ...] | Non
                      np.array(owners), np.array(is_view), queries, query_models)
 
 
-def entry_radii(catalogue: Catalogue, pool: str, neighbours: int,
-                query_models: np.ndarray) -> np.ndarray:
-    """``r(e)`` per (query, entry), ``(q, e)``: the mean over the ``neighbours`` most alike
-    other models (neither the entry's own nor the query's) of the entry's largest cosine to
-    that model's ``pool`` entries."""
-    models = len(catalogue.models)
-    in_pool = catalogue.is_view if pool == "views" else np.ones(len(catalogue.owners), bool)
-    cosines = catalogue.entries @ catalogue.entries[in_pool].T
-    pool_owners = catalogue.owners[in_pool]
-    per_model = np.full((len(catalogue.owners), models), -np.inf)
-    for model in range(models):
-        mine = pool_owners == model
-        if mine.any():
-            per_model[:, model] = cosines[:, mine].max(axis=1)
-    per_model[np.arange(len(catalogue.owners)), catalogue.owners] = -np.inf
-    k = neighbours
-    order = np.argsort(-per_model, axis=1)[:, : k + 1]
-    nearest = np.take_along_axis(per_model, order, axis=1)
-    sums = nearest[:, :k].sum(axis=1)
-    radii = np.broadcast_to(sums / k, (len(query_models), len(sums))).copy()
-    # The query's own model is out of the catalogue: where it was among an entry's k
-    # nearest, the (k+1)-th takes its place.
-    for row, model in enumerate(query_models):
-        inside = (order[:, :k] == model).any(axis=1)
-        radii[row, inside] = (sums[inside] - per_model[inside, model]
-                              + nearest[inside, k]) / k
-    return radii
-
-
 def model_keys(catalogue: Catalogue, kind: str, pool: str | None, neighbours: int,
                beta: float) -> np.ndarray:
     """Ranking keys ``(q, models)``, lower first, for the ``kind`` queries: each model's
-    best entry, plain (``pool`` None) or discounted."""
+    best entry, plain (``pool`` None) or discounted (``core.hubness.scan_hub_keys``, radii
+    over the ``views`` or all ``entries`` of the other models, the query's own left out)."""
     queries = catalogue.queries[kind]
-    squared = np.maximum(2.0 - 2.0 * queries @ catalogue.entries.T, 0.0)
-    if pool is not None:
-        squared = squared + beta * entry_radii(catalogue, pool, neighbours,
-                                               catalogue.query_models[kind])
-    keys = np.full((len(queries), len(catalogue.models)), np.inf)
-    for model in range(len(catalogue.models)):
-        mine = catalogue.owners == model
-        keys[:, model] = squared[:, mine].min(axis=1)
-    return keys
+    if pool is None:
+        squared = np.maximum(2.0 - 2.0 * queries @ catalogue.entries.T, 0.0)
+        return np.stack([squared[:, catalogue.owners == model].min(axis=1)
+                         for model in range(len(catalogue.models))], axis=1)
+    return scan_hub_keys(queries, catalogue.entries, catalogue.owners,
+                         catalogue.query_models[kind], neighbours, beta,
+                         pool=catalogue.is_view if pool == "views" else None)
 
 
 def scores(catalogue: Catalogue, kind: str, pool: str | None, neighbours: int, beta: float

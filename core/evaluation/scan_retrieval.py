@@ -17,7 +17,9 @@ cache (``runner.describe_sampling``), so a rerun only computes what is new::
 
     python -m core.evaluation.scan_retrieval DATASET --out OUT [--per-class 2] [--views 6]
 
-writes ``OUT/scan_retrieval.json`` and prints a Markdown table.
+writes ``OUT/scan_retrieval.json`` and prints a Markdown table. Catalogues with views are
+scored twice: by best entry (``views<n>``) and in the search service's scan-mode order, the
+hub discount among entries (``views<n>+hub``, ``core.hubness.scan_hub_keys``).
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ from core.evaluation.variants import (
     SS7_DESCRIPTOR,
     SS8_DESCRIPTOR,
 )
+from core.hubness import scan_hub_keys
 from core.pipeline import descriptor_from_eigenpairs
 from core.settings import DESCRIPTOR_FAMILIES, DescriptorSettings, EngineSettings
 from core.views import boundary_weights
@@ -180,7 +183,11 @@ def _scores(
     catalogue: dict[str, list[Described]],
     labels: dict[str, str],
     descriptor: str,
+    hub: bool = False,
 ) -> dict[str, float]:
+    """Leave-one-out scores of ``queries`` against ``catalogue`` (each model's entries) by
+    best entry, plain or (``hub``) in the search service's scan-mode order
+    (``core.hubness.scan_hub_keys``)."""
     names = sorted(catalogue)
     query_names = sorted(queries)
     entries, owners = [], []
@@ -188,10 +195,14 @@ def _scores(
         for entry in catalogue[name]:
             entries.append(entry.descriptors[descriptor])
             owners.append(index)
-    distances = best_entry_distances(
-        np.array([queries[q].descriptors[descriptor] for q in query_names]),
-        np.array(entries), np.array(owners), len(names),
-    )
+    query_rows = np.array([queries[q].descriptors[descriptor] for q in query_names])
+    if hub:
+        position = {name: index for index, name in enumerate(names)}
+        left_out = np.array([position.get(q, -1) for q in query_names])
+        distances = scan_hub_keys(query_rows, np.array(entries), np.array(owners), left_out)
+    else:
+        distances = best_entry_distances(query_rows, np.array(entries), np.array(owners),
+                                         len(names))
     exclude = np.array([[q == d for d in names] for q in query_names])
     relevance = ranked_relevance(
         distances, [labels[q] for q in query_names], [labels[d] for d in names], exclude
@@ -269,11 +280,14 @@ def run(
             }
     scores: dict[str, Any] = {}
     for mode, catalogue in catalogues.items():
+        # Catalogues with views are also scored in the service's scan-mode order.
+        orders = (False, True) if mode.startswith("views") else (False,)
         for descriptor in variants:
             for kind in query_kinds:
-                scores[f"{mode}|{descriptor}|{kind}"] = _scores(
-                    described[kind], catalogue, labels, descriptor
-                )
+                for hub in orders:
+                    scores[f"{mode}{'+hub' if hub else ''}|{descriptor}|{kind}"] = _scores(
+                        described[kind], catalogue, labels, descriptor, hub
+                    )
     record = {
         "dataset": str(dataset_root),
         "models": len(dataset.models),
