@@ -148,14 +148,10 @@ def model_radii_among(entries: np.ndarray, owners: np.ndarray,
         -1 (the least a mean cosine can be) where ``entries`` hold fewer than ``neighbours``
         models besides the entry's own, since a catalogue with fewer would average fewer.
     """
-    entries = np.asarray(entries, dtype=np.float64)
     models, column = np.unique(np.asarray(owners), return_inverse=True)
     if len(models) - 1 < neighbours:
         return np.full(len(entries), -1.0)
-    cosines = entries @ entries.T
-    per_model = np.stack([cosines[:, column == m].max(axis=1) for m in range(len(models))],
-                         axis=1)
-    per_model[np.arange(len(entries)), column] = -np.inf
+    per_model = _best_per_model(np.asarray(entries, dtype=np.float64), column)
     top = -np.partition(-per_model, neighbours - 1, axis=1)[:, :neighbours]
     return top.mean(axis=1)
 
@@ -192,14 +188,7 @@ def scan_hub_keys(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
     entries = np.asarray(entries)  # float32 as stored, or float64
     owners = np.asarray(owners)
     models = int(owners.max()) + 1
-    pool = np.ones(len(owners), dtype=bool) if pool is None else np.asarray(pool, dtype=bool)
-    cosines = entries @ entries[pool].T
-    per_model = np.full((len(owners), models), -np.inf)
-    for model in range(models):
-        mine = owners[pool] == model
-        if mine.any():
-            per_model[:, model] = cosines[:, mine].max(axis=1)
-    per_model[np.arange(len(owners)), owners] = -np.inf
+    per_model = _best_per_model(entries, owners, pool)
     radii = _left_out_radii(per_model, np.asarray(left_out), neighbours)
     squared = np.maximum(2.0 - 2.0 * np.asarray(queries) @ entries.T, 0.0)
     entry_keys = hub_keys(squared, radii, weight)
@@ -207,6 +196,21 @@ def scan_hub_keys(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
     for model in range(models):
         keys[:, model] = entry_keys[:, owners == model].min(axis=1)
     return keys
+
+
+def _best_per_model(entries: np.ndarray, owners: np.ndarray,
+                    pool: np.ndarray | None = None) -> np.ndarray:
+    """``(e, m)``: each entry's largest cosine to each model's ``pool`` entries (default
+    all), -inf for its own model and for a model with none in the pool."""
+    pool = np.ones(len(owners), dtype=bool) if pool is None else np.asarray(pool, dtype=bool)
+    cosines = entries @ entries[pool].T
+    per_model = np.full((len(owners), int(owners.max()) + 1), -np.inf)
+    for model in range(per_model.shape[1]):
+        mine = owners[pool] == model
+        if mine.any():
+            per_model[:, model] = cosines[:, mine].max(axis=1)
+    per_model[np.arange(len(owners)), owners] = -np.inf
+    return per_model
 
 
 def _left_out_radii(per_model: np.ndarray, left_out: np.ndarray, k: int) -> np.ndarray:
