@@ -17,7 +17,11 @@ before it ran, as shape mode's depth was chosen: the depth is kept if the share 
 95 % on every source given, else the next factor (8) is measured.
 
     .venv/bin/python bench/selection/scan_hubs_service_check.py /work/scanhub/bosl2 \\
-        /work/scanhub/mcad /work/scanhub/vslot
+        /work/scanhub/mcad /work/scanhub/vslot /work/scanhub/madcad /work/scanhub/gearworks
+
+**Result** (2026-11-27, fifteenth session): the study's mAP / NN to the third decimal on all
+five; first 10 as the whole catalogue's for 100 % of the queries (MCAD 87 of 88): the
+depth stays ``4 k``.
 """
 
 from __future__ import annotations
