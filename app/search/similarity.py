@@ -744,9 +744,8 @@ def _confirmed_best(
             )
         if len(entries[0]) != len(query):
             continue
-        distances = np.linalg.norm(np.stack(entries) - query, axis=1)
+        stacked = np.stack(entries)
+        distances = np.linalg.norm(stacked - query, axis=1)
         best = int(np.argmin(distances))
-        confirmed.append(
-            (row, float(distances[best]), None if best == 0 else best - 1, np.stack(entries))
-        )
+        confirmed.append((row, float(distances[best]), None if best == 0 else best - 1, stacked))
     return confirmed
