@@ -94,9 +94,10 @@ def test_diagnostic_kinds_split_occlusion_from_noise() -> None:
 def test_cleanup_steps_parse_filters_and_denoising() -> None:
     from core.evaluation.runner import _cleanup_steps
 
-    assert _cleanup_steps("") == (False, None, None)
-    assert _cleanup_steps("sor+plane16x2") == (True, ("plane", 16, 2), None)
-    assert _cleanup_steps("mor2.5+quadric24") == (False, ("quadric", 24, 1), 2.5)
+    assert _cleanup_steps("") == (False, None, None, False)
+    assert _cleanup_steps("sor+plane16x2") == (True, ("plane", 16, 2), None, False)
+    assert _cleanup_steps("mor2.5+quadric24") == (False, ("quadric", 24, 1), 2.5, False)
+    assert _cleanup_steps("sor+rev") == (True, None, None, True)
     with pytest.raises(ValueError, match="cleanup"):
         _cleanup_steps("sor+smooth")
 

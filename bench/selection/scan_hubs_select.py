@@ -116,9 +116,10 @@ class Catalogue:
 
 
 def load_catalogue(folder: Path, descriptor: str, classes: tuple[str, ...] | None = None,
-                   drop: tuple[str, ...] = ()) -> Catalogue:
+                   drop: tuple[str, ...] = (), kinds: tuple[str, ...] = QUERY_KINDS
+                   ) -> Catalogue:
     """``scan_retrieval``'s saved descriptors under ``folder``; only ``classes`` when given,
-    without ``drop``."""
+    without ``drop``; the ``kinds`` of query."""
     with np.load(folder / "scan_retrieval_descriptors.npz") as data:
         vectors = {key: data[key] for key in data.files if key.split("|")[1] == descriptor}
 
@@ -141,7 +142,7 @@ def load_catalogue(folder: Path, descriptor: str, classes: tuple[str, ...] | Non
                 owners.append(index[m])
                 is_view.append(kind != "clean")
     queries, query_models = {}, {}
-    for kind in QUERY_KINDS:
+    for kind in kinds:
         names = sorted(m for m in by_kind.get(kind, {}) if m in index)
         queries[kind] = np.array([by_kind[kind][m] for m in names])
         query_models[kind] = np.array([index[m] for m in names])

@@ -41,6 +41,8 @@ from core.evaluation.feature_sampling import FEATURE_OVERSAMPLING, feature_weigh
 from core.evaluation.scans import random_rotation, scan_of_kind
 from core.io import OUTLIER_RATIO, denoise_points, load_points, validate_points
 from core.pipeline import descriptor_from_eigenpairs, normalised_operators
+from core.revolution import fit_axis
+from core.revolution import revolve as revolve_about
 from core.settings import EngineSettings
 
 __all__ = [
@@ -244,16 +246,21 @@ class VariantSolver:
         return self.store.eigenvalues[:count], self.store.eigenvectors[:, :count]
 
 
-def _cleanup_steps(steps: str) -> tuple[bool, tuple[str, int, int] | None, float | None]:
+def _cleanup_steps(steps: str) -> tuple[bool, tuple[str, int, int] | None, float | None, bool]:
     """Parse the cleanup suffix of a scan kind: ``sor`` (the engine's outlier filter),
-    ``mor<ratio>`` (the same filter with that ratio) and ``<fit><k>[x<passes>]`` (denoise).
+    ``mor<ratio>`` (the same filter with that ratio), ``<fit><k>[x<passes>]`` (denoise) and
+    ``rev`` (complete the scan by turning it about its fitted axis, ``core.revolution``).
 
-    ``"sor+plane16x2"`` -> (True, ("plane", 16, 2), None); ``""`` -> (False, None, None).
+    ``"sor+plane16x2"`` -> (True, ("plane", 16, 2), None, False); ``""`` -> (False, None,
+    None, False).
     """
-    outliers, denoise, ratio = False, None, None
+    outliers, denoise, ratio, revolve = False, None, None, False
     for step in filter(None, steps.split("+")):
         if step == "sor":
             outliers = True
+            continue
+        if step == "rev":
+            revolve = True
             continue
         if re.fullmatch(r"mor\d+(\.\d+)?", step):
             ratio = float(step[3:])
@@ -262,7 +269,7 @@ def _cleanup_steps(steps: str) -> tuple[bool, tuple[str, int, int] | None, float
         if match is None:
             raise ValueError(f"unknown scan cleanup step {step!r}")
         denoise = (match[1], int(match[2]), int(match[3] or 1))
-    return outliers, denoise, ratio
+    return outliers, denoise, ratio, revolve
 
 
 def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[np.ndarray, float]:
@@ -287,9 +294,9 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
         points = points[feature_weighted_subsample(
             points, sampling.max_points, sampling.feature_share, sampling.sample_seed)]
     if sampling.scan != "clean":
-        outliers, denoise, ratio = _cleanup_steps(steps)
-        # Seeded without the denoise step: a denoised scan is the same scan, cleaned, so that
-        # with and without denoising compare paired.
+        outliers, denoise, ratio, revolve = _cleanup_steps(steps)
+        # Seeded without the denoise and revolve steps: a denoised or completed scan is the
+        # same scan, cleaned, so that with and without them compare paired.
         seed_key = kind + ("+sor" if outliers or ratio is not None else "")
         scan_seed = _model_seed(model.sha256, sampling.rotation_seed, seed_key)
         rng = np.random.default_rng(scan_seed)
@@ -305,6 +312,8 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
         if denoise is not None:
             fit, neighbours, passes = denoise
             points = denoise_points(points, neighbours, passes, fit)
+        if revolve:
+            points = revolve_about(points, fit_axis(points), len(points), sampling.sample_seed)
     return points, time.perf_counter() - start
 
 
