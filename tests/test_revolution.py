@@ -1,4 +1,5 @@
-"""Completing a partial view about its axis of revolution (``core.revolution``): the axis
+"""Completing a partial view about its axis of revolution (``core.evaluation.revolution``,
+measured for scan mode and declined; the study's ``+rev`` step): the axis
 of a turned part's half view is found, other shapes do not agree with theirs, and the
 completed view is the whole surface."""
 
@@ -9,8 +10,8 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
+from core.evaluation.revolution import fit_axis, revolve
 from core.evaluation.scans import random_rotation
-from core.revolution import fit_axis, revolve
 from core.views import hidden_point_removal
 
 

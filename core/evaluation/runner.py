@@ -38,11 +38,11 @@ import scipy.sparse as sp
 from core.cutoff import CutoffRecord, CutoffResult, make_cutoff
 from core.evaluation.dataset import Model
 from core.evaluation.feature_sampling import FEATURE_OVERSAMPLING, feature_weighted_subsample
+from core.evaluation.revolution import fit_axis
+from core.evaluation.revolution import revolve as revolve_about
 from core.evaluation.scans import random_rotation, scan_of_kind
 from core.io import OUTLIER_RATIO, denoise_points, load_points, validate_points
 from core.pipeline import descriptor_from_eigenpairs, normalised_operators
-from core.revolution import fit_axis
-from core.revolution import revolve as revolve_about
 from core.settings import EngineSettings
 
 __all__ = [
@@ -249,7 +249,8 @@ class VariantSolver:
 def _cleanup_steps(steps: str) -> tuple[bool, tuple[str, int, int] | None, float | None, bool]:
     """Parse the cleanup suffix of a scan kind: ``sor`` (the engine's outlier filter),
     ``mor<ratio>`` (the same filter with that ratio), ``<fit><k>[x<passes>]`` (denoise) and
-    ``rev`` (complete the scan by turning it about its fitted axis, ``core.revolution``).
+    ``rev`` (complete the scan by turning it about its fitted axis,
+    ``core.evaluation.revolution``).
 
     ``"sor+plane16x2"`` -> (True, ("plane", 16, 2), None, False); ``""`` -> (False, None,
     None, False).
