@@ -38,11 +38,12 @@ __all__ = [
 ]
 
 SCAN_MODE_HELP = (
-    "mode=scan is for partial scans (one side of a part): the query is described with the "
-    "points near its open rim faded out, and every model is compared both whole and as "
-    "each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's "
-    "distance is that of its best view, one result per model. mode=shape (the default) "
-    "compares whole models only, which suits complete meshes and merged scans better."
+    "mode=scan is for scans, one side of a part or several sides merged: every model is "
+    "compared both whole and as each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS "
+    "per model); a model's distance is that of its best entry, one result per model "
+    "(SHAPESEARCH_SCAN_BOUNDARY_WEIGHTS, off by default, also fades the query's points near "
+    "an open rim). mode=shape (the default) compares whole models only, which suits "
+    "complete meshes."
 )
 ORDER_HELP = (
     " Order: with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, "
@@ -52,14 +53,14 @@ ORDER_HELP = (
     "nearest include the query comes earlier), the discount's first answer kept first "
     "(SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain "
     "similarity, need not fall along the list; a model with the query's own descriptor "
-    "stays first. With mode=scan, the 4k nearest models by best view are ordered by their "
+    "stays first. With mode=scan, the 4k nearest models by best entry are ordered by their "
     "best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models "
     "most alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0)."
 )
 ModeQuery = Annotated[
     SearchMode,
-    Query(description="shape (default): whole models; scan: for partial scans, best view "
-          "of each model."),
+    Query(description="shape (default): whole models; scan: for scans, partial or merged, "
+          "the best entry (whole or a view) of each model."),
 ]
 
 

@@ -188,33 +188,35 @@ def sync_detailed(
      Best first, the model itself left out. Filter on metadata with query parameters `metadata.KEY=VALUE`
     (string values compare as text, others by their JSON form, e.g. `metadata.qty=3`); filters apply
     before the top-k cut. score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite.
-    mode=scan is for partial scans (one side of a part): the query is described with the points near its
-    open rim faded out, and every model is compared both whole and as each of its virtual partial views
-    (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
-    model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
-    scans better. Use mode=scan for a model that was uploaded as a partial scan (a model described
-    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the
-    max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most
-    alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part
-    near everything comes a little later, and then re-ranked k-reciprocally among themselves (a model
-    whose own nearest include the query comes earlier), the discount's first answer kept first
-    (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain similarity, need
-    not fall along the list; a model with the query's own descriptor stays first. With mode=scan, the 4k
-    nearest models by best view are ordered by their best entry's distance^2 + r/2, r that entry's mean
-    best cosine to the 5 other models most alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0).
-    Numeric metadata: `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number
-    in the range. Size (sizes compare in millimetres where the models' units are known, as given
-    otherwise): `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in
-    a range, before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within
-    +-10% of the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent
-    ratio)^2) over the three extents, and score = 1 - D^2/4. Models without a size pass no size filter.
+    mode=scan is for scans, one side of a part or several sides merged: every model is compared both
+    whole and as each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's
+    distance is that of its best entry, one result per model (SHAPESEARCH_SCAN_BOUNDARY_WEIGHTS, off by
+    default, also fades the query's points near an open rim). mode=shape (the default) compares whole
+    models only, which suits complete meshes. Use mode=scan for a model that was uploaded as a partial
+    scan (a model described before scan mode existed is then queried with its plain descriptor). Order:
+    with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean
+    cosine to its 10 most alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns
+    it off), so a part near everything comes a little later, and then re-ranked k-reciprocally among
+    themselves (a model whose own nearest include the query comes earlier), the discount's first answer
+    kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain
+    similarity, need not fall along the list; a model with the query's own descriptor stays first. With
+    mode=scan, the 4k nearest models by best entry are ordered by their best entry's distance^2 + r/2, r
+    that entry's mean best cosine to the 5 other models most alike it (off with
+    SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
+    millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
+    `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
+    `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
+    `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
+    extents, and score = 1 - D^2/4. Models without a size pass no size filter.
 
     Args:
         model_id (str):
         k (int | Unset):  Default: 10.
         min_score (float | Unset):
-        mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for partial scans,
-            best view of each model. Default: SimilarModelsMode.SHAPE.
+        mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for scans, partial
+            or merged, the best entry (whole or a view) of each model. Default:
+            SimilarModelsMode.SHAPE.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -300,33 +302,35 @@ def sync(
      Best first, the model itself left out. Filter on metadata with query parameters `metadata.KEY=VALUE`
     (string values compare as text, others by their JSON form, e.g. `metadata.qty=3`); filters apply
     before the top-k cut. score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite.
-    mode=scan is for partial scans (one side of a part): the query is described with the points near its
-    open rim faded out, and every model is compared both whole and as each of its virtual partial views
-    (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
-    model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
-    scans better. Use mode=scan for a model that was uploaded as a partial scan (a model described
-    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the
-    max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most
-    alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part
-    near everything comes a little later, and then re-ranked k-reciprocally among themselves (a model
-    whose own nearest include the query comes earlier), the discount's first answer kept first
-    (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain similarity, need
-    not fall along the list; a model with the query's own descriptor stays first. With mode=scan, the 4k
-    nearest models by best view are ordered by their best entry's distance^2 + r/2, r that entry's mean
-    best cosine to the 5 other models most alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0).
-    Numeric metadata: `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number
-    in the range. Size (sizes compare in millimetres where the models' units are known, as given
-    otherwise): `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in
-    a range, before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within
-    +-10% of the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent
-    ratio)^2) over the three extents, and score = 1 - D^2/4. Models without a size pass no size filter.
+    mode=scan is for scans, one side of a part or several sides merged: every model is compared both
+    whole and as each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's
+    distance is that of its best entry, one result per model (SHAPESEARCH_SCAN_BOUNDARY_WEIGHTS, off by
+    default, also fades the query's points near an open rim). mode=shape (the default) compares whole
+    models only, which suits complete meshes. Use mode=scan for a model that was uploaded as a partial
+    scan (a model described before scan mode existed is then queried with its plain descriptor). Order:
+    with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean
+    cosine to its 10 most alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns
+    it off), so a part near everything comes a little later, and then re-ranked k-reciprocally among
+    themselves (a model whose own nearest include the query comes earlier), the discount's first answer
+    kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain
+    similarity, need not fall along the list; a model with the query's own descriptor stays first. With
+    mode=scan, the 4k nearest models by best entry are ordered by their best entry's distance^2 + r/2, r
+    that entry's mean best cosine to the 5 other models most alike it (off with
+    SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
+    millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
+    `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
+    `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
+    `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
+    extents, and score = 1 - D^2/4. Models without a size pass no size filter.
 
     Args:
         model_id (str):
         k (int | Unset):  Default: 10.
         min_score (float | Unset):
-        mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for partial scans,
-            best view of each model. Default: SimilarModelsMode.SHAPE.
+        mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for scans, partial
+            or merged, the best entry (whole or a view) of each model. Default:
+            SimilarModelsMode.SHAPE.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -407,33 +411,35 @@ async def asyncio_detailed(
      Best first, the model itself left out. Filter on metadata with query parameters `metadata.KEY=VALUE`
     (string values compare as text, others by their JSON form, e.g. `metadata.qty=3`); filters apply
     before the top-k cut. score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite.
-    mode=scan is for partial scans (one side of a part): the query is described with the points near its
-    open rim faded out, and every model is compared both whole and as each of its virtual partial views
-    (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
-    model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
-    scans better. Use mode=scan for a model that was uploaded as a partial scan (a model described
-    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the
-    max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most
-    alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part
-    near everything comes a little later, and then re-ranked k-reciprocally among themselves (a model
-    whose own nearest include the query comes earlier), the discount's first answer kept first
-    (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain similarity, need
-    not fall along the list; a model with the query's own descriptor stays first. With mode=scan, the 4k
-    nearest models by best view are ordered by their best entry's distance^2 + r/2, r that entry's mean
-    best cosine to the 5 other models most alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0).
-    Numeric metadata: `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number
-    in the range. Size (sizes compare in millimetres where the models' units are known, as given
-    otherwise): `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in
-    a range, before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within
-    +-10% of the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent
-    ratio)^2) over the three extents, and score = 1 - D^2/4. Models without a size pass no size filter.
+    mode=scan is for scans, one side of a part or several sides merged: every model is compared both
+    whole and as each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's
+    distance is that of its best entry, one result per model (SHAPESEARCH_SCAN_BOUNDARY_WEIGHTS, off by
+    default, also fades the query's points near an open rim). mode=shape (the default) compares whole
+    models only, which suits complete meshes. Use mode=scan for a model that was uploaded as a partial
+    scan (a model described before scan mode existed is then queried with its plain descriptor). Order:
+    with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean
+    cosine to its 10 most alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns
+    it off), so a part near everything comes a little later, and then re-ranked k-reciprocally among
+    themselves (a model whose own nearest include the query comes earlier), the discount's first answer
+    kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain
+    similarity, need not fall along the list; a model with the query's own descriptor stays first. With
+    mode=scan, the 4k nearest models by best entry are ordered by their best entry's distance^2 + r/2, r
+    that entry's mean best cosine to the 5 other models most alike it (off with
+    SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
+    millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
+    `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
+    `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
+    `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
+    extents, and score = 1 - D^2/4. Models without a size pass no size filter.
 
     Args:
         model_id (str):
         k (int | Unset):  Default: 10.
         min_score (float | Unset):
-        mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for partial scans,
-            best view of each model. Default: SimilarModelsMode.SHAPE.
+        mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for scans, partial
+            or merged, the best entry (whole or a view) of each model. Default:
+            SimilarModelsMode.SHAPE.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -519,33 +525,35 @@ async def asyncio(
      Best first, the model itself left out. Filter on metadata with query parameters `metadata.KEY=VALUE`
     (string values compare as text, others by their JSON form, e.g. `metadata.qty=3`); filters apply
     before the top-k cut. score = 1 - distance^2/4 for unit descriptors: 1 identical, 0 opposite.
-    mode=scan is for partial scans (one side of a part): the query is described with the points near its
-    open rim faded out, and every model is compared both whole and as each of its virtual partial views
-    (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
-    model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
-    scans better. Use mode=scan for a model that was uploaded as a partial scan (a model described
-    before scan mode existed is then queried with its plain descriptor). Order: with mode=shape the
-    max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean cosine to its 10 most
-    alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part
-    near everything comes a little later, and then re-ranked k-reciprocally among themselves (a model
-    whose own nearest include the query comes earlier), the discount's first answer kept first
-    (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain similarity, need
-    not fall along the list; a model with the query's own descriptor stays first. With mode=scan, the 4k
-    nearest models by best view are ordered by their best entry's distance^2 + r/2, r that entry's mean
-    best cosine to the 5 other models most alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0).
-    Numeric metadata: `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number
-    in the range. Size (sizes compare in millimetres where the models' units are known, as given
-    otherwise): `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in
-    a range, before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within
-    +-10% of the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent
-    ratio)^2) over the three extents, and score = 1 - D^2/4. Models without a size pass no size filter.
+    mode=scan is for scans, one side of a part or several sides merged: every model is compared both
+    whole and as each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's
+    distance is that of its best entry, one result per model (SHAPESEARCH_SCAN_BOUNDARY_WEIGHTS, off by
+    default, also fades the query's points near an open rim). mode=shape (the default) compares whole
+    models only, which suits complete meshes. Use mode=scan for a model that was uploaded as a partial
+    scan (a model described before scan mode existed is then queried with its plain descriptor). Order:
+    with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, r a model's mean
+    cosine to its 10 most alike other models (a hub discount, SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns
+    it off), so a part near everything comes a little later, and then re-ranked k-reciprocally among
+    themselves (a model whose own nearest include the query comes earlier), the discount's first answer
+    kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain
+    similarity, need not fall along the list; a model with the query's own descriptor stays first. With
+    mode=scan, the 4k nearest models by best entry are ordered by their best entry's distance^2 + r/2, r
+    that entry's mean best cosine to the 5 other models most alike it (off with
+    SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
+    millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
+    `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
+    `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
+    `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
+    extents, and score = 1 - D^2/4. Models without a size pass no size filter.
 
     Args:
         model_id (str):
         k (int | Unset):  Default: 10.
         min_score (float | Unset):
-        mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for partial scans,
-            best view of each model. Default: SimilarModelsMode.SHAPE.
+        mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for scans, partial
+            or merged, the best entry (whole or a view) of each model. Default:
+            SimilarModelsMode.SHAPE.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the

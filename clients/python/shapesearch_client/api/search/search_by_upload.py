@@ -208,17 +208,17 @@ def sync_detailed(
      The scan is described synchronously, which takes seconds; at most SHAPESEARCH_SEARCH_MAX_CONCURRENT
     at a time (beyond: 503 with Retry-After). A file seen before (same bytes, same mode) is answered
     without describing it again. Same filters, score and order as /v1/models/{id}/similar. mode=scan is
-    for partial scans (one side of a part): the query is described with the points near its open rim
-    faded out, and every model is compared both whole and as each of its virtual partial views
-    (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
-    model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
-    scans better. Order: with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, r
-    a model's mean cosine to its 10 most alike other models (a hub discount,
+    for scans, one side of a part or several sides merged: every model is compared both whole and as
+    each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of
+    its best entry, one result per model (SHAPESEARCH_SCAN_BOUNDARY_WEIGHTS, off by default, also fades
+    the query's points near an open rim). mode=shape (the default) compares whole models only, which
+    suits complete meshes. Order: with mode=shape the max(4k, 40) nearest models are ordered by
+    distance^2 + r, r a model's mean cosine to its 10 most alike other models (a hub discount,
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near everything comes a little later,
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, the 4k nearest models by best view are ordered
+    query's own descriptor stays first. With mode=scan, the 4k nearest models by best entry are ordered
     by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
     alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
@@ -232,8 +232,9 @@ def sync_detailed(
     Args:
         k (int | Unset):  Default: 10.
         min_score (float | Unset):
-        mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for partial scans,
-            best view of each model. Default: SearchByUploadMode.SHAPE.
+        mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for scans, partial
+            or merged, the best entry (whole or a view) of each model. Default:
+            SearchByUploadMode.SHAPE.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -320,17 +321,17 @@ def sync(
      The scan is described synchronously, which takes seconds; at most SHAPESEARCH_SEARCH_MAX_CONCURRENT
     at a time (beyond: 503 with Retry-After). A file seen before (same bytes, same mode) is answered
     without describing it again. Same filters, score and order as /v1/models/{id}/similar. mode=scan is
-    for partial scans (one side of a part): the query is described with the points near its open rim
-    faded out, and every model is compared both whole and as each of its virtual partial views
-    (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
-    model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
-    scans better. Order: with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, r
-    a model's mean cosine to its 10 most alike other models (a hub discount,
+    for scans, one side of a part or several sides merged: every model is compared both whole and as
+    each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of
+    its best entry, one result per model (SHAPESEARCH_SCAN_BOUNDARY_WEIGHTS, off by default, also fades
+    the query's points near an open rim). mode=shape (the default) compares whole models only, which
+    suits complete meshes. Order: with mode=shape the max(4k, 40) nearest models are ordered by
+    distance^2 + r, r a model's mean cosine to its 10 most alike other models (a hub discount,
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near everything comes a little later,
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, the 4k nearest models by best view are ordered
+    query's own descriptor stays first. With mode=scan, the 4k nearest models by best entry are ordered
     by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
     alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
@@ -344,8 +345,9 @@ def sync(
     Args:
         k (int | Unset):  Default: 10.
         min_score (float | Unset):
-        mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for partial scans,
-            best view of each model. Default: SearchByUploadMode.SHAPE.
+        mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for scans, partial
+            or merged, the best entry (whole or a view) of each model. Default:
+            SearchByUploadMode.SHAPE.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -427,17 +429,17 @@ async def asyncio_detailed(
      The scan is described synchronously, which takes seconds; at most SHAPESEARCH_SEARCH_MAX_CONCURRENT
     at a time (beyond: 503 with Retry-After). A file seen before (same bytes, same mode) is answered
     without describing it again. Same filters, score and order as /v1/models/{id}/similar. mode=scan is
-    for partial scans (one side of a part): the query is described with the points near its open rim
-    faded out, and every model is compared both whole and as each of its virtual partial views
-    (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
-    model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
-    scans better. Order: with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, r
-    a model's mean cosine to its 10 most alike other models (a hub discount,
+    for scans, one side of a part or several sides merged: every model is compared both whole and as
+    each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of
+    its best entry, one result per model (SHAPESEARCH_SCAN_BOUNDARY_WEIGHTS, off by default, also fades
+    the query's points near an open rim). mode=shape (the default) compares whole models only, which
+    suits complete meshes. Order: with mode=shape the max(4k, 40) nearest models are ordered by
+    distance^2 + r, r a model's mean cosine to its 10 most alike other models (a hub discount,
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near everything comes a little later,
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, the 4k nearest models by best view are ordered
+    query's own descriptor stays first. With mode=scan, the 4k nearest models by best entry are ordered
     by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
     alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
@@ -451,8 +453,9 @@ async def asyncio_detailed(
     Args:
         k (int | Unset):  Default: 10.
         min_score (float | Unset):
-        mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for partial scans,
-            best view of each model. Default: SearchByUploadMode.SHAPE.
+        mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for scans, partial
+            or merged, the best entry (whole or a view) of each model. Default:
+            SearchByUploadMode.SHAPE.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -539,17 +542,17 @@ async def asyncio(
      The scan is described synchronously, which takes seconds; at most SHAPESEARCH_SEARCH_MAX_CONCURRENT
     at a time (beyond: 503 with Retry-After). A file seen before (same bytes, same mode) is answered
     without describing it again. Same filters, score and order as /v1/models/{id}/similar. mode=scan is
-    for partial scans (one side of a part): the query is described with the points near its open rim
-    faded out, and every model is compared both whole and as each of its virtual partial views
-    (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of its best view, one result per
-    model. mode=shape (the default) compares whole models only, which suits complete meshes and merged
-    scans better. Order: with mode=shape the max(4k, 40) nearest models are ordered by distance^2 + r, r
-    a model's mean cosine to its 10 most alike other models (a hub discount,
+    for scans, one side of a part or several sides merged: every model is compared both whole and as
+    each of its virtual partial views (SHAPESEARCH_SCAN_VIEWS per model); a model's distance is that of
+    its best entry, one result per model (SHAPESEARCH_SCAN_BOUNDARY_WEIGHTS, off by default, also fades
+    the query's points near an open rim). mode=shape (the default) compares whole models only, which
+    suits complete meshes. Order: with mode=shape the max(4k, 40) nearest models are ordered by
+    distance^2 + r, r a model's mean cosine to its 10 most alike other models (a hub discount,
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS; 0 turns it off), so a part near everything comes a little later,
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, the 4k nearest models by best view are ordered
+    query's own descriptor stays first. With mode=scan, the 4k nearest models by best entry are ordered
     by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
     alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
@@ -563,8 +566,9 @@ async def asyncio(
     Args:
         k (int | Unset):  Default: 10.
         min_score (float | Unset):
-        mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for partial scans,
-            best view of each model. Default: SearchByUploadMode.SHAPE.
+        mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for scans, partial
+            or merged, the best entry (whole or a view) of each model. Default:
+            SearchByUploadMode.SHAPE.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
