@@ -3,7 +3,8 @@
 Scan mode (``find_similar(..., mode="scan")``) compares a scan with every model's whole
 descriptor and its virtual views; since the fifteenth session it re-orders the ``4 k``
 nearest models by scan mode's hub discount, whose radii cost a search of both partitions per
-entry, taken best bound first until the answer is certain
+entry, taken best bound first until the answer is certain, and since the sixteenth the rest
+of the pool after the first answer by ``core.hubness.expansion_keys``
 (``app.search.similarity._scan_hub_order``). This measures what that costs.
 
 A SQLite database is filled with ``--models`` ready models, each a synthetic descriptor

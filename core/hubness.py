@@ -23,7 +23,13 @@ the mean over its ``SCAN_HUB_NEIGHBOURS`` most alike other models of its largest
 any of their entries (``model_radii``), weight ``SCAN_HUB_WEIGHT``; a model's key is its
 best entry's ``hub_keys``. Chosen by ``bench/selection/scan_hubs_select.py`` (+0.006 mAP
 of single-view scans left out over seven sources, every pre-registered test passed;
-docs/results.md).
+docs/results.md). After its first answer, scan mode orders the rest of its pool by
+``expansion_keys``: a partial scan is far from every whole model, but its first answer is a
+whole model, and whole models find their kind well, so each candidate's key blends in its
+nearness to the first answer's whole descriptor (query expansion for scans, weight
+``SCAN_EXPANSION_WEIGHT``; ``scan_ranking`` over a whole catalogue). Chosen by
+``bench/selection/scan_expansion_select.py`` (+0.073 mAP of single-view scans left out over
+seven sources, every pre-registered test passed; docs/results.md).
 """
 
 from __future__ import annotations
@@ -35,15 +41,18 @@ __all__ = [
     "HUB_RERANK_FACTOR",
     "HUB_WEIGHT",
     "SAME_DESCRIPTOR",
+    "SCAN_EXPANSION_WEIGHT",
     "SCAN_HUB_NEIGHBOURS",
     "SCAN_HUB_WEIGHT",
+    "expansion_keys",
     "hub_discounted_keys",
     "hub_keys",
     "model_radii",
     "model_radii_among",
-    "scan_hub_keys",
     "neighbourhood_radii",
     "rerank_depth",
+    "scan_hub_keys",
+    "scan_ranking",
 ]
 
 #: ``k`` and ``weight`` of the rule's choice (bench/selection/hubness_select.py, round 1).
@@ -61,6 +70,9 @@ SAME_DESCRIPTOR = 1e-4
 #: entry of the other models, the smallest ``k`` and ``weight`` of its grid).
 SCAN_HUB_NEIGHBOURS = 5
 SCAN_HUB_WEIGHT = 0.5
+#: Scan mode's expansion weight (bench/selection/scan_expansion_select.py: one anchor, the
+#: first answer; the largest weight of its grid).
+SCAN_EXPANSION_WEIGHT = 0.75
 
 
 def rerank_depth(k: int) -> int:
@@ -196,6 +208,48 @@ def scan_hub_keys(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
     for model in range(models):
         keys[:, model] = entry_keys[:, owners == model].min(axis=1)
     return keys
+
+
+def expansion_keys(keys: np.ndarray, spread: np.ndarray,
+                   weight: float = SCAN_EXPANSION_WEIGHT) -> np.ndarray:
+    """Scan mode's keys after its first answer, lower first: ``(1 - weight) keys +
+    weight spread``, ``keys`` the candidates' ``scan_hub_keys`` and ``spread`` their squared
+    distances from the first answer's whole descriptor (same shapes). Increasing in
+    ``keys``, so a lower bound of a key gives one of its expansion key."""
+    return (1.0 - weight) * np.asarray(keys) + weight * np.asarray(spread)
+
+
+def scan_ranking(keys: np.ndarray, whole: np.ndarray, depth: int,
+                 weight: float = SCAN_EXPANSION_WEIGHT) -> np.ndarray:
+    """Scan mode's order of a whole catalogue for one query, as the search service gives it
+    for ``k`` results when ``depth = rerank_depth(k)``: the first answer (least key) first,
+    the rest of the ``depth`` least keys by ``expansion_keys``, the others after them by key.
+
+    Parameters
+    ----------
+    keys : (m,) float
+        ``scan_hub_keys`` of every model (``inf`` for a model left out).
+    whole : (m, d) float
+        Each model's whole descriptor (unit rows).
+    depth : int
+        The pool re-ordered.
+
+    Returns
+    -------
+    positions : (m,) float
+        Each model's place in the answer, lower first (``inf`` where ``keys`` is).
+    """
+    keys = np.asarray(keys, dtype=float)
+    order = np.argsort(keys, kind="stable")
+    pool, rest = order[:depth], order[depth:]
+    if len(pool) > 1 and weight > 0:
+        spread = np.sum((whole[pool[1:]] - whole[pool[0]]) ** 2, axis=1)
+        pool = np.concatenate([pool[:1], pool[1:][np.argsort(
+            expansion_keys(keys[pool[1:]], spread, weight), kind="stable")]])
+    positions = np.empty(len(keys))
+    positions[np.concatenate([pool, rest])] = np.arange(len(keys), dtype=float)
+    positions[~np.isfinite(keys)] = np.inf
+    return positions
 
 
 def _best_per_model(entries: np.ndarray, owners: np.ndarray,

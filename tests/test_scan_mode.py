@@ -32,7 +32,12 @@ from app.ingest.describing import ingest_columns
 from app.search.index import VIEW_ID_BASE, ShapeIndex, view_id, view_of, views_key
 from app.search.similarity import find_similar, score_of
 from app.settings import engine_settings
-from core.hubness import SCAN_HUB_NEIGHBOURS, SCAN_HUB_WEIGHT, rerank_depth
+from core.hubness import (
+    SCAN_EXPANSION_WEIGHT,
+    SCAN_HUB_NEIGHBOURS,
+    SCAN_HUB_WEIGHT,
+    rerank_depth,
+)
 from core.pipeline import describe_points, scan_weights
 from core.settings import EngineSettings, ViewSettings
 from core.views import hidden_point_removal, view_directions, virtual_views
@@ -269,9 +274,9 @@ def test_a_filter_that_few_models_pass_widens_the_search_in_rounds(
         assert match.distance == pytest.approx(distance, abs=1e-5)
 
 
-def discounted_order(
+def hub_keys_of(
     entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None
-) -> list[int]:
+) -> dict[int, float]:
     """Scan mode's hub discount computed directly over the whole catalogue: the
     ``rerank_depth(k)`` nearest models by best entry, each keyed by its least
     ``|q - e|^2 + SCAN_HUB_WEIGHT r(e)``, ``r(e)`` the mean over the 5 other models (not
@@ -288,33 +293,88 @@ def discounted_order(
             radius = sum(best) / len(best)
             entry_keys.append(float(np.sum((entry - query) ** 2)) + SCAN_HUB_WEIGHT * radius)
         keys[model] = min(entry_keys)
+    return keys
+
+
+def discounted_order(
+    entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None
+) -> list[int]:
+    """The hub keys' order alone (``hub_keys_of``)."""
+    keys = hub_keys_of(entries, query, k, exclude)
     return sorted(keys, key=lambda i: (keys[i], i))[:k]
 
 
-def test_scan_mode_orders_by_its_hub_discount_as_a_direct_computation(
+def scan_order(
+    entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None
+) -> list[int]:
+    """Scan mode's order computed directly: the least hub key first, then the rest of the
+    pool by ``(1 - w) key + w |x - x_first|^2`` (``x`` a model's whole descriptor, ``w``
+    ``SCAN_EXPANSION_WEIGHT``)."""
+    keys = hub_keys_of(entries, query, k, exclude)
+    first = min(keys, key=lambda i: (keys[i], i))
+    whole = entries[first][0].astype(np.float64)
+    blended = {
+        i: (1 - SCAN_EXPANSION_WEIGHT) * keys[i]
+        + SCAN_EXPANSION_WEIGHT * float(np.sum((entries[i][0] - whole) ** 2))
+        for i in keys if i != first
+    }
+    return [first, *sorted(blended, key=lambda i: (blended[i], i))][:k]
+
+
+def test_scan_mode_orders_as_a_direct_computation(
     sessions: sessionmaker[Session],
 ) -> None:
     entries = catalogue(sessions, 40, views=3, seed=5)
     index = ShapeIndex(sessions)
     index.rebuild()
     rng = np.random.default_rng(7)
-    moved = 0
+    moved = expanded = 0
     for _ in range(6):
         query = unit(rng.normal(size=8))
-        expected = discounted_order(entries, query, 7)
+        expected = scan_order(entries, query, 7)
         found = scan_search(index, sessions, query, k=7)
         assert [m.model.index_id for m in found] == expected
         # Distances and scores stay the plain best entry's.
         plain = dict(brute_force(entries, query))
         for match in found:
             assert match.distance == pytest.approx(plain[match.model.index_id], abs=1e-5)
-        moved += expected != [i for i, _ in brute_force(entries, query)[:7]]
-    assert moved > 0  # the discount changed some answers, or this test would show nothing
+        moved += discounted_order(entries, query, 7) != [
+            i for i, _ in brute_force(entries, query)[:7]]
+        expanded += expected != discounted_order(entries, query, 7)
+    # The discount and the expansion each changed some answers, or this test shows nothing.
+    assert moved > 0 and expanded > 0
     # A query by model id: that model is in no radius and no answer.
     own = list(entries)[3]
-    expected = discounted_order(entries, entries[own][0], 5, exclude=own)
+    expected = scan_order(entries, entries[own][0], 5, exclude=own)
     found = scan_search(index, sessions, entries[own][0], k=5, exclude=own)
     assert [m.model.index_id for m in found] == expected
+
+
+def test_after_the_first_answer_its_kind_comes_before_views_as_near_the_scan(
+    sessions: sessionmaker[Session],
+) -> None:
+    """A scan meets one part's view best; other parts of that kind are whole much like it
+    but were seen from elsewhere, while parts of another kind have views a little nearer
+    the scan. Plain order puts the other kind second; scan mode's expansion puts the first
+    answer's kind there."""
+    d = 16
+    basis = np.eye(d)
+    query = basis[0]
+    kind = unit(basis[1] + basis[2])  # what the first answer's kind looks like whole
+    first = add_ready(sessions, kind, (query + 0.3 * basis[3])[None, :])
+    same = [add_ready(sessions, unit(kind + 0.15 * basis[4 + n]),
+                      unit(query + 1.3 * basis[8 + n])[None, :]) for n in range(3)]
+    other = [add_ready(sessions, unit(basis[12] + 0.15 * basis[13 + n]),
+                       unit(query + 1.0 * basis[13 + n])[None, :]) for n in range(3)]
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    found = [m.model.index_id for m in scan_search(index, sessions, query, k=7)]
+    assert found[0] == first
+    assert set(found[1:4]) == set(same) and set(found[4:7]) == set(other)
+    plain = ShapeIndex(sessions, hub_neighbours=0)
+    plain.rebuild()
+    found_plain = [m.model.index_id for m in scan_search(plain, sessions, query, k=7)]
+    assert found_plain[0] == first and set(found_plain[1:4]) == set(other)
 
 
 def test_kept_entry_neighbours_follow_the_catalogue_as_it_changes(
@@ -329,7 +389,7 @@ def test_kept_entry_neighbours_follow_the_catalogue_as_it_changes(
     queries = unit(rng.normal(size=(3, 8)))
     for query in queries:
         assert [m.model.index_id for m in scan_search(index, sessions, query, k=5)] == (
-            discounted_order(entries, query, 5)
+            scan_order(entries, query, 5)
         )
     kept = len(index._entry_neighbours)
     # Entries are searched best bound first, only as far as the answer needs: fewer than
@@ -355,14 +415,14 @@ def test_kept_entry_neighbours_follow_the_catalogue_as_it_changes(
     assert cosines[0][:6].min() > 0.95
     for query in queries:
         assert [m.model.index_id for m in scan_search(index, sessions, query, k=5)] == (
-            discounted_order(entries, query, 5)
+            scan_order(entries, query, 5)
         )
     gone = first.model.index_id
     delete_model(sessions, gone)
     index.remove(gone)
     del entries[gone]
     assert [m.model.index_id for m in scan_search(index, sessions, queries[0], k=5)] == (
-        discounted_order(entries, queries[0], 5)
+        scan_order(entries, queries[0], 5)
     )
 
 

@@ -18,8 +18,9 @@ cache (``runner.describe_sampling``), so a rerun only computes what is new::
     python -m core.evaluation.scan_retrieval DATASET --out OUT [--per-class 2] [--views 6]
 
 writes ``OUT/scan_retrieval.json`` and prints a Markdown table. Catalogues with views are
-scored twice: by best entry (``views<n>``) and in the search service's scan-mode order, the
-hub discount among entries (``views<n>+hub``, ``core.hubness.scan_hub_keys``).
+scored twice: by best entry (``views<n>``) and in the search service's scan-mode order for
+10 results, the hub discount among entries and the expansion after the first answer
+(``views<n>+hub``, ``core.hubness.scan_ranking``).
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ from core.evaluation.variants import (
     SS7_DESCRIPTOR,
     SS8_DESCRIPTOR,
 )
-from core.hubness import scan_hub_keys
+from core.hubness import rerank_depth, scan_hub_keys, scan_ranking
 from core.pipeline import descriptor_from_eigenpairs
 from core.settings import DESCRIPTOR_FAMILIES, DescriptorSettings, EngineSettings
 from core.views import boundary_weights
@@ -187,7 +188,7 @@ def _scores(
 ) -> dict[str, float]:
     """Leave-one-out scores of ``queries`` against ``catalogue`` (each model's entries) by
     best entry, plain or (``hub``) in the search service's scan-mode order
-    (``core.hubness.scan_hub_keys``)."""
+    (``core.hubness.scan_ranking``)."""
     names = sorted(catalogue)
     query_names = sorted(queries)
     entries, owners = [], []
@@ -199,7 +200,13 @@ def _scores(
     if hub:
         position = {name: index for index, name in enumerate(names)}
         left_out = np.array([position.get(q, -1) for q in query_names])
-        distances = scan_hub_keys(query_rows, np.array(entries), np.array(owners), left_out)
+        keys = scan_hub_keys(query_rows, np.array(entries), np.array(owners), left_out)
+        whole = np.array([catalogue[name][0].descriptors[descriptor] for name in names])
+        for row, model in zip(keys, left_out, strict=True):
+            if model >= 0:
+                row[model] = np.inf
+        # As the service answers 10 results: its first, then its pool by expansion keys.
+        distances = np.array([scan_ranking(row, whole, rerank_depth(10)) for row in keys])
     else:
         distances = best_entry_distances(query_rows, np.array(entries), np.array(owners),
                                          len(names))

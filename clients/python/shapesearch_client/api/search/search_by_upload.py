@@ -218,9 +218,11 @@ def sync_detailed(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, the 4k nearest models by best entry are ordered
-    by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
-    alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    query's own descriptor stays first. With mode=scan, of the 4k nearest models by best entry the one
+    of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best cosine to
+    the 5 other models most alike it; the others follow by key/4 + 3/4 of their whole descriptor's
+    squared distance from the first answer's, so the first answer's kind comes next (off with
+    SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
     `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
@@ -331,9 +333,11 @@ def sync(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, the 4k nearest models by best entry are ordered
-    by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
-    alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    query's own descriptor stays first. With mode=scan, of the 4k nearest models by best entry the one
+    of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best cosine to
+    the 5 other models most alike it; the others follow by key/4 + 3/4 of their whole descriptor's
+    squared distance from the first answer's, so the first answer's kind comes next (off with
+    SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
     `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
@@ -439,9 +443,11 @@ async def asyncio_detailed(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, the 4k nearest models by best entry are ordered
-    by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
-    alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    query's own descriptor stays first. With mode=scan, of the 4k nearest models by best entry the one
+    of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best cosine to
+    the 5 other models most alike it; the others follow by key/4 + 3/4 of their whole descriptor's
+    squared distance from the first answer's, so the first answer's kind comes next (off with
+    SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
     `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
@@ -552,9 +558,11 @@ async def asyncio(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, the 4k nearest models by best entry are ordered
-    by their best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most
-    alike it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
+    query's own descriptor stays first. With mode=scan, of the 4k nearest models by best entry the one
+    of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best cosine to
+    the 5 other models most alike it; the others follow by key/4 + 3/4 of their whole descriptor's
+    squared distance from the first answer's, so the first answer's kind comes next (off with
+    SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
     `size.length.lte=` (and width, height, area, volume) keep models in a range, before the top-k cut;
