@@ -71,6 +71,7 @@ import argparse
 import json
 import os
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -220,48 +221,59 @@ def mean_over(table: Table, name: str, sources: tuple[str, ...]) -> float:
     return float(np.mean([table[name][s]["map"] for s in sources]))
 
 
+ScoreAll = Callable[[Path, str, tuple[str, ...], str],
+                    tuple[Table, dict[str, dict[str, np.ndarray]]]]
+
+
+def rule_and_tests(root: Path, score_all: ScoreAll, order: dict[str, int], reference: str
+                   ) -> dict[str, object]:
+    """The rule and the four ship tests of the scan-mode studies (written for this one;
+    ``scan_revolve_select.py`` and ``scan_expansion_select.py`` ask the same), printed, and
+    everything for the JSON. ``score_all(root, descriptor, sources, kind)`` scores every
+    candidate; ``order`` is the tie order; ``reference`` the order shipped."""
+    every = (*RULE_SOURCES, JUDGE)
+    single, single_queries = score_all(root, "default", every, "single+sor")
+    rule_table = {c: {s: single[c][s] for s in RULE_SOURCES} for c in single}
+    report = decide(rule_table, single_queries, order, "single-view scans, scan mode",
+                    RULE_SOURCES, reference, None, tie_key="tie order", by_mean=True)
+    chosen = str(report["chosen"])
+    pair = (reference, chosen)
+    tests = {"1 rule": bool(report["ships"])}
+    guards: dict[str, dict[str, float]] = {}
+    for kind in ("multi+sor", "clean"):
+        table, _ = score_all(root, "default", RULE_SOURCES, kind)
+        guards[kind] = {c: mean_over(table, c, RULE_SOURCES) for c in pair}
+        guards[kind + " per source"] = {s: table[chosen][s]["map"] - table[reference][s]["map"]
+                                        for s in RULE_SOURCES}
+        tests[f"2 {kind}"] = guards[kind][chosen] >= guards[kind][reference] - TIE
+    judge = {c: single[c][JUDGE] for c in pair}
+    tests["3 judge"] = judge[chosen]["map"] >= judge[reference]["map"] - TIE
+    family, _ = score_all(root, "bendable", FAMILY_SOURCES, "single+sor")
+    family_mean = {c: mean_over(family, c, FAMILY_SOURCES) for c in pair}
+    tests["4 family"] = family_mean[chosen] >= family_mean[reference] - TIE
+    print(f"\nchoice over the seven: {chosen}")
+    for kind in ("multi+sor", "clean"):
+        print(f"{kind} (scan mode), mean of seven: {chosen} {guards[kind][chosen]:.4f}, "
+              f"{reference} {guards[kind][reference]:.4f}")
+    print(f"judge {JUDGE}, single views: {chosen} {judge[chosen]['map']:.3f} / "
+          f"{judge[chosen]['nn']:.3f}, {reference} {judge[reference]['map']:.3f} / "
+          f"{judge[reference]['nn']:.3f} (mAP / NN)")
+    print(f"bendable family, single views over {FAMILY_SOURCES}: {chosen} "
+          f"{family_mean[chosen]:.4f}, {reference} {family_mean[reference]:.4f}")
+    ships = all(tests.values())
+    print(f"tests: {tests}\nships: {ships}")
+    return {"single": single, "order": order, **report, "guards": guards, "judge": judge,
+            "family": family, "family_mean": family_mean, "tests": tests, "ships": ships}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, help="folder of scan_retrieval outputs per source")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    grid = candidates()
-    order = tie_order(grid)
-    every = (*RULE_SOURCES, JUDGE)
-    single, single_queries = score_all(args.out, "default", every, "single+sor")
-    rule_table = {c: {s: single[c][s] for s in RULE_SOURCES} for c in single}
-    report = decide(rule_table, single_queries, order, "single-view scans, scan mode",
-                    RULE_SOURCES, PLAIN, None, tie_key="tie order", by_mean=True)
-    chosen = str(report["chosen"])
-    tests = {"1 rule": bool(report["ships"])}
-    guards: dict[str, dict[str, float]] = {}
-    for kind in ("multi+sor", "clean"):
-        table, _ = score_all(args.out, "default", RULE_SOURCES, kind)
-        guards[kind] = {c: mean_over(table, c, RULE_SOURCES) for c in (PLAIN, chosen)}
-        guards[kind + " per source"] = {s: table[chosen][s]["map"] - table[PLAIN][s]["map"]
-                                        for s in RULE_SOURCES}
-        tests[f"2 {kind}"] = guards[kind][chosen] >= guards[kind][PLAIN] - TIE
-    judge = {c: single[c][JUDGE] for c in (PLAIN, chosen)}
-    tests["3 judge"] = judge[chosen]["map"] >= judge[PLAIN]["map"] - TIE
-    family, _ = score_all(args.out, "bendable", FAMILY_SOURCES, "single+sor")
-    family_mean = {c: mean_over(family, c, FAMILY_SOURCES) for c in (PLAIN, chosen)}
-    tests["4 family"] = family_mean[chosen] >= family_mean[PLAIN] - TIE
-    print(f"\nchoice over the seven: {chosen}")
-    for kind in ("multi+sor", "clean"):
-        print(f"{kind} (scan mode), mean of seven: {chosen} {guards[kind][chosen]:.4f}, "
-              f"plain {guards[kind][PLAIN]:.4f}")
-    print(f"judge {JUDGE}, single views: {chosen} {judge[chosen]['map']:.3f} / "
-          f"{judge[chosen]['nn']:.3f}, plain {judge[PLAIN]['map']:.3f} / "
-          f"{judge[PLAIN]['nn']:.3f} (mAP / NN)")
-    print(f"bendable family, single views over {FAMILY_SOURCES}: {chosen} "
-          f"{family_mean[chosen]:.4f}, plain {family_mean[PLAIN]:.4f}")
-    ships = all(tests.values())
-    print(f"tests: {tests}\nships: {ships}")
+    record = rule_and_tests(args.out, score_all, tie_order(candidates()), PLAIN)
     if args.json:
-        args.json.write_text(json.dumps({
-            "single": single, "order": order, **report, "guards": guards, "judge": judge,
-            "family": family, "family_mean": family_mean, "tests": tests, "ships": ships,
-        }, indent=1))
+        args.json.write_text(json.dumps(record, indent=1))
     return 0
 
 

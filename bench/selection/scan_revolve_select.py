@@ -77,7 +77,8 @@ model but farther from every entry of their kind than the raw scan does from its
 surface of revolution loses what tells turned kinds apart: completed alone (``replace a0``),
 the nearest answer is of the query's kind for 0.59 of pymadcad's single views against 0.92
 raw. (The module moved from ``core/revolution.py`` to ``core/evaluation/`` after the run:
-nothing in the service uses it.)
+nothing in the service uses it; the rule and tests moved into
+``scan_hubs_select.rule_and_tests``, the JSON unchanged.)
 """
 
 from __future__ import annotations
@@ -95,8 +96,14 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import NON_RIGID_CAPOD  # noqa: E402
-from profile_block_select import TIE, Table, decide  # noqa: E402
-from scan_hubs_select import Catalogue, load_catalogue  # noqa: E402
+from profile_block_select import Table  # noqa: E402
+from scan_hubs_select import (  # noqa: E402
+    JUDGE,
+    RULE_SOURCES,
+    Catalogue,
+    load_catalogue,
+    rule_and_tests,
+)
 
 from core.evaluation.dataset import load_dataset  # noqa: E402
 from core.evaluation.metrics import average_precision, ranked_relevance, score_rankings  # noqa: E402
@@ -106,9 +113,6 @@ from core.evaluation.scan_retrieval import ROTATION_SEED  # noqa: E402
 from core.hubness import scan_hub_keys  # noqa: E402
 from core.settings import EngineSettings  # noqa: E402
 
-RULE_SOURCES = ("madcad", "gearworks", "vslot", "mcad", "generated", "bendable", "capod")
-JUDGE = "bosl2"
-FAMILY_SOURCES = ("bendable", "capod-nonrigid")
 #: Query kind -> its completed kind, and the kind whose points are completed.
 COMPLETED = {"single+sor": "single+sor+rev", "multi+sor": "multi+sor+rev", "clean": "points+rev"}
 BEFORE_COMPLETION = {"single+sor": "single+sor", "multi+sor": "multi+sor", "clean": "points"}
@@ -182,32 +186,44 @@ def candidate_scores(catalogue: Catalogue, kind: str, agreement: dict[str, float
     return results
 
 
+def _catalogue(root: Path, source: str, descriptor: str, kind: str) -> Catalogue:
+    """``source``'s catalogue with the ``kind`` queries and their completed copies
+    (``capod``: its rigid classes, ``capod-nonrigid``: the others)."""
+    classes = NON_RIGID_CAPOD if source == "capod-nonrigid" else None
+    drop = NON_RIGID_CAPOD if source == "capod" else ()
+    return load_catalogue(_folder(root, source), descriptor, classes=classes, drop=drop,
+                          kinds=(kind, COMPLETED[kind]))
+
+
+def _folder(root: Path, source: str) -> Path:
+    return root / ("capod" if source.startswith("capod") else source)
+
+
 def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
-              ) -> tuple[Table, dict[str, dict[str, np.ndarray]], dict[str, float]]:
-    """Every candidate on every source for the ``kind`` queries, and each source's share of
-    queries that pass each gate."""
+              ) -> tuple[Table, dict[str, dict[str, np.ndarray]]]:
+    """Every candidate on every source for the ``kind`` queries."""
     table: Table = {}
     queries: dict[str, dict[str, np.ndarray]] = {}
-    shares: dict[str, float] = {}
     for source in sources:
-        folder = root / ("capod" if source.startswith("capod") else source)
-        classes = NON_RIGID_CAPOD if source == "capod-nonrigid" else None
-        drop = NON_RIGID_CAPOD if source == "capod" else ()
-        catalogue = load_catalogue(folder, descriptor, classes=classes, drop=drop,
-                                   kinds=(kind, COMPLETED[kind]))
-        agreement = agreements(folder)[kind]
+        catalogue = _catalogue(root, source, descriptor, kind)
+        agreement = agreements(_folder(root, source))[kind]
         for name, (score, per_query) in candidate_scores(catalogue, kind, agreement).items():
             table.setdefault(name, {})[source] = score
             queries.setdefault(name, {})[source] = per_query
+    return table, queries
+
+
+def gate_shares(root: Path, sources: tuple[str, ...], kind: str) -> dict[str, float]:
+    """Each source's share of ``kind`` queries that pass each gate."""
+    shares = {}
+    for source in sources:
+        catalogue = _catalogue(root, source, "default", kind)
+        agreement = agreements(_folder(root, source))[kind]
         values = np.array([agreement[catalogue.models[m]]
                            for m in catalogue.query_models[kind]])
         for gate in GATES:
             shares[f"{source} a{gate:g}"] = float((values >= gate).mean())
-    return table, queries, shares
-
-
-def mean_over(table: Table, name: str, sources: tuple[str, ...]) -> float:
-    return float(np.mean([table[name][s]["map"] for s in sources]))
+    return shares
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -216,45 +232,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     grid = candidates()
-    order = {name: position for position, name in enumerate(grid)}
-    every = (*RULE_SOURCES, JUDGE)
-    single, single_queries, shares = score_all(args.out, "default", every, "single+sor")
+    shares = gate_shares(args.out, (*RULE_SOURCES, JUDGE), "single+sor")
     print("queries completed per gate (single views):",
           json.dumps({k: round(v, 2) for k, v in shares.items()}))
-    rule_table = {c: {s: single[c][s] for s in RULE_SOURCES} for c in single}
-    report = decide(rule_table, single_queries, order, "single-view scans, scan mode",
-                    RULE_SOURCES, SHIPPED, None, tie_key="tie order", by_mean=True)
-    chosen = str(report["chosen"])
-    tests = {"1 rule": bool(report["ships"])}
-    guards: dict[str, dict[str, float]] = {}
-    for kind in ("multi+sor", "clean"):
-        table, _, _ = score_all(args.out, "default", RULE_SOURCES, kind)
-        guards[kind] = {c: mean_over(table, c, RULE_SOURCES) for c in (SHIPPED, chosen)}
-        guards[kind + " per source"] = {s: table[chosen][s]["map"] - table[SHIPPED][s]["map"]
-                                        for s in RULE_SOURCES}
-        tests[f"2 {kind}"] = guards[kind][chosen] >= guards[kind][SHIPPED] - TIE
-    judge = {c: single[c][JUDGE] for c in (SHIPPED, chosen)}
-    tests["3 judge"] = judge[chosen]["map"] >= judge[SHIPPED]["map"] - TIE
-    family, _, _ = score_all(args.out, "bendable", FAMILY_SOURCES, "single+sor")
-    family_mean = {c: mean_over(family, c, FAMILY_SOURCES) for c in (SHIPPED, chosen)}
-    tests["4 family"] = family_mean[chosen] >= family_mean[SHIPPED] - TIE
-    print(f"\nchoice over the seven: {chosen}")
-    for kind in ("multi+sor", "clean"):
-        print(f"{kind} (scan mode), mean of seven: {chosen} {guards[kind][chosen]:.4f}, "
-              f"shipped {guards[kind][SHIPPED]:.4f}; per source {guards[kind + ' per source']}")
+    record = rule_and_tests(args.out, score_all,
+                            {name: position for position, name in enumerate(grid)}, SHIPPED)
+    single = record["single"]
+    assert isinstance(single, dict)
     for name in grid:
         print(f"judge {JUDGE}, single views, {name}: {single[name][JUDGE]['map']:.3f} / "
               f"{single[name][JUDGE]['nn']:.3f} (mAP / NN)")
-    print(f"bendable family, single views over {FAMILY_SOURCES}: {chosen} "
-          f"{family_mean[chosen]:.4f}, shipped {family_mean[SHIPPED]:.4f}")
-    ships = all(tests.values())
-    print(f"tests: {tests}\nships: {ships}")
     if args.json:
-        args.json.write_text(json.dumps({
-            "single": single, "order": order, **report, "guards": guards, "judge": judge,
-            "family": family, "family_mean": family_mean, "tests": tests, "ships": ships,
-            "shares": shares,
-        }, indent=1))
+        args.json.write_text(json.dumps({**record, "shares": shares}, indent=1))
     return 0
 
 
