@@ -147,10 +147,11 @@ class Described:
 
 def describe(
     model: Model, kind: str, settings: EngineSettings, cache_dir: Path | None, factory: Any,
-    variants: tuple[str, ...] = tuple(DESCRIPTORS),
+    variants: tuple[str, ...] = tuple(DESCRIPTORS), rotation_seed: int = ROTATION_SEED,
 ) -> Described:
-    """The ``DESCRIPTORS`` ``variants`` of ``model`` under scan ``kind`` (``clean`` too)."""
-    sampling = sampling_of(settings, ROTATION_SEED, kind)
+    """The ``DESCRIPTORS`` ``variants`` of ``model`` under scan ``kind`` (``clean`` too),
+    rotated and scanned by the draws of ``rotation_seed``."""
+    sampling = sampling_of(settings, rotation_seed, kind)
     store = describe_sampling(model, sampling, settings, cache_dir, factory)
     result = run_variants(store, {"default": settings})["default"]
     if store.changed and cache_dir is not None:
@@ -227,10 +228,12 @@ def run(
     cached_only: bool = False,
     merged: tuple[str, ...] = (),
     variants: tuple[str, ...] = tuple(DESCRIPTORS),
+    rotation_seed: int = ROTATION_SEED,
 ) -> dict[str, Any]:
     """Describe catalogue and queries, score every (mode, descriptor, query kind).
 
-    ``variants`` names the ``DESCRIPTORS`` computed and scored (default: all of them).
+    ``variants`` names the ``DESCRIPTORS`` computed and scored (default: all of them);
+    ``rotation_seed`` draws each model's rotation and its scans (another seed, another draw).
 
     ``merged`` names merged virtual views (e.g. ``("merge012of4", "merge123of4")``) that add
     the catalogue modes ``merged`` (clean + those) and ``merged+views`` (+ the single views).
@@ -255,7 +258,7 @@ def run(
     with pin_blas_threads():
         for number, model in enumerate(dataset.models, 1):
             if cached_only and not all(
-                (cache_dir / sampling_of(settings, ROTATION_SEED, kind).cache_name(
+                (cache_dir / sampling_of(settings, rotation_seed, kind).cache_name(
                     model.sha256)).exists() for kind in kinds
             ):
                 skipped.append(model.name)
@@ -263,7 +266,7 @@ def run(
             for kind in kinds:
                 try:
                     described[kind][model.name] = describe(
-                        model, kind, settings, cache_dir, factory, variants
+                        model, kind, settings, cache_dir, factory, variants, rotation_seed
                     )
                 except (InvalidShapeError, SolverError, ValueError, RuntimeError) as error:
                     failures.append(f"{model.name} ({kind}): {error}")
@@ -302,6 +305,7 @@ def run(
         "per_class": per_class,
         "views": views,
         "points": points,
+        "rotation_seed": rotation_seed,
         "scores": scores,
         "seconds": {kind: _mean_seconds(described[kind]) for kind in kinds},
         "failures": failures,
@@ -356,12 +360,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--descriptors", nargs="+", default=list(DESCRIPTORS),
                         choices=list(DESCRIPTORS),
                         help="descriptor variants to compute and score (default: all)")
+    parser.add_argument("--rotation-seed", type=int, default=ROTATION_SEED,
+                        help="seed of each model's rotation and scans (default %(default)s)")
     parser.add_argument("--cached-only", action="store_true",
                         help="score only the models an earlier run fully cached")
     args = parser.parse_args(argv)
     record = run(args.dataset, args.out, args.per_class or None, args.views,
                  query_kinds=tuple(args.kinds), cached_only=args.cached_only,
-                 merged=tuple(args.merged), variants=tuple(args.descriptors))
+                 merged=tuple(args.merged), variants=tuple(args.descriptors),
+                 rotation_seed=args.rotation_seed)
     print(markdown(record))
     print(json.dumps(record["seconds"], indent=1))
     return 0
