@@ -221,9 +221,11 @@ def expansion_keys(keys: np.ndarray, spread: np.ndarray,
 
 def scan_ranking(keys: np.ndarray, whole: np.ndarray, depth: int,
                  weight: float = SCAN_EXPANSION_WEIGHT) -> np.ndarray:
-    """Scan mode's order of a whole catalogue for one query, as the search service gives it
-    for ``k`` results when ``depth = rerank_depth(k)``: the first answer (least key) first,
-    the rest of the ``depth`` least keys by ``expansion_keys``, the others after them by key.
+    """Scan mode's order of a whole catalogue for one query: the first answer (least key)
+    first, the rest of the ``depth`` least keys by ``expansion_keys``, the others after them
+    by key. The search service orders its pool so, with ``depth = rerank_depth(k)``; its
+    pool is the nearest by plain best entry rather than by key, which changes the first 10
+    of a few scans in ten at equal mAP (``bench/selection/scan_expansion_pool_check.py``).
 
     Parameters
     ----------
