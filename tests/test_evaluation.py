@@ -424,3 +424,57 @@ def test_eval_ranks_scans_by_the_hub_discount_alone_not_as_their_own_model() -> 
     assert scans == alone
     assert scans["map"] < 0.5  # noise finds its class by chance only
     assert score_variant(clean, clean, labels, hub_neighbours=3, clean=True)[0]["map"] > 0.9
+
+
+def test_eval_scores_scans_in_scan_mode_where_only_the_views_meet_them() -> None:
+    """A scan that sees what every model of its class shows from one side (its views), while
+    another class's whole descriptors lie nearer it than its own class's: shape mode (whole
+    models) ranks the other class first, scan mode (whole models and their views) its own."""
+    from core.cutoff import CutoffRecord
+    from core.evaluation.cli import score_scan_mode, score_variant
+    from core.evaluation.runner import ModelResult
+
+    rng = np.random.default_rng(5)
+    record = CutoffRecord(mode="fixed", n=10, solver_calls=1, predicted=[])
+    d = 24
+    basis = np.eye(d)
+    names = [f"{kind}{i}" for kind in ("a", "b") for i in range(4)]
+    labels = {name: name[0] for name in names}
+
+    def results(rows: dict[str, np.ndarray]) -> dict[str, ModelResult]:
+        return {name: ModelResult(record, 0.0, 0.0, row / np.linalg.norm(row), 100)
+                for name, row in rows.items()}
+
+    side = basis[0]  # what a scan of class a sees
+    whole = {n: (basis[1] + 0.9 * side if n[0] == "b" else basis[2]) + 0.05 * rng.normal(size=d)
+             for n in names}
+    view = {n: (side + 0.1 * basis[3] if n[0] == "a" else basis[4]) + 0.05 * rng.normal(size=d)
+            for n in names}
+    scan = {n: side + 0.05 * rng.normal(size=d) for n in names if n[0] == "a"}
+    clean, views, scans = results(whole), results(view), results(scan)
+    shape = score_variant(clean, scans, labels)[0]
+    scan_mode = score_scan_mode(clean, [views], scans, labels)
+    plain_scan_mode = score_scan_mode(clean, [views], scans, labels, discounted=False)
+    assert shape["nn"] == 0.0
+    assert scan_mode["nn"] == 1.0 and scan_mode["map"] == 1.0
+    assert plain_scan_mode["map"] == 1.0
+
+
+def test_eval_writes_a_scan_mode_table_when_asked(tmp_path: Path) -> None:
+    import json
+
+    from core.evaluation.cli import evaluate
+
+    dataset = load_dataset(_tiny_dataset(tmp_path / "data"))
+    record = evaluate(dataset, _tiny_variants(), tmp_path / "out", use_cache=False,
+                      scans=("multi",), scan_variants=("default",), scan_views=2)
+    entry = json.loads((tmp_path / "out" / "results.json").read_text())["variants"]["default"]
+    assert record["scan_mode"] == {"views": 2, "discounted": False}
+    assert set(entry["scan_mode"]) == {"multi"} and 0.0 <= entry["scan_mode"]["multi"]["map"] <= 1
+    report = (tmp_path / "out" / "results.md").read_text()
+    assert "## Scans in scan mode (2 virtual views per model)" in report
+    assert "| default | multi |" in report
+    plain = evaluate(dataset, _tiny_variants(), tmp_path / "plain", use_cache=False,
+                     scans=("multi",), scan_variants=("default",))
+    assert "scan_mode" not in plain and "scan mode" not in (
+        tmp_path / "plain" / "results.md").read_text()

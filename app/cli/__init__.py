@@ -253,6 +253,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     evaluate.add_argument("--scan-variants", nargs="*", default=None,
                           help="variants scored on scans (default: baseline, default, fixed)")
+    evaluate.add_argument(
+        "--scan-views", type=int, default=0, metavar="N",
+        help="also score the scans in the service's scan mode: every model described whole "
+        "and as N virtual views (the service's default is 3; 0: shape mode only)",
+    )
     evaluate.add_argument("--resampling", nargs="*", type=int, default=(),
                           help="point counts of the resampling study, e.g. 5000 10000 20000")
     evaluate.add_argument("--resampling-per-class", type=int, default=4,

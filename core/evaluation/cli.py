@@ -46,8 +46,16 @@ from core.evaluation.runner import (
     sampling_of,
     time_variants_directly,
 )
+from core.evaluation.scans import view_kind
 from core.evaluation.variants import SCAN_VARIANTS, resolve_variants
-from core.hubness import HUB_NEIGHBOURS, HUB_WEIGHT, hub_discounted_keys
+from core.hubness import (
+    HUB_NEIGHBOURS,
+    HUB_WEIGHT,
+    hub_discounted_keys,
+    rerank_depth,
+    scan_hub_keys,
+    scan_ranking,
+)
 from core.reciprocal import (
     BLEND,
     EXPANSION,
@@ -175,6 +183,44 @@ def score_variant(
     return score_rankings(relevance), (recall, precision), classes
 
 
+def score_scan_mode(
+    database: dict[str, ModelResult],
+    views: list[dict[str, ModelResult]],
+    queries: dict[str, ModelResult],
+    labels: dict[str, str],
+    discounted: bool = True,
+) -> dict[str, float]:
+    """Leave-one-out scores of scans ``queries`` in the search service's scan mode: each
+    model of ``database`` is an entry whole and one per ``views`` (its virtual views that
+    could be described); a scan ranks the models as the service answers 10 results, the hub
+    discount among entries and the expansion after the first answer
+    (``core.hubness.scan_ranking``), or (``discounted`` False) by best entry."""
+    names = sorted(database)
+    index = {name: position for position, name in enumerate(names)}
+    rows, owners = [], []
+    for name in names:
+        for entry in (database, *views):
+            if name in entry:
+                rows.append(entry[name].descriptor)
+                owners.append(index[name])
+    entries, owner = np.array(rows), np.array(owners)
+    query_names = sorted(name for name in queries if name in index)
+    scans = np.array([queries[name].descriptor for name in query_names])
+    own = np.array([index[name] for name in query_names])
+    if discounted:
+        keys = scan_hub_keys(scans, entries, owner, own)
+        whole = np.array([database[name].descriptor for name in names])
+        keys[np.arange(len(own)), own] = np.inf
+        keys = np.array([scan_ranking(row, whole, rerank_depth(10)) for row in keys])
+    else:
+        squared = np.maximum(2.0 - 2.0 * scans @ entries.T, 0.0)
+        keys = np.stack([squared[:, owner == m].min(axis=1) for m in range(len(names))], axis=1)
+    exclude = own[:, None] == np.arange(len(names))[None, :]
+    relevance = ranked_relevance(keys, [labels[q] for q in query_names],
+                                 [labels[d] for d in names], exclude)
+    return score_rankings(relevance)
+
+
 def _stats(results: dict[str, ModelResult]) -> dict[str, Any]:
     n = np.array([r.cutoff.n for r in results.values()], dtype=float)
     calls = np.array([r.cutoff.solver_calls for r in results.values()], dtype=float)
@@ -295,8 +341,14 @@ def evaluate(
     command: str = "",
     use_cache: bool = True,
     hub_neighbours: int = 0,
+    scan_views: int = 0,
 ) -> dict[str, Any]:
     """Run the whole evaluation and write the report; returns the JSON record.
+
+    ``scan_views`` above 0 also describes that many virtual views of every model (for the
+    scan variants) and scores the ``scans`` in the service's scan mode, under each variant's
+    ``scan_mode`` entry (``score_scan_mode``; its order with the hub discount when
+    ``hub_neighbours`` is above 0, by best entry otherwise).
 
     ``hub_neighbours`` above 0 also scores every ranking with the hub discount
     (``core.hubness``), under each variant's ``hub`` entry: the order the search service
@@ -354,6 +406,11 @@ def evaluate(
                 record["variants"][name]["hub"] = {"clean": hub_scores}
                 record["variants"][name]["hub_per_class"] = hub_classes
         chosen_scan = {n: variants[n] for n in scan_variants if n in variants}
+        views = [describe_all(dataset.models, chosen_scan, cache_dir, view_kind(i, scan_views),
+                              counters, failures)
+                 for i in range(scan_views)] if scans and chosen_scan else []
+        if views:
+            record["scan_mode"] = {"views": scan_views, "discounted": hub_neighbours > 0}
         for kind in scans:
             if not chosen_scan:
                 break
@@ -368,6 +425,10 @@ def evaluate(
                 if hub_neighbours > 0:
                     entry["hub"][kind] = score_variant(clean[name], results, labels,
                                                        hub_neighbours)[0]
+                if views:
+                    entry.setdefault("scan_mode", {})[kind] = score_scan_mode(
+                        clean[name], [view[name] for view in views], results, labels,
+                        hub_neighbours > 0)
         if resampling_sizes:
             subset = _subset(dataset.models, resampling_per_class, seed=0)
             record["resampling"] = {"sizes": list(resampling_sizes), "models": len(subset),
@@ -461,6 +522,7 @@ def run(args: argparse.Namespace) -> int:
         command="shapesearch " + " ".join(sys.argv[1:]),
         use_cache=not getattr(args, "no_cache", False),
         hub_neighbours=hub_neighbours,
+        scan_views=getattr(args, "scan_views", 0) or 0,
     )
     print(f"wrote {args.out}/results.md, results.json and {len(record['plots'])} plots "
           f"in {record['wall_seconds']:.0f} s", file=sys.stderr)

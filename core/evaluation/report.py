@@ -94,6 +94,33 @@ def hub_table(record: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def scan_mode_table(record: dict[str, Any]) -> str:
+    """The scans scored in the service's scan mode beside shape mode (the scan table)."""
+    mode = record["scan_mode"]
+    order = ("the hub discount among entries, then the first answer's kind"
+             if mode["discounted"] else "best entry")
+    lines = [
+        f"## Scans in scan mode ({mode['views']} virtual views per model)",
+        "",
+        "Every model is an entry whole and as each of its virtual views, one result per "
+        f"model, ranked as the service's `mode=scan` answers 10 results ({order}). The "
+        "shape-mode columns are the scan table's, plain order.",
+        "",
+        "| variant | queries | NN | mAP | top-5 | shape mode NN | shape mode mAP | "
+        "shape mode top-5 |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, entry in record["variants"].items():
+        for kind, scores in entry.get("scan_mode", {}).items():
+            plain = entry["scores"][kind]
+            lines.append(
+                f"| {name} | {kind} | "
+                + " | ".join(_fmt(v[m]) for v in (scores, plain) for m in ("nn", "map", "top5"))
+                + " |"
+            )
+    return "\n".join(lines)
+
+
 def per_class_table(record: dict[str, Any]) -> str:
     """The first answers per kind of one variant (``default`` when scored, else the first),
     clean queries, worst mAP first: the kinds that fail and what they are taken for."""
@@ -208,6 +235,8 @@ def markdown_report(record: dict[str, Any]) -> str:
         parts += ["", per_class_table(record)]
     if record.get("hub_discount"):
         parts += ["", hub_table(record)]
+    if record.get("scan_mode"):
+        parts += ["", scan_mode_table(record)]
     if record.get("resampling"):
         parts += ["", "## Resampling consistency", "", resampling_table(record["resampling"])]
     parts += ["", "## Plots", ""]
