@@ -80,17 +80,8 @@ def hub_table(record: dict[str, Any]) -> str:
         "tables above rank by plain distance, the descriptor's own order. Scans are "
         "ranked by the hub discount alone.",
         "",
-        "| variant | queries | NN | mAP | top-5 | plain NN | plain mAP | plain top-5 |",
-        "|---|---|---|---|---|---|---|---|",
+        *_beside_plain(record, "hub", "plain"),
     ]
-    for name, entry in record["variants"].items():
-        for kind, scores in entry.get("hub", {}).items():
-            plain = entry["scores"][kind]
-            lines.append(
-                f"| {name} | {kind} | "
-                + " | ".join(_fmt(v[m]) for v in (scores, plain) for m in ("nn", "map", "top5"))
-                + " |"
-            )
     return "\n".join(lines)
 
 
@@ -106,19 +97,28 @@ def scan_mode_table(record: dict[str, Any]) -> str:
         f"model, ranked as the service's `mode=scan` answers 10 results ({order}). The "
         "shape-mode columns are the scan table's, plain order.",
         "",
-        "| variant | queries | NN | mAP | top-5 | shape mode NN | shape mode mAP | "
-        "shape mode top-5 |",
+        *_beside_plain(record, "scan_mode", "shape mode"),
+    ]
+    return "\n".join(lines)
+
+
+def _beside_plain(record: dict[str, Any], key: str, plain_name: str) -> list[str]:
+    """Table header and rows: each variant's ``key`` scores per query kind beside its plain
+    ``scores`` of the same kind (NN, mAP, top-5 each)."""
+    lines = [
+        "| variant | queries | NN | mAP | top-5 | "
+        + " | ".join(f"{plain_name} {m}" for m in ("NN", "mAP", "top-5")) + " |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for name, entry in record["variants"].items():
-        for kind, scores in entry.get("scan_mode", {}).items():
+        for kind, scores in entry.get(key, {}).items():
             plain = entry["scores"][kind]
             lines.append(
                 f"| {name} | {kind} | "
                 + " | ".join(_fmt(v[m]) for v in (scores, plain) for m in ("nn", "map", "top5"))
                 + " |"
             )
-    return "\n".join(lines)
+    return lines
 
 
 def per_class_table(record: dict[str, Any]) -> str:
