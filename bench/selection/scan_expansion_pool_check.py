@@ -36,6 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from scan_hubs_select import Catalogue, load_catalogue  # noqa: E402
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
+from core.evaluation.scan_retrieval import best_entry_distances  # noqa: E402
 from core.hubness import expansion_keys, scan_hub_keys, scan_ranking  # noqa: E402
 
 SOURCES = ("madcad", "gearworks", "vslot", "mcad", "generated", "bendable", "capod", "bosl2")
@@ -68,9 +69,7 @@ def check(catalogue: Catalogue) -> dict[str, float]:
     models = len(catalogue.models)
     keys = scan_hub_keys(queries, catalogue.entries, catalogue.owners, own)
     whole = catalogue.entries[~catalogue.is_view]
-    squared = np.maximum(2.0 - 2.0 * queries @ catalogue.entries.T, 0.0)
-    plain = np.stack([squared[:, catalogue.owners == m].min(axis=1) for m in range(models)],
-                     axis=1)
+    plain = best_entry_distances(queries, catalogue.entries, catalogue.owners, models)
     exclude = own[:, None] == np.arange(models)[None, :]
     labels = [catalogue.labels[m] for m in own]
     for rows in (keys, plain):

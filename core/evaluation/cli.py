@@ -46,6 +46,7 @@ from core.evaluation.runner import (
     sampling_of,
     time_variants_directly,
 )
+from core.evaluation.scan_retrieval import best_entry_distances
 from core.evaluation.scans import view_kind
 from core.evaluation.variants import SCAN_VARIANTS, resolve_variants
 from core.hubness import (
@@ -213,8 +214,7 @@ def score_scan_mode(
         keys[np.arange(len(own)), own] = np.inf
         keys = np.array([scan_ranking(row, whole, rerank_depth(10)) for row in keys])
     else:
-        squared = np.maximum(2.0 - 2.0 * scans @ entries.T, 0.0)
-        keys = np.stack([squared[:, owner == m].min(axis=1) for m in range(len(names))], axis=1)
+        keys = best_entry_distances(scans, entries, owner, len(names))
     exclude = own[:, None] == np.arange(len(names))[None, :]
     relevance = ranked_relevance(keys, [labels[q] for q in query_names],
                                  [labels[d] for d in names], exclude)
