@@ -52,6 +52,7 @@ __all__ = [
     "neighbourhood_radii",
     "rerank_depth",
     "scan_hub_keys",
+    "scan_mode_positions",
     "scan_ranking",
 ]
 
@@ -252,6 +253,33 @@ def scan_ranking(keys: np.ndarray, whole: np.ndarray, depth: int,
     positions[np.concatenate([pool, rest])] = np.arange(len(keys), dtype=float)
     positions[~np.isfinite(keys)] = np.inf
     return positions
+
+
+def scan_mode_positions(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
+                        left_out: np.ndarray, whole: np.ndarray,
+                        depth: int | None = None) -> np.ndarray:
+    """Each query's ``scan_ranking`` over a whole catalogue, as the search service answers
+    10 results (``depth`` ``rerank_depth(10)`` unless given): ``scan_hub_keys`` with the
+    left-out model last, then the first answer and its pool by ``expansion_keys``.
+
+    Parameters
+    ----------
+    queries, entries, owners, left_out
+        As ``scan_hub_keys`` (``left_out`` -1: none).
+    whole : (m, d) float
+        Each model's whole descriptor.
+
+    Returns
+    -------
+    positions : (q, m) float
+        Lower first; ``inf`` for each query's left-out model.
+    """
+    keys = scan_hub_keys(queries, entries, owners, left_out)
+    left_out = np.asarray(left_out)
+    rows = np.flatnonzero(left_out >= 0)
+    keys[rows, left_out[rows]] = np.inf
+    pool = rerank_depth(10) if depth is None else depth
+    return np.array([scan_ranking(row, whole, pool) for row in keys])
 
 
 def _best_per_model(entries: np.ndarray, owners: np.ndarray,

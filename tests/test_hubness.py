@@ -14,6 +14,7 @@ from core.hubness import (
     model_radii_among,
     neighbourhood_radii,
     scan_hub_keys,
+    scan_mode_positions,
     scan_ranking,
 )
 
@@ -204,3 +205,20 @@ def test_expansion_keys_grow_with_the_key_so_bounds_stay_bounds() -> None:
     blended = expansion_keys(keys, spread, 0.75)
     np.testing.assert_allclose(blended, 0.25 * keys + 0.75 * spread)
     assert np.all(expansion_keys(keys - 0.1, spread, 0.75) < blended)
+
+
+def test_scan_mode_positions_rank_each_query_without_its_own_model() -> None:
+    entries = unit_rows(24, 5, seed=6)
+    owners = np.repeat(np.arange(8), 3)
+    whole = entries[::3]
+    queries = unit_rows(4, 5, seed=7)
+    left_out = np.array([2, -1, 5, 0])
+    positions = scan_mode_positions(queries, entries, owners, left_out, whole, depth=5)
+    keys = scan_hub_keys(queries, entries, owners, left_out)
+    for row, model in enumerate(left_out):
+        expected_keys = keys[row].copy()
+        if model >= 0:
+            expected_keys[model] = np.inf
+            assert positions[row, model] == np.inf
+        np.testing.assert_array_equal(positions[row], scan_ranking(expected_keys, whole, 5))
+    assert np.isfinite(positions[1]).all()

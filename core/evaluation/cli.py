@@ -53,9 +53,7 @@ from core.hubness import (
     HUB_NEIGHBOURS,
     HUB_WEIGHT,
     hub_discounted_keys,
-    rerank_depth,
-    scan_hub_keys,
-    scan_ranking,
+    scan_mode_positions,
 )
 from core.reciprocal import (
     BLEND,
@@ -209,10 +207,8 @@ def score_scan_mode(
     scans = np.array([queries[name].descriptor for name in query_names])
     own = np.array([index[name] for name in query_names])
     if discounted:
-        keys = scan_hub_keys(scans, entries, owner, own)
         whole = np.array([database[name].descriptor for name in names])
-        keys[np.arange(len(own)), own] = np.inf
-        keys = np.array([scan_ranking(row, whole, rerank_depth(10)) for row in keys])
+        keys = scan_mode_positions(scans, entries, owner, own, whole)
     else:
         keys = best_entry_distances(scans, entries, owner, len(names))
     exclude = own[:, None] == np.arange(len(names))[None, :]

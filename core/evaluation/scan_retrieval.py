@@ -53,7 +53,7 @@ from core.evaluation.variants import (
     SS7_DESCRIPTOR,
     SS8_DESCRIPTOR,
 )
-from core.hubness import rerank_depth, scan_hub_keys, scan_ranking
+from core.hubness import scan_mode_positions
 from core.pipeline import descriptor_from_eigenpairs
 from core.settings import DESCRIPTOR_FAMILIES, DescriptorSettings, EngineSettings
 from core.views import boundary_weights
@@ -201,13 +201,9 @@ def _scores(
     if hub:
         position = {name: index for index, name in enumerate(names)}
         left_out = np.array([position.get(q, -1) for q in query_names])
-        keys = scan_hub_keys(query_rows, np.array(entries), np.array(owners), left_out)
         whole = np.array([catalogue[name][0].descriptors[descriptor] for name in names])
-        for row, model in zip(keys, left_out, strict=True):
-            if model >= 0:
-                row[model] = np.inf
-        # As the service answers 10 results: its first, then its pool by expansion keys.
-        distances = np.array([scan_ranking(row, whole, rerank_depth(10)) for row in keys])
+        distances = scan_mode_positions(query_rows, np.array(entries), np.array(owners),
+                                        left_out, whole)
     else:
         distances = best_entry_distances(query_rows, np.array(entries), np.array(owners),
                                          len(names))
