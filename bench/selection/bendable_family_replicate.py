@@ -41,6 +41,14 @@ stays stated in the README and docs/results.md.
     done
     .venv/bin/python bench/selection/bendable_family_replicate.py \\
         /work/seed5/bendable_order.json /work/seed6/bendable_order.json
+
+**Result** (2026-11-28, seventeenth session; docs/results.md, "The ``bendable`` family's
+question on two extractions no one had seen"): the family stays. The choice is ``spectral``
+on both (test 1), the mean of eight over the two is 0.8037 against the family's 0.8048
+(test 3 holds), but the left-out interval reaches below zero on both: +0.0110 (-0.0024 ..
++0.0262), +0.0032 (-0.0034 .. +0.0102) (test 2 fails). Disclosed: this machine's
+``/work/tuning-mcad`` also held ``poses``; its features were moved out of the study folder
+before the selectors ran, so the study is the same eight sources as on seeds 0-4.
 """
 
 from __future__ import annotations
