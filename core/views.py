@@ -21,7 +21,8 @@ from scipy.spatial import ConvexHull, QhullError, cKDTree
 from core.extrinsic import neighbourhood_normals
 
 __all__ = [
-    "boundary_weights", "hidden_point_removal", "view_directions", "virtual_view", "virtual_views",
+    "boundary_weights", "frame_directions", "hidden_point_removal", "signed_principal_axes",
+    "view_directions", "view_from", "virtual_view", "virtual_views",
 ]
 
 
@@ -64,6 +65,46 @@ def view_directions(count: int) -> np.ndarray:
     return np.column_stack([ring * np.cos(angle), ring * np.sin(angle), z])
 
 
+def signed_principal_axes(points: np.ndarray) -> np.ndarray:
+    """The principal axes of ``points``, largest spread first, each signed so that the
+    points' third moment along it is not negative.
+
+    The sign makes the frame the same for shapes of one kind (a screw's head end is the
+    heavier one, whichever way it was uploaded); a symmetric shape looks the same either way.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+
+    Returns
+    -------
+    axes : (3, 3) float
+        Unit axes as columns.
+    """
+    offsets = points - points.mean(axis=0)
+    variances, axes = np.linalg.eigh(offsets.T @ offsets)
+    axes = axes[:, np.argsort(variances)[::-1]]
+    third = ((offsets @ axes) ** 3).sum(axis=0)
+    return axes * np.where(third < 0.0, -1.0, 1.0)
+
+
+def frame_directions(points: np.ndarray, tilt: float) -> np.ndarray:
+    """Three orthogonal view directions ``(3, 3)`` (rows) fixed in the shape's own frame.
+
+    The signed principal axes (``signed_principal_axes``) turned by ``tilt`` radians about
+    their diagonal ``(1, 1, 1)``: direction ``k`` still leans towards axis ``k`` (an end
+    view, a side view, a top view) but lies in no principal plane, so that a flat part is
+    never seen exactly edge-on.
+    """
+    diagonal = np.ones(3) / np.sqrt(3.0)
+    cross = np.array([[0.0, -diagonal[2], diagonal[1]], [diagonal[2], 0.0, -diagonal[0]],
+                      [-diagonal[1], diagonal[0], 0.0]])
+    # Rodrigues' rotation about the diagonal.
+    turn = (np.cos(tilt) * np.eye(3) + np.sin(tilt) * cross
+            + (1.0 - np.cos(tilt)) * np.outer(diagonal, diagonal))
+    return (signed_principal_axes(points) @ turn).T
+
+
 def virtual_views(
     points: np.ndarray, count: int, distance: float = 3.0, exponent: float = 3.0
 ) -> list[np.ndarray]:
@@ -99,9 +140,18 @@ def virtual_view(
     view : (m, 3) float
         Rows of ``points``; empty when a flat shape is seen exactly edge-on.
     """
+    return view_from(points, view_directions(count)[index], distance, exponent)
+
+
+def view_from(
+    points: np.ndarray, direction: np.ndarray, distance: float = 3.0, exponent: float = 3.0
+) -> np.ndarray:
+    """What a viewpoint ``distance`` bounding-box diagonals from the box centre along the
+    unit ``direction : (3,) float`` sees of ``points : (n, 3) float`` (rows; empty when a
+    flat shape is seen exactly edge-on)."""
     low, high = points.min(axis=0), points.max(axis=0)
     centre, diagonal = (low + high) / 2.0, float(np.linalg.norm(high - low))
-    viewpoint = centre + distance * diagonal * view_directions(count)[index]
+    viewpoint = centre + distance * diagonal * direction
     try:
         seen = hidden_point_removal(points, viewpoint, exponent)
     except QhullError:  # the points and the viewpoint lie in one plane: no surface seen

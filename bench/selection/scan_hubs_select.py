@@ -117,10 +117,11 @@ class Catalogue:
 
 
 def load_catalogue(folder: Path, descriptor: str, classes: tuple[str, ...] | None = None,
-                   drop: tuple[str, ...] = (), kinds: tuple[str, ...] = QUERY_KINDS
-                   ) -> Catalogue:
+                   drop: tuple[str, ...] = (), kinds: tuple[str, ...] = QUERY_KINDS,
+                   views: tuple[str, ...] = VIEWS) -> Catalogue:
     """``scan_retrieval``'s saved descriptors under ``folder``; only ``classes`` when given,
-    without ``drop``; the ``kinds`` of query."""
+    without ``drop``; the ``kinds`` of query; each model's whole descriptor and its
+    ``views`` (entry kinds) as the catalogue."""
     with np.load(folder / "scan_retrieval_descriptors.npz") as data:
         vectors = {key: data[key] for key in data.files if key.split("|")[1] == descriptor}
 
@@ -137,7 +138,7 @@ def load_catalogue(folder: Path, descriptor: str, classes: tuple[str, ...] | Non
     index = {m: i for i, m in enumerate(models)}
     entries, owners, is_view = [], [], []
     for m in models:
-        for kind in ("clean", *VIEWS):
+        for kind in ("clean", *views):
             if m in by_kind.get(kind, {}):
                 entries.append(by_kind[kind][m])
                 owners.append(index[m])

@@ -225,11 +225,15 @@ def run(
     merged: tuple[str, ...] = (),
     variants: tuple[str, ...] = tuple(DESCRIPTORS),
     rotation_seed: int = ROTATION_SEED,
+    extra_kinds: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """Describe catalogue and queries, score every (mode, descriptor, query kind).
 
     ``variants`` names the ``DESCRIPTORS`` computed and scored (default: all of them);
     ``rotation_seed`` draws each model's rotation and its scans (another seed, another draw).
+    ``extra_kinds`` are described and saved with the rest (``scan_retrieval_descriptors.npz``)
+    but not scored: catalogue entries for a study to combine after the fact (e.g. the views
+    fixed in a shape's own frame, ``fview<i>t<degrees>``).
 
     ``merged`` names merged virtual views (e.g. ``("merge012of4", "merge123of4")``) that add
     the catalogue modes ``merged`` (clean + those) and ``merged+views`` (+ the single views).
@@ -246,7 +250,7 @@ def run(
     settings = EngineSettings(max_points=points)
     factory = lambda stiffness, mass: SpectralSolver(stiffness, mass)  # noqa: E731
     kinds = list(dict.fromkeys(["clean", *[view_kind(i, views) for i in range(views)],
-                                *merged, *query_kinds]))
+                                *merged, *query_kinds, *extra_kinds]))
     described: dict[str, dict[str, Described]] = {kind: {} for kind in kinds}
     failures: list[str] = []
     skipped: list[str] = []
@@ -358,13 +362,16 @@ def main(argv: list[str] | None = None) -> int:
                         help="descriptor variants to compute and score (default: all)")
     parser.add_argument("--rotation-seed", type=int, default=ROTATION_SEED,
                         help="seed of each model's rotation and scans (default %(default)s)")
+    parser.add_argument("--extra-kinds", nargs="*", default=[],
+                        help="catalogue entry kinds described and saved, not scored, e.g. "
+                             "fview0t45 fview1t45 fview2t45")
     parser.add_argument("--cached-only", action="store_true",
                         help="score only the models an earlier run fully cached")
     args = parser.parse_args(argv)
     record = run(args.dataset, args.out, args.per_class or None, args.views,
                  query_kinds=tuple(args.kinds), cached_only=args.cached_only,
                  merged=tuple(args.merged), variants=tuple(args.descriptors),
-                 rotation_seed=args.rotation_seed)
+                 rotation_seed=args.rotation_seed, extra_kinds=tuple(args.extra_kinds))
     print(markdown(record))
     print(json.dumps(record["seconds"], indent=1))
     return 0

@@ -23,7 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from core.views import hidden_point_removal, view_directions, virtual_view
+from core.views import (
+    frame_directions,
+    hidden_point_removal,
+    view_directions,
+    view_from,
+    virtual_view,
+)
 
 __all__ = [
     "SCAN_KINDS",
@@ -408,6 +414,11 @@ def scan_of_kind(points: np.ndarray, rng: np.random.Generator, kind: str) -> np.
                 viewpoint = (low + high) / 2.0 + 3.0 * diagonal * view_directions(int(count))[index]
                 seen[hidden_point_removal(points, viewpoint)] = True
             return points[seen]
+    if kind.startswith("fview") and "t" in kind:
+        # fview<index>t<degrees>: a view fixed in the shape's own frame (views.frame_directions).
+        view, _, degrees = kind[5:].partition("t")
+        if view.isdigit() and int(view) < 3 and degrees.isdigit():
+            return view_from(points, frame_directions(points, np.radians(int(degrees)))[int(view)])
     if kind.startswith("view") and "of" in kind:
         view, _, views = kind[4:].partition("of")
         if view.isdigit() and views.isdigit() and int(view) < int(views):
