@@ -69,8 +69,9 @@ def signed_principal_axes(points: np.ndarray) -> np.ndarray:
     """The principal axes of ``points``, largest spread first, each signed so that the
     points' third moment along it is not negative.
 
-    The sign makes the frame the same for shapes of one kind (a screw's head end is the
-    heavier one, whichever way it was uploaded); a symmetric shape looks the same either way.
+    The sign makes the frame the same for shapes of one kind: each axis points along the
+    longer tail of the points' spread (a screw's long axis from its head to its tip,
+    whichever way it was uploaded); a symmetric shape looks the same either way.
 
     Parameters
     ----------

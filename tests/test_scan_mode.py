@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import trimesh
 from alembic import command
 from conftest import make_settings, wait_for_status
 from fastapi.testclient import TestClient
@@ -40,7 +41,14 @@ from core.hubness import (
 )
 from core.pipeline import describe_points, scan_weights
 from core.settings import EngineSettings, ViewSettings
-from core.views import hidden_point_removal, view_directions, virtual_views
+from core.views import (
+    frame_directions,
+    hidden_point_removal,
+    signed_principal_axes,
+    view_directions,
+    view_from,
+    virtual_views,
+)
 from tests.test_hub_search import hub_order
 from tests.test_index import add_ready as add_model
 from tests.test_index import delete_model
@@ -115,6 +123,51 @@ def test_a_flat_part_seen_edge_on_loses_that_view_only() -> None:
     assert [len(view) > 0 for view in virtual_views(plate, 3)] == [True, False, True]
     described = describe_points(plate, EngineSettings(max_points=1200), views=3)
     assert described.views.shape == (2, len(described.descriptor))
+
+
+def _screw_points(length: float, seed: int) -> np.ndarray:
+    """A shaft of radius 0.1 along +x from 0 to ``length`` with a head (radius 0.2, length
+    0.15) at x = 0: surface points."""
+    shaft = trimesh.creation.cylinder(radius=0.1, height=length)
+    shaft.apply_translation([0.0, 0.0, length / 2.0])
+    head = trimesh.creation.cylinder(radius=0.2, height=0.15)
+    head.apply_translation([0.0, 0.0, -0.075])
+    screw = trimesh.util.concatenate([shaft, head])
+    points = trimesh.sample.sample_surface(screw, 3000, seed=seed)[0]
+    return points[:, [2, 1, 0]]  # the shaft along x
+
+
+def test_frame_directions_turn_with_the_part_and_ignore_point_order() -> None:
+    points = _screw_points(1.2, seed=3) * [1.0, 1.0, 0.7]  # no two spreads alike
+    rotation = np.linalg.qr(np.random.default_rng(5).normal(size=(3, 3)))[0]
+    for tilt in (np.radians(20.0), np.radians(45.0)):
+        directions = frame_directions(points, tilt)
+        np.testing.assert_allclose(directions @ directions.T, np.eye(3), atol=1e-12)
+        np.testing.assert_allclose(frame_directions(points @ rotation.T, tilt),
+                                   directions @ rotation.T, atol=1e-9)
+        shuffled = points[np.random.default_rng(1).permutation(len(points))]
+        np.testing.assert_allclose(frame_directions(shuffled, tilt), directions, atol=1e-9)
+        # Each leans towards its own axis, and lies in no principal plane.
+        lean = np.abs(directions @ signed_principal_axes(points))
+        assert np.all(np.argmax(lean, axis=1) == [0, 1, 2])
+        assert lean.min() > 0.1
+
+
+def test_the_frame_is_signed_alike_for_parts_of_one_kind() -> None:
+    # Two screws of other lengths, uploaded turned about: the long axis points from the head
+    # to the tip (the points' longer tail) for both, whichever way they were uploaded.
+    for length, seed in ((1.0, 1), (1.6, 2)):
+        points = _screw_points(length, seed)
+        for sign in (1.0, -1.0):
+            axis = signed_principal_axes(points * [sign, 1.0, 1.0])[:, 0]
+            assert axis[0] * sign > 0.99
+
+
+def test_no_frame_view_of_a_plate_is_edge_on() -> None:
+    plate = plate_points(1200, a=1.0, b=0.6, seed=1)
+    for tilt in (np.radians(20.0), np.radians(45.0)):
+        seen = [len(view_from(plate, direction)) for direction in frame_directions(plate, tilt)]
+        assert min(seen) > 0.3 * len(plate)
 
 
 def test_a_closed_surface_described_as_a_scan_is_unchanged() -> None:

@@ -6,7 +6,7 @@ uploaded turned differently, are seen from unrelated sides: one has a view near 
 side, the other not, and the kind is found in pieces. Single-view scans still miss the
 issue's aim (mAP >= 0.6) on MCAD (0.546), py-gearworks (0.541) and our generator (0.523).
 Views fixed in each part's own frame (its principal axes, each signed by the third moment so
-that a screw's heavier end is the same end for every screw) see every part of a kind from
+that a screw's axis runs from head to tip for every screw) see every part of a kind from
 the same sides. Against it: the upload frame's random sides give a kind's parts varied
 views, and one of them may lie nearer the scan than any view in a shared frame; which wins
 is measured, not assumed. Nothing is fitted; a view costs the same in either frame.
