@@ -92,10 +92,10 @@ from scan_hubs_select import (  # noqa: E402
     JUDGE,
     Catalogue,
     load_catalogue,
+    ranked_scores,
     rule_and_tests,
 )
 
-from core.evaluation.metrics import average_precision, ranked_relevance, score_rankings  # noqa: E402
 from core.hubness import scan_hub_keys  # noqa: E402
 
 POOL = 40  # app.search.similarity: rerank_depth(10)
@@ -150,15 +150,11 @@ def candidate_scores(catalogue: Catalogue, kind: str
     own = catalogue.query_models[kind]
     keys = scan_hub_keys(catalogue.queries[kind], catalogue.entries, catalogue.owners, own)
     whole = whole_rows(catalogue)
-    exclude = own[:, None] == np.arange(len(catalogue.models))[None, :]
     results = {}
     for name, (anchors, weight) in candidates().items():
         ranked = np.array([expanded_order(row, whole, int(model), anchors, weight)
                            for row, model in zip(keys, own, strict=True)])
-        relevance = ranked_relevance(ranked, [catalogue.labels[m] for m in own],
-                                     catalogue.labels, exclude)
-        results[name] = (score_rankings(relevance),
-                         np.array([average_precision(r) for r in relevance if r.any()]))
+        results[name] = ranked_scores(catalogue, kind, ranked)
     return results
 
 

@@ -66,9 +66,15 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import NON_RIGID_CAPOD  # noqa: E402
 from profile_block_select import Table  # noqa: E402
-from scan_hubs_select import JUDGE, VIEWS, load_catalogue, rule_and_tests  # noqa: E402
+from scan_expansion_select import whole_rows  # noqa: E402
+from scan_hubs_select import (  # noqa: E402
+    JUDGE,
+    VIEWS,
+    load_catalogue,
+    ranked_scores,
+    rule_and_tests,
+)
 
-from core.evaluation.metrics import average_precision, ranked_relevance, score_rankings  # noqa: E402
 from core.hubness import scan_mode_positions  # noqa: E402
 
 REFERENCE = "box"
@@ -95,17 +101,12 @@ def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
         for name, views in candidates().items():
             catalogue = load_catalogue(folder, descriptor, classes=classes, drop=drop,
                                        kinds=(kind,), views=views)
-            own = catalogue.query_models[kind]
-            whole = np.empty((len(catalogue.models), catalogue.entries.shape[1]))
-            whole[catalogue.owners[~catalogue.is_view]] = catalogue.entries[~catalogue.is_view]
             positions = scan_mode_positions(catalogue.queries[kind], catalogue.entries,
-                                            catalogue.owners, own, whole)
-            exclude = own[:, None] == np.arange(len(catalogue.models))[None, :]
-            relevance = ranked_relevance(positions, [catalogue.labels[m] for m in own],
-                                         catalogue.labels, exclude)
-            table.setdefault(name, {})[source] = score_rankings(relevance)
-            queries.setdefault(name, {})[source] = np.array(
-                [average_precision(r) for r in relevance if r.any()])
+                                            catalogue.owners, catalogue.query_models[kind],
+                                            whole_rows(catalogue))
+            score, per_query = ranked_scores(catalogue, kind, positions)
+            table.setdefault(name, {})[source] = score
+            queries.setdefault(name, {})[source] = per_query
     return table, queries
 
 

@@ -170,7 +170,13 @@ def model_keys(catalogue: Catalogue, kind: str, pool: str | None, neighbours: in
 def scores(catalogue: Catalogue, kind: str, pool: str | None, neighbours: int, beta: float
            ) -> tuple[dict[str, float], np.ndarray]:
     """The ``kind`` queries' scores (leave-one-out) and each query's average precision."""
-    keys = model_keys(catalogue, kind, pool, neighbours, beta)
+    return ranked_scores(catalogue, kind, model_keys(catalogue, kind, pool, neighbours, beta))
+
+
+def ranked_scores(catalogue: Catalogue, kind: str, keys: np.ndarray
+                  ) -> tuple[dict[str, float], np.ndarray]:
+    """The scores of the ``kind`` queries ranked by ``keys`` ``(q, models)`` (lower first),
+    each query's own model left out, and each query's average precision."""
     own = catalogue.query_models[kind]
     exclude = own[:, None] == np.arange(len(catalogue.models))[None, :]
     relevance = ranked_relevance(keys, [catalogue.labels[m] for m in own], catalogue.labels,
