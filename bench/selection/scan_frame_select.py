@@ -48,6 +48,12 @@ shipped ones; every scan and every whole model as in the sixteenth session's stu
         # P 0; generated 5; capod 6; bosl2 from /work/tuning-bosl2
     .venv/bin/python bench/selection/scan_frame_select.py /work/scanframe \\
         --json /work/scanframe/frame.json
+
+**Result** (2026-11-28, seventeenth session; docs/results.md, "Scan mode's views fixed in
+each part's own frame"): declined. The rule keeps ``box`` on the seven and without each
+(left out +0.0000); mean of seven 0.6834 against 0.6673 (t20) and 0.6674 (t45): first
+answers fall on four or five sources of seven (pymadcad NN 0.917 -> 0.842 / 0.875, capod
+0.817 -> 0.750 / 0.683); MCAD alone gains (0.531 -> 0.548 at 45 degrees).
 """
 
 from __future__ import annotations
