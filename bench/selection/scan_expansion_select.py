@@ -74,7 +74,6 @@ draw decides.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -89,11 +88,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from local_features_select import NON_RIGID_CAPOD  # noqa: E402
 from profile_block_select import Table  # noqa: E402
 from scan_hubs_select import (  # noqa: E402
-    JUDGE,
     Catalogue,
     load_catalogue,
     ranked_scores,
-    rule_and_tests,
+    run_study,
+    study_arguments,
 )
 
 from core.hubness import scan_hub_keys  # noqa: E402
@@ -176,18 +175,8 @@ def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path, help="folder of scan_retrieval outputs per source")
-    parser.add_argument("--json", type=Path)
-    args = parser.parse_args(argv)
-    grid = candidates()
-    record = rule_and_tests(args.out, score_all,
-                            {name: position for position, name in enumerate(grid)}, SHIPPED)
-    single = record["single"]
-    assert isinstance(single, dict)
-    for name in grid:
-        print(f"judge {JUDGE}, single views, {name}: {single[name][JUDGE]['map']:.3f} / "
-              f"{single[name][JUDGE]['nn']:.3f} (mAP / NN)")
+    args = study_arguments(__doc__, argv)
+    record = run_study(args.out, score_all, list(candidates()), SHIPPED)
     if args.json:
         args.json.write_text(json.dumps(record, indent=1))
     return 0

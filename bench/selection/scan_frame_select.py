@@ -58,7 +58,6 @@ answers fall on four or five sources of seven (pymadcad NN 0.917 -> 0.842 / 0.87
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -74,11 +73,11 @@ from local_features_select import NON_RIGID_CAPOD  # noqa: E402
 from profile_block_select import Table  # noqa: E402
 from scan_expansion_select import whole_rows  # noqa: E402
 from scan_hubs_select import (  # noqa: E402
-    JUDGE,
     VIEWS,
     load_catalogue,
     ranked_scores,
-    rule_and_tests,
+    run_study,
+    study_arguments,
 )
 
 from core.hubness import scan_mode_positions  # noqa: E402
@@ -117,18 +116,8 @@ def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path, help="folder of scan_retrieval outputs per source")
-    parser.add_argument("--json", type=Path)
-    args = parser.parse_args(argv)
-    grid = candidates()
-    record = rule_and_tests(args.out, score_all,
-                            {name: position for position, name in enumerate(grid)}, REFERENCE)
-    single = record["single"]
-    assert isinstance(single, dict)
-    for name in grid:
-        print(f"judge {JUDGE}, single views, {name}: {single[name][JUDGE]['map']:.3f} / "
-              f"{single[name][JUDGE]['nn']:.3f} (mAP / NN)")
+    args = study_arguments(__doc__, argv)
+    record = run_study(args.out, score_all, list(candidates()), REFERENCE)
     if args.json:
         args.json.write_text(json.dumps(record, indent=1))
     return 0

@@ -273,6 +273,29 @@ def rule_and_tests(root: Path, score_all: ScoreAll, order: dict[str, int], refer
             "family": family, "family_mean": family_mean, "tests": tests, "ships": ships}
 
 
+def study_arguments(doc: str, argv: list[str] | None) -> argparse.Namespace:
+    """A scan study's command line: ``OUT`` (``scan_retrieval`` outputs per source) and
+    ``--json``; ``doc``'s first line describes it."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("out", type=Path, help="folder of scan_retrieval outputs per source")
+    parser.add_argument("--json", type=Path)
+    return parser.parse_args(argv)
+
+
+def run_study(root: Path, score_all: ScoreAll, names: list[str], reference: str
+              ) -> dict[str, object]:
+    """``rule_and_tests`` with ``names`` in their tie order, then every candidate's
+    single-view figures on the judge, printed."""
+    record = rule_and_tests(root, score_all,
+                            {name: position for position, name in enumerate(names)}, reference)
+    single = record["single"]
+    assert isinstance(single, dict)
+    for name in names:
+        print(f"judge {JUDGE}, single views, {name}: {single[name][JUDGE]['map']:.3f} / "
+              f"{single[name][JUDGE]['nn']:.3f} (mAP / NN)")
+    return record
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path, help="folder of scan_retrieval outputs per source")

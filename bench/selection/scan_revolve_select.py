@@ -83,7 +83,6 @@ nothing in the service uses it; the rule and tests moved into
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -102,7 +101,8 @@ from scan_hubs_select import (  # noqa: E402
     RULE_SOURCES,
     Catalogue,
     load_catalogue,
-    rule_and_tests,
+    run_study,
+    study_arguments,
 )
 
 from core.evaluation.dataset import load_dataset  # noqa: E402
@@ -227,21 +227,11 @@ def gate_shares(root: Path, sources: tuple[str, ...], kind: str) -> dict[str, fl
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path, help="folder of scan_retrieval outputs per source")
-    parser.add_argument("--json", type=Path)
-    args = parser.parse_args(argv)
-    grid = candidates()
+    args = study_arguments(__doc__, argv)
     shares = gate_shares(args.out, (*RULE_SOURCES, JUDGE), "single+sor")
     print("queries completed per gate (single views):",
           json.dumps({k: round(v, 2) for k, v in shares.items()}))
-    record = rule_and_tests(args.out, score_all,
-                            {name: position for position, name in enumerate(grid)}, SHIPPED)
-    single = record["single"]
-    assert isinstance(single, dict)
-    for name in grid:
-        print(f"judge {JUDGE}, single views, {name}: {single[name][JUDGE]['map']:.3f} / "
-              f"{single[name][JUDGE]['nn']:.3f} (mAP / NN)")
+    record = run_study(args.out, score_all, list(candidates()), SHIPPED)
     if args.json:
         args.json.write_text(json.dumps({**record, "shares": shares}, indent=1))
     return 0
