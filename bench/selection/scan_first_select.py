@@ -44,6 +44,12 @@ upload-frame views; the frame views are not used here):
 
     .venv/bin/python bench/selection/scan_first_select.py /work/scanframe \\
         --json /work/scanframe/first.json
+
+**Result** (2026-11-28, seventeenth session; docs/results.md, "Scan mode's first answer by
+its neighbours' vote"): declined. The rule keeps ``shipped`` on the seven and without each
+(left out +0.0000); the best candidate, ``vote m5 l0.5``, 0.6819 against 0.6834. The vote
+lifts MCAD (NN 0.602 -> 0.670 .. 0.705) and BOSL2 a little, and lowers pymadcad, bd-vslot
+and py-gearworks.
 """
 
 from __future__ import annotations
