@@ -57,6 +57,17 @@ mAP 0.676 -> 0.711; per extraction it fails test 4 on seeds 3 and 4, test 3 on s
 re-rank 0.8670), one catalogue mAP 0.712 at the discount's NN 0.847, by kind NN 0.867 /
 mAP 0.640 -> 0.664, the ``bendable`` family 0.9509 -> 0.9534. It ships as
 ``core.reciprocal.first_kept``.
+
+**Re-run on two more extractions** (seventeenth session; this reading committed before the
+run): the script unchanged on ``/work/seed5`` and ``/work/seed6`` (extracted for
+``bendable_family_replicate.py``; sample seeds 5 and 6). A report, nothing changes: the
+shipped order (``first kept``) is confirmed there if, on the means over the two, step 2's
+three tests hold against the discount (mean of eight above by more than the tie, one
+catalogue's mAP not below, the ``bendable`` family not below by more than the tie);
+otherwise what fails is reported.
+
+    nice -n 10 .venv/bin/python bench/selection/reciprocal_seeds_check.py /work/seed5 \
+        /work/seed6 --json /work/seeds56_check.json
 """
 
 from __future__ import annotations
