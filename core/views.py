@@ -6,6 +6,8 @@ match its whole catalogue model better (docs/results.md, "Scan-robust retrieval"
 - ``virtual_views``: what a few fixed, spread viewpoints see of a model (hidden point
   removal, ``hidden_point_removal``); each view is described and indexed as an extra entry
   of the same model, so a partial scan can meet a partial view;
+- ``frame_directions``: view directions fixed in a shape's own (signed principal) frame,
+  for the evaluation (measured as scan mode's views and declined);
 - ``boundary_weights``: points near the open boundary of a partial surface carry the
   Laplacian's free-boundary artefacts; their share of the descriptor's histograms is faded
   out. On a closed surface no point is on a rim and every weight is 1.
@@ -95,7 +97,19 @@ def frame_directions(points: np.ndarray, tilt: float) -> np.ndarray:
     The signed principal axes (``signed_principal_axes``) turned by ``tilt`` radians about
     their diagonal ``(1, 1, 1)``: direction ``k`` still leans towards axis ``k`` (an end
     view, a side view, a top view) but lies in no principal plane, so that a flat part is
-    never seen exactly edge-on.
+    never seen exactly edge-on. Measured as scan mode's views and declined
+    (``bench/selection/scan_frame_select.py``): the evaluation's scan kind ``fview``.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    tilt : float
+        Radians.
+
+    Returns
+    -------
+    directions : (3, 3) float
+        Unit rows, orthogonal; they turn with ``points``.
     """
     diagonal = np.ones(3) / np.sqrt(3.0)
     cross = np.array([[0.0, -diagonal[2], diagonal[1]], [diagonal[2], 0.0, -diagonal[0]],
