@@ -65,14 +65,13 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import NON_RIGID_CAPOD  # noqa: E402
 from profile_block_select import Table  # noqa: E402
 from scan_expansion_select import whole_rows  # noqa: E402
 from scan_hubs_select import (  # noqa: E402
     RULE_SOURCES,
-    load_catalogue,
     ranked_scores,
     run_study,
+    source_catalogue,
     study_arguments,
 )
 
@@ -122,11 +121,7 @@ def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
     queries: dict[str, dict[str, np.ndarray]] = {}
     depth = rerank_depth(10)
     for source in sources:
-        folder = root / ("capod" if source.startswith("capod") else source)
-        classes = NON_RIGID_CAPOD if source == "capod-nonrigid" else None
-        drop = NON_RIGID_CAPOD if source == "capod" else ()
-        catalogue = load_catalogue(folder, descriptor, classes=classes, drop=drop,
-                                   kinds=(kind,))
+        catalogue = source_catalogue(root, source, descriptor, kinds=(kind,))
         own = catalogue.query_models[kind]
         keys = scan_hub_keys(catalogue.queries[kind], catalogue.entries, catalogue.owners, own)
         keys[np.arange(len(own)), own] = np.inf

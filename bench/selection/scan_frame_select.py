@@ -69,14 +69,13 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import NON_RIGID_CAPOD  # noqa: E402
 from profile_block_select import Table  # noqa: E402
 from scan_expansion_select import whole_rows  # noqa: E402
 from scan_hubs_select import (  # noqa: E402
     VIEWS,
-    load_catalogue,
     ranked_scores,
     run_study,
+    source_catalogue,
     study_arguments,
 )
 
@@ -100,12 +99,8 @@ def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
     table: Table = {}
     queries: dict[str, dict[str, np.ndarray]] = {}
     for source in sources:
-        folder = root / ("capod" if source.startswith("capod") else source)
-        classes = NON_RIGID_CAPOD if source == "capod-nonrigid" else None
-        drop = NON_RIGID_CAPOD if source == "capod" else ()
         for name, views in candidates().items():
-            catalogue = load_catalogue(folder, descriptor, classes=classes, drop=drop,
-                                       kinds=(kind,), views=views)
+            catalogue = source_catalogue(root, source, descriptor, kinds=(kind,), views=views)
             positions = scan_mode_positions(catalogue.queries[kind], catalogue.entries,
                                             catalogue.owners, catalogue.query_models[kind],
                                             whole_rows(catalogue))

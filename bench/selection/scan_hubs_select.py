@@ -152,6 +152,18 @@ def load_catalogue(folder: Path, descriptor: str, classes: tuple[str, ...] | Non
                      np.array(owners), np.array(is_view), queries, query_models)
 
 
+def source_catalogue(root: Path, source: str, descriptor: str,
+                     kinds: tuple[str, ...] = QUERY_KINDS, views: tuple[str, ...] = VIEWS
+                     ) -> Catalogue:
+    """``load_catalogue`` of ``source``'s ``scan_retrieval`` output under ``root``
+    (``capod``: capod's rigid classes; ``capod-nonrigid``: its non-rigid ones)."""
+    classes = NON_RIGID_CAPOD if source == "capod-nonrigid" else None
+    drop = NON_RIGID_CAPOD if source == "capod" else ()
+    folder = root / ("capod" if source.startswith("capod") else source)
+    return load_catalogue(folder, descriptor, classes=classes, drop=drop, kinds=kinds,
+                          views=views)
+
+
 def model_keys(catalogue: Catalogue, kind: str, pool: str | None, neighbours: int,
                beta: float) -> np.ndarray:
     """Ranking keys ``(q, models)``, lower first, for the ``kind`` queries: each model's
@@ -211,12 +223,7 @@ def score_all(folder: Path, descriptor: str, sources: tuple[str, ...], kind: str
     table: Table = {}
     queries: dict[str, dict[str, np.ndarray]] = {}
     for source in sources:
-        if source == "capod-nonrigid":
-            catalogue = load_catalogue(folder / "capod", descriptor, classes=NON_RIGID_CAPOD)
-        elif source == "capod":
-            catalogue = load_catalogue(folder / "capod", descriptor, drop=NON_RIGID_CAPOD)
-        else:
-            catalogue = load_catalogue(folder / source, descriptor)
+        catalogue = source_catalogue(folder, source, descriptor)
         for name, (pool, k, beta) in grid.items():
             score, per_query = scores(catalogue, kind, pool, k, beta)
             table.setdefault(name, {})[source] = score

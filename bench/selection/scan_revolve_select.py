@@ -94,14 +94,13 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from local_features_select import NON_RIGID_CAPOD  # noqa: E402
 from profile_block_select import Table  # noqa: E402
 from scan_hubs_select import (  # noqa: E402
     JUDGE,
     RULE_SOURCES,
     Catalogue,
-    load_catalogue,
     run_study,
+    source_catalogue,
     study_arguments,
 )
 
@@ -189,10 +188,7 @@ def candidate_scores(catalogue: Catalogue, kind: str, agreement: dict[str, float
 def _catalogue(root: Path, source: str, descriptor: str, kind: str) -> Catalogue:
     """``source``'s catalogue with the ``kind`` queries and their completed copies
     (``capod``: its rigid classes, ``capod-nonrigid``: the others)."""
-    classes = NON_RIGID_CAPOD if source == "capod-nonrigid" else None
-    drop = NON_RIGID_CAPOD if source == "capod" else ()
-    return load_catalogue(_folder(root, source), descriptor, classes=classes, drop=drop,
-                          kinds=(kind, COMPLETED[kind]))
+    return source_catalogue(root, source, descriptor, kinds=(kind, COMPLETED[kind]))
 
 
 def _folder(root: Path, source: str) -> Path:
