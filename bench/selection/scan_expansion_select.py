@@ -92,6 +92,7 @@ from scan_hubs_select import (  # noqa: E402
     run_study,
     source_catalogue,
     study_arguments,
+    tabulate,
 )
 
 from core.hubness import scan_hub_keys  # noqa: E402
@@ -159,14 +160,8 @@ def candidate_scores(catalogue: Catalogue, kind: str
 def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
               ) -> tuple[Table, dict[str, dict[str, np.ndarray]]]:
     """Every candidate on every source for the ``kind`` queries."""
-    table: Table = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    for source in sources:
-        catalogue = source_catalogue(root, source, descriptor, kinds=(kind,))
-        for name, (score, per_query) in candidate_scores(catalogue, kind).items():
-            table.setdefault(name, {})[source] = score
-            queries.setdefault(name, {})[source] = per_query
-    return table, queries
+    return tabulate(sources, lambda source: candidate_scores(
+        source_catalogue(root, source, descriptor, kinds=(kind,)), kind))
 
 
 def main(argv: list[str] | None = None) -> int:

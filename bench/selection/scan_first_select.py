@@ -69,13 +69,15 @@ from profile_block_select import Table  # noqa: E402
 from scan_expansion_select import whole_rows  # noqa: E402
 from scan_hubs_select import (  # noqa: E402
     RULE_SOURCES,
+    Scores,
     ranked_scores,
     run_study,
     source_catalogue,
     study_arguments,
+    tabulate,
 )
 
-from core.hubness import expansion_keys, rerank_depth, scan_hub_keys  # noqa: E402
+from core.hubness import rerank_depth, scan_hub_keys, scan_ranking  # noqa: E402
 
 SHIPPED = "shipped"
 NEIGHBOURS = (3, 5)
@@ -94,45 +96,36 @@ def candidates() -> dict[str, tuple[int, float]]:
 def voted_positions(keys: np.ndarray, whole: np.ndarray, depth: int, neighbours: int,
                     weight: float) -> np.ndarray:
     """One query's places ``(models,)``, lower first (``inf`` where ``keys`` is): the first
-    answer by the pool's vote (``neighbours`` 0: the least key, as shipped), the rest of
-    the pool by ``expansion_keys`` from it, the others by key."""
-    order = np.argsort(keys, kind="stable")
-    pool, rest = order[:depth], order[depth:]
+    answer by the pool's vote (``neighbours`` 0: the least key, as shipped), then
+    ``core.hubness.scan_ranking`` from it."""
     if neighbours:
+        pool = np.argsort(keys, kind="stable")[:depth]
         gaps = np.sum((whole[pool][:, None, :] - whole[pool][None]) ** 2, axis=2)
         np.fill_diagonal(gaps, np.inf)
         nearest = np.argsort(gaps, axis=1, kind="stable")[:, :neighbours]
         votes = keys[pool] + weight * keys[pool][nearest].mean(axis=1)
-        first = int(np.argmin(votes))
-        pool = np.concatenate([pool[first:first + 1], np.delete(pool, first)])
-    spread = np.sum((whole[pool[1:]] - whole[pool[0]]) ** 2, axis=1)
-    pool = np.concatenate([pool[:1], pool[1:][np.argsort(
-        expansion_keys(keys[pool[1:]], spread), kind="stable")]])
-    positions = np.empty(len(keys))
-    positions[np.concatenate([pool, rest])] = np.arange(len(keys), dtype=float)
-    positions[~np.isfinite(keys)] = np.inf
-    return positions
+        # The voted model leads (a key below the least); everyone else's keys are unchanged.
+        keys = keys.copy()
+        keys[pool[int(np.argmin(votes))]] = keys[pool[0]] - 1.0
+    return scan_ranking(keys, whole, depth)
 
 
 def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
               ) -> tuple[Table, dict[str, dict[str, np.ndarray]]]:
     """Every candidate on every source for the ``kind`` queries."""
-    table: Table = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
     depth = rerank_depth(10)
-    for source in sources:
+
+    def scores_of(source: str) -> Scores:
         catalogue = source_catalogue(root, source, descriptor, kinds=(kind,))
         own = catalogue.query_models[kind]
         keys = scan_hub_keys(catalogue.queries[kind], catalogue.entries, catalogue.owners, own)
         keys[np.arange(len(own)), own] = np.inf
         whole = whole_rows(catalogue)
-        for name, (neighbours, weight) in candidates().items():
-            positions = np.array([voted_positions(row, whole, depth, neighbours, weight)
-                                  for row in keys])
-            score, per_query = ranked_scores(catalogue, kind, positions)
-            table.setdefault(name, {})[source] = score
-            queries.setdefault(name, {})[source] = per_query
-    return table, queries
+        return {name: ranked_scores(catalogue, kind, np.array(
+                    [voted_positions(row, whole, depth, neighbours, weight) for row in keys]))
+                for name, (neighbours, weight) in candidates().items()}
+
+    return tabulate(sources, scores_of)
 
 
 def main(argv: list[str] | None = None) -> int:

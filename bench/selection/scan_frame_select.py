@@ -77,6 +77,7 @@ from scan_hubs_select import (  # noqa: E402
     run_study,
     source_catalogue,
     study_arguments,
+    tabulate,
 )
 
 from core.hubness import scan_mode_positions  # noqa: E402
@@ -96,18 +97,14 @@ def candidates() -> dict[str, tuple[str, ...]]:
 def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
               ) -> tuple[Table, dict[str, dict[str, np.ndarray]]]:
     """Every candidate on every source for the ``kind`` queries, in scan mode's order."""
-    table: Table = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    for source in sources:
-        for name, views in candidates().items():
-            catalogue = source_catalogue(root, source, descriptor, kinds=(kind,), views=views)
-            positions = scan_mode_positions(catalogue.queries[kind], catalogue.entries,
-                                            catalogue.owners, catalogue.query_models[kind],
-                                            whole_rows(catalogue))
-            score, per_query = ranked_scores(catalogue, kind, positions)
-            table.setdefault(name, {})[source] = score
-            queries.setdefault(name, {})[source] = per_query
-    return table, queries
+    def scored(source: str, views: tuple[str, ...]) -> tuple[dict[str, float], np.ndarray]:
+        catalogue = source_catalogue(root, source, descriptor, kinds=(kind,), views=views)
+        return ranked_scores(catalogue, kind, scan_mode_positions(
+            catalogue.queries[kind], catalogue.entries, catalogue.owners,
+            catalogue.query_models[kind], whole_rows(catalogue)))
+
+    return tabulate(sources, lambda source: {
+        name: scored(source, views) for name, views in candidates().items()})
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -197,6 +197,22 @@ def ranked_scores(catalogue: Catalogue, kind: str, keys: np.ndarray
         [average_precision(r) for r in relevance if r.any()])
 
 
+Scores = dict[str, tuple[dict[str, float], np.ndarray]]
+
+
+def tabulate(sources: tuple[str, ...], scores_of: Callable[[str], Scores]
+             ) -> tuple[Table, dict[str, dict[str, np.ndarray]]]:
+    """The candidates' table and per-query average precisions over ``sources``, from
+    ``scores_of(source)``: candidate -> (its scores, each query's average precision)."""
+    table: Table = {}
+    queries: dict[str, dict[str, np.ndarray]] = {}
+    for source in sources:
+        for name, (score, per_query) in scores_of(source).items():
+            table.setdefault(name, {})[source] = score
+            queries.setdefault(name, {})[source] = per_query
+    return table, queries
+
+
 def candidates() -> dict[str, tuple[str | None, int, float]]:
     """Candidate name -> (pool, k, beta), in the rule's tie order (``plain`` first)."""
     grid: dict[str, tuple[str | None, int, float]] = {PLAIN: (None, 0, 0.0)}
@@ -219,16 +235,12 @@ def score_all(folder: Path, descriptor: str, sources: tuple[str, ...], kind: str
               ) -> tuple[Table, dict[str, dict[str, np.ndarray]]]:
     """Every candidate on every source (``capod-nonrigid``: capod's non-rigid classes;
     ``capod``: the others) for the ``kind`` queries."""
-    grid = candidates()
-    table: Table = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    for source in sources:
+    def scores_of(source: str) -> Scores:
         catalogue = source_catalogue(folder, source, descriptor)
-        for name, (pool, k, beta) in grid.items():
-            score, per_query = scores(catalogue, kind, pool, k, beta)
-            table.setdefault(name, {})[source] = score
-            queries.setdefault(name, {})[source] = per_query
-    return table, queries
+        return {name: scores(catalogue, kind, pool, k, beta)
+                for name, (pool, k, beta) in candidates().items()}
+
+    return tabulate(sources, scores_of)
 
 
 def mean_over(table: Table, name: str, sources: tuple[str, ...]) -> float:

@@ -102,6 +102,7 @@ from scan_hubs_select import (  # noqa: E402
     run_study,
     source_catalogue,
     study_arguments,
+    tabulate,
 )
 
 from core.evaluation.dataset import load_dataset  # noqa: E402
@@ -198,15 +199,9 @@ def _folder(root: Path, source: str) -> Path:
 def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
               ) -> tuple[Table, dict[str, dict[str, np.ndarray]]]:
     """Every candidate on every source for the ``kind`` queries."""
-    table: Table = {}
-    queries: dict[str, dict[str, np.ndarray]] = {}
-    for source in sources:
-        catalogue = _catalogue(root, source, descriptor, kind)
-        agreement = agreements(_folder(root, source))[kind]
-        for name, (score, per_query) in candidate_scores(catalogue, kind, agreement).items():
-            table.setdefault(name, {})[source] = score
-            queries.setdefault(name, {})[source] = per_query
-    return table, queries
+    return tabulate(sources, lambda source: candidate_scores(
+        _catalogue(root, source, descriptor, kind), kind,
+        agreements(_folder(root, source))[kind]))
 
 
 def gate_shares(root: Path, sources: tuple[str, ...], kind: str) -> dict[str, float]:
