@@ -49,10 +49,21 @@ dropped.
 
     nice -n 10 .venv/bin/python bench/selection/alignment_rerank_select.py /work/study8 \\
         --json /work/study8/alignment.json
+    nice -n 10 .venv/bin/python bench/selection/alignment_rerank_select.py /work/study8 \
+        --alone madcad gearworks vslot mcad       # the report added after the decision
+
+**Result** (2026-11-28, eighteenth session; docs/results.md, "Aligning the two samples"):
+declined. Every candidate's mean is below the service order's (0.8696; ``K`` 10, ``w`` 0.5:
+0.8613; ``K`` 20, ``w`` 2: 0.7919), the rule keeps the service order without every source
+(+0.0000 left out); the cost test fails too (93.5 ms a query at ``K`` 20). Ranked by the
+distance alone, pymadcad scores 0.649 (the service 0.936), and the three principal extents
+alone already 0.521: within a kind, sizes and lengths differ, and a whole-surface distance
+sees the proportions first and the head last.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import sys
@@ -70,7 +81,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from hub_measures_select import REFERENCE  # noqa: E402
 from hubness_select import family_rows, pooled_rows  # noqa: E402
-from local_features_select import nonrigid_rows  # noqa: E402
+from local_features_select import Study, nonrigid_rows  # noqa: E402
 from mcad_check import CANDIDATE, CATALOGUE, KEYS  # noqa: E402
 from profile_block_select import decide, score_distances, study_command, study_samples  # noqa: E402
 
@@ -107,7 +118,8 @@ class Aligned:
         weights = areas / areas.sum()
         centred = points - weights @ points
         centred /= np.sqrt(weights @ np.einsum("ij,ij->i", centred, centred))
-        _, axes = np.linalg.eigh((centred * weights[:, None]).T @ centred)
+        variances, axes = np.linalg.eigh((centred * weights[:, None]).T @ centred)
+        self.variances_ = variances[::-1]
         self.points_ = centred @ axes[:, ::-1]
         self.tree_ = cKDTree(self.points_)
         rng = np.random.default_rng(0)
@@ -196,8 +208,33 @@ def reranked(keys: np.ndarray, rows: np.ndarray, names: list[str], distance: Pai
     return places
 
 
+def alone(study: Study, names: dict[str, list[str]], distance: PairDistances,
+          sources: list[str]) -> None:
+    """A report, added after the decision: each of ``sources`` ranked by the alignment
+    distance alone, and by the sample's three principal extents alone (the area-weighted
+    standard deviations along the principal axes over their norm), against the service's
+    order: how much of what the alignment sees is the part's proportions."""
+    by_name = {s.name: s for s in study.scored}
+    for name in sources:
+        keys = names[name]
+        m = len(keys)
+        aligned = np.array([[distance(keys[i], keys[j]) if i != j else 0.0
+                             for j in range(m)] for i in range(m)])
+        extents = np.array([np.sqrt(distance.aligned(key).variances_) for key in keys])
+        extents /= np.linalg.norm(extents, axis=1, keepdims=True)
+        proportions = np.linalg.norm(extents[:, None] - extents[None], axis=2)
+        for label, ranking in (("alignment alone", aligned),
+                               ("principal extents alone", proportions)):
+            result = scores(ranking, by_name[name].labels)
+            print(f"{name}, {label}: mAP {result['map']:.3f}, NN {result['nn']:.3f}",
+                  flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
-    args, study, cache = study_command(__doc__, argv)
+    report_only = argparse.ArgumentParser(add_help=False)
+    report_only.add_argument("--alone", nargs="+", default=[], metavar="SOURCE")
+    extra, rest = report_only.parse_known_args(argv)
+    args, study, cache = study_command(__doc__, rest)
     scored = study.scored
     parts_rows, _ = family_rows(study, cache)
     samples = study_samples(study)
@@ -208,6 +245,9 @@ def main(argv: list[str] | None = None) -> int:
     flat = {key: sample for name, models in samples.items()
             for key, sample in zip(names[name], models, strict=True)}
     distance = PairDistances(flat)
+    if extra.alone:
+        alone(study, names, distance, extra.alone)
+        return 0
     service = {s.name: service_keys(parts_rows[s.name]) for s in scored}
     grid = [(SERVICE, 0, 0.0)] + [(f"align K{k} w{w:g}", k, w)
                                   for k in DEPTHS for w in WEIGHTS]
