@@ -49,7 +49,7 @@ dropped.
 
     nice -n 10 .venv/bin/python bench/selection/alignment_rerank_select.py /work/study8 \\
         --json /work/study8/alignment.json
-    nice -n 10 .venv/bin/python bench/selection/alignment_rerank_select.py /work/study8 \
+    nice -n 10 .venv/bin/python bench/selection/alignment_rerank_select.py /work/study8 \\
         --alone madcad gearworks vslot mcad       # the report added after the decision
 
 **Result** (2026-11-28, eighteenth session; docs/results.md, "Aligning the two samples"):
