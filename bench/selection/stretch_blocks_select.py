@@ -133,8 +133,8 @@ def stretch_blocks(points: np.ndarray, areas: np.ndarray, stretch: str,
 
 class Replacing:
     """``ss9``'s unit rows with its D2 and D1 blocks replaced, as ``ss9_replacing`` builds
-    them for one block: the base's other blocks as stored (at their weights), the new two at
-    D2's and D1's weights, then the local, ring and caps blocks as the service joins them.
+    them for one block: the base's blocks as stored, D2 and D1 the new ones, each at its
+    weight, then the local, ring and caps blocks as the service joins them.
     Built once per study, called per candidate."""
 
     def __init__(self, study: Study, cache: Path) -> None:
@@ -154,9 +154,9 @@ class Replacing:
         local = local or self.local
         rows = {}
         for name in names or [s.name for s in self.study.scored]:
-            base = np.hstack([self.weights[key] * block[name]
-                              for key, block in self.others.items()]
-                             + [self.weights["d2"] * d2[name], self.weights["d1"] * d1[name]])
+            # In the stored base's order (``load_source``), so that ss9 is rebuilt exactly.
+            blocks = {**self.others, "d2": d2, "d1": d1}
+            base = np.hstack([w * blocks[key][name] for key, w in self.weights.items()])
             rows[name] = joined(np.hstack([base, local[name], SS6_RING_WEIGHT * self.ring[name]]),
                                 self.caps[name], 1.0)
         return rows
