@@ -46,6 +46,20 @@ out.
 
     nice -n 10 .venv/bin/python bench/selection/stretch_blocks_select.py /work/study8 \\
         --json /work/study8/stretch.json
+
+**Result** (2026-11-28, eighteenth session): ships by the rule. The choice is ``ss9, D2 and
+D1 whole`` (mean of eight 0.8830 against 0.8696); left out +0.0052 (95 % +0.0009 ..
++0.0097); one catalogue by kind NN 0.874 -> 0.877, mAP 0.665 -> 0.701.
+
+**Confirmation, written after that result and before either was run** (the adoption is
+reverted before it lands unless both hold):
+
+(a) the script unchanged on a second extraction (``local_features_extract.py --seed 1``,
+the eight sources): the rule's choice there is one of the stretched candidates and its
+leave-one-source-out mean is above ``ss9``'s;
+(b) BOSL2, a library no choice saw, through ``shapesearch eval`` (the service's descriptor
+and order), the adopted default against ``ss9``: its mAP not below ``ss9``'s by more than
+0.002 and its NN not below by more than 0.01.
 """
 
 from __future__ import annotations
