@@ -12,7 +12,9 @@ embedding itself from ``core.extrinsic``'s measurements, all invariant to rotati
 translation and scale:
 
 - D2 and D1 (Osada et al. 2002): histograms of the distances between random area-weighted
-  point pairs and of the distances from the centroid, each over its mean;
+  point pairs and of the distances from the centroid, each over its mean, measured on the
+  sample with its principal spreads evened (a kind made in many lengths keeps one
+  distribution);
 - spread: square roots of the principal variances over their sum;
 - normals: per principal axis, an area-weighted histogram of ``|cos|`` between the surface
   normals and that axis;
@@ -56,6 +58,7 @@ from core.extrinsic import (
     axis_offsets,
     centroid_distance_ratios,
     end_profiles,
+    evened_spreads,
     normal_axis_cosines,
     pair_distance_ratios,
     reflection_symmetry,
@@ -79,8 +82,8 @@ __all__ = [
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
 # ss5: the local block; ss6: the ring block; ss7: the caps block; ss8: its soft axes; ss9: the
-# ring block's soft shells (issue 24)
-_LAYOUT = "ss9"
+# ring block's soft shells; ss10: D2 and D1 of the evened sample (issue 24)
+_LAYOUT = "ss10"
 
 #: The libraries whose upgrade can change a descriptor for unchanged code and settings
 #: (distribution names): the linear algebra and eigensolvers (numpy, scipy, qdldl), the
@@ -267,6 +270,7 @@ class DescriptorSpec:
     spread_weight: float
     d1_edges: tuple[float, ...]
     d1_weight: float
+    evened_distances: bool
     normal_neighbours: int
     normal_edges: tuple[float, ...]
     normal_weight: float
@@ -336,6 +340,7 @@ class DescriptorSpec:
             spread_weight=settings.spread_weight,
             d1_edges=tuple(np.linspace(*settings.d1_range, settings.bins + 1).tolist()),
             d1_weight=settings.d1_weight,
+            evened_distances=settings.evened_distances,
             normal_neighbours=settings.normal_neighbours,
             normal_edges=tuple(np.linspace(0.0, 1.0, settings.normal_bins + 1).tolist()),
             normal_weight=settings.normal_weight,
@@ -478,15 +483,19 @@ class DescriptorSpec:
         if points is None or points.shape != (count, 3):
             raise ValueError("the extrinsic blocks need the (n, 3) points of the signature")
         blocks: dict[str, np.ndarray] = {}
+        # Distances are measured apart from the proportions when asked (evened_spreads).
+        distance_points = (evened_spreads(points, areas)
+                  if self.evened_distances and (self.d2_weight > 0 or self.d1_weight > 0)
+                  else points)
         if self.d2_weight > 0:
             d2 = distance_distribution(
-                points, areas, np.asarray(self.d2_edges), self.d2_pairs, self.d2_seed
+                distance_points, areas, np.asarray(self.d2_edges), self.d2_pairs, self.d2_seed
             )
             blocks["d2"] = self.d2_weight * _unit_block(np.sqrt(d2))
         if self.spread_weight > 0:
             blocks["spread"] = self.spread_weight * spread_profile(points, areas)
         if self.d1_weight > 0:
-            ratios = centroid_distance_ratios(points, areas)
+            ratios = centroid_distance_ratios(distance_points, areas)
             d1 = area_histograms(ratios[:, None], areas, np.asarray(self.d1_edges))
             blocks["d1"] = self.d1_weight * _unit_block(np.sqrt(d1))
         if self.normal_weight > 0:
@@ -553,8 +562,11 @@ class DescriptorSpec:
             )
         if self.dna_count:
             parts.append(f"dna={self.dna_count}w{self.dna_weight:g}")
+        # "e": measured on the evened sample (evened_spreads).
+        evened = "e" if self.evened_distances else ""
         extrinsic = {
-            "d2": self.d2_weight, "spr": self.spread_weight, "d1": self.d1_weight,
+            f"d2{evened}": self.d2_weight, "spr": self.spread_weight,
+            f"d1{evened}": self.d1_weight,
             "nrm": self.normal_weight, "sym": self.symmetry_weight, "ax": self.axis_weight,
             "ring": self.ring_weight, "caps": self.caps_weight,
         }

@@ -39,6 +39,7 @@ __all__ = [
     "axis_offsets",
     "centroid_distance_ratios",
     "end_profiles",
+    "evened_spreads",
     "neighbourhood_normals",
     "normal_axis_cosines",
     "pair_distance_ratios",
@@ -75,6 +76,10 @@ ANGULAR_SHELLS = 3
 END_RADIAL_RANGE = 2.5
 END_QUANTILE = 0.005
 
+#: ``evened_spreads``: an axis is grown at most this many times (a washer stays a flat ring
+#: rather than becoming a ball).
+EVEN_FLATTEST = 10.0
+
 
 def principal_frame(
     points: np.ndarray, areas: np.ndarray
@@ -103,6 +108,39 @@ def principal_frame(
     order = np.argsort(variances)[::-1]
     axes = axes[:, order]
     return offsets @ axes, np.maximum(variances[order], 0.0), axes
+
+
+def evened_spreads(points: np.ndarray, areas: np.ndarray,
+                   flattest: float = EVEN_FLATTEST) -> np.ndarray:
+    """The surface in its principal frame with its three spreads evened, ``(n, 3) float``.
+
+    Each principal coordinate is scaled so that its area-weighted standard deviation is the
+    middle axis' (an axis thinner than ``1 / flattest`` of it is grown ``flattest`` times
+    only). Distances measured on the result (D2, D1) describe how the surface is laid out
+    apart from its proportions: a long and a short screw of one head come closer, while the
+    head, whose share of the length grows, counts more (issue 24: a kind comes in many
+    lengths). Rotation, translation, uniform scale and point order do not change it beyond
+    the principal axes' signs, which distances do not see.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    areas : (n,) float
+        Non-negative, not all zero.
+    flattest : float
+        How many times an axis may be grown at most, >= 1.
+
+    Returns
+    -------
+    evened : (n, 3) float
+        The points about their area-weighted centroid, in the principal frame, evened; the
+        frame alone when the middle spread is zero (a segment).
+    """
+    coordinates, variances, _ = principal_frame(points, areas)
+    spreads = np.sqrt(variances)
+    if spreads[1] <= 0.0:
+        return coordinates
+    return coordinates * (spreads[1] / np.maximum(spreads, spreads[1] / flattest))
 
 
 def spread_profile(points: np.ndarray, areas: np.ndarray) -> np.ndarray:

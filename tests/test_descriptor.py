@@ -204,9 +204,14 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(caps_sharpness=1024.0),
         DescriptorSettings(ring_shells=None),
         DescriptorSettings(ring_shells=(0.25, 1.0, 1.75)),
+        DescriptorSettings(evened_distances=False),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 43
+    assert len(versions) == 44
+    # Readable too: D2 and D1 of the evened sample are marked.
+    assert "ext=d2e,d1e," in spec.version(base)
+    plain = DescriptorSpec.from_settings(DescriptorSettings(evened_distances=False))
+    assert "ext=d2,d1," in plain.version(base)
     assert max(len(version) for version in versions) <= VERSION_LENGTH
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)
 

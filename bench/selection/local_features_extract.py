@@ -7,7 +7,8 @@ saved, so that stage 2 (``bench/selection/local_features_select.py``) only recom
 
 - ``points``, ``areas``: the normalised sample and the area each point stands for;
 - ``signature``: log scaled HKS at the 16 default times and log WKS at the 16 energies;
-- ``blocks_*``: the unit blocks of the default descriptor (every weight 1).
+- ``blocks_*``: the unit blocks of the default descriptor (every weight 1), D2 and D1 of the
+  sample as it is (``ss9``'s; the default's evened ones are built from ``points``).
 
     .venv/bin/python bench/selection/local_features_extract.py SOURCES OUT [--scan KIND]
         [--feature-share S] [--max-points N] [--cutoff-t T] [--hks-scale F] [--wks-sigma W]
@@ -65,7 +66,9 @@ def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
     if cutoff_t:
         settings = replace(settings, cutoff=replace(settings.cutoff, t=cutoff_t))
     unit = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block != "local"}
-    ones = replace(settings.descriptor, **unit)
+    # D2 and D1 of the sample as it is: the studies' base is ``ss9``'s, and the evened ones
+    # of ``ss10`` are built from the stored sample (stretch_blocks_select.py).
+    ones = replace(settings.descriptor, **unit, evened_distances=False)
     spec = DescriptorSpec.from_settings(ones)
     cache = out / "cache"
     sampling = sampling_of(settings, ROTATION_SEED + seed, scan, feature_share)

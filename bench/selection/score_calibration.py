@@ -116,11 +116,17 @@ def held_out_check(by_source: dict[str, dict[str, list[float]]]) -> None:
 
 
 def write_calibration(groups: dict[str, list[float]]) -> None:
-    """Store the different-kind quantiles for the default layout; print the separation."""
+    """Store the different-kind quantiles for the default layout beside the earlier layouts';
+    print the separation."""
     quantiles = np.quantile(groups["different"], np.linspace(0, 1, CALIBRATION_POINTS))
     settings = EngineSettings()
     layout = layout_of(DescriptorSpec.from_settings(settings.descriptor).version(settings))
-    table = {"different_kind_quantiles": {layout: [round(float(q), 6) for q in quantiles]},
+    # Earlier layouts keep theirs: a catalogue described before an upgrade is read with its
+    # own calibration until it is re-described.
+    earlier = (json.loads(CALIBRATION_FILE.read_text())["different_kind_quantiles"]
+               if CALIBRATION_FILE.exists() else {})
+    table = {"different_kind_quantiles": {**earlier,
+                                          layout: [round(float(q), 6) for q in quantiles]},
              "pairs": {name: len(scores) for name, scores in groups.items()}}
     CALIBRATION_FILE.write_text(json.dumps(table, indent=1) + "\n")
     calibration = ScoreCalibration(quantiles)

@@ -27,6 +27,11 @@ NN not below by more than 0.01. Otherwise ``ss9`` stays and the lead is written 
     done
     nice -n 5 .venv/bin/python bench/selection/stretch_fixed_check.py /work/seed2 /work/seed3 \\
         --json /work/stretch_fixed.json
+
+**Result** (2026-11-28, eighteenth session): adopted (``ss10``). Seed 2: mean of eight 0.8672
+-> 0.8786, +0.0114 (95 % +0.0073 .. +0.0158), one catalogue by kind NN 0.865 -> 0.874, mAP
+0.663 -> 0.698; seed 3: 0.8704 -> 0.8840, +0.0136 (+0.0092 .. +0.0189), NN 0.874 -> 0.880, mAP
+0.670 -> 0.702. Both tests hold on both.
 """
 
 from __future__ import annotations

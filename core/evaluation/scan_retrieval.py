@@ -52,6 +52,7 @@ from core.evaluation.variants import (
     SS6_DESCRIPTOR,
     SS7_DESCRIPTOR,
     SS8_DESCRIPTOR,
+    SS9_DESCRIPTOR,
 )
 from core.hubness import scan_mode_positions
 from core.pipeline import descriptor_from_eigenpairs
@@ -81,13 +82,14 @@ _DEFAULT = DescriptorSettings()
 DESCRIPTORS: dict[str, tuple[DescriptorSettings, bool]] = {
     "default": (_DEFAULT, False),
     # Issue 24: the defaults before it, before its ring block, before its caps block,
-    # before the caps block's soft axes and before the ring block's soft shells, and the
-    # family for bendable shapes.
+    # before the caps block's soft axes, before the ring block's soft shells and before the
+    # evened D2 and D1, and the family for bendable shapes.
     "ss4": (SS4_DESCRIPTOR, False),
     "ss5": (SS5_DESCRIPTOR, False),
     "ss6": (SS6_DESCRIPTOR, False),
     "ss7": (SS7_DESCRIPTOR, False),
     "ss8": (SS8_DESCRIPTOR, False),
+    "ss9": (SS9_DESCRIPTOR, False),
     "bendable": (DESCRIPTOR_FAMILIES["bendable"], False),
     "boundary": (_DEFAULT, True),
     # ShapeDNA is a global spectrum: a partial surface's eigenvalues are not the whole's.

@@ -35,6 +35,7 @@ __all__ = [
     "SS6_DESCRIPTOR",
     "SS7_DESCRIPTOR",
     "SS8_DESCRIPTOR",
+    "SS9_DESCRIPTOR",
     "VARIANTS",
     "resolve_variants",
 ]
@@ -68,25 +69,34 @@ SPECTRAL_DESCRIPTOR = replace(
 )
 
 #: The default of issue 12 (``ss4``): the present one without the local, ring and caps
-#: blocks of issue 24, with the spread and axis-offset blocks it then had.
+#: blocks of issue 24, with the spread and axis-offset blocks it then had, D2 and D1 of the
+#: sample as it is.
 SS4_DESCRIPTOR = replace(
     DescriptorSettings(), local_weight=0.0, ring_weight=0.0, caps_weight=0.0,
-    spread_weight=1.0, axis_weight=0.5,
+    spread_weight=1.0, axis_weight=0.5, evened_distances=False,
 )
 
-#: The first default of issue 24 (``ss5``): the present one without the ring and caps blocks.
-SS5_DESCRIPTOR = replace(DescriptorSettings(), ring_weight=0.0, caps_weight=0.0)
+#: The first default of issue 24 (``ss5``): the present one without the ring and caps blocks,
+#: D2 and D1 of the sample as it is.
+SS5_DESCRIPTOR = replace(DescriptorSettings(), ring_weight=0.0, caps_weight=0.0,
+                         evened_distances=False)
 
 #: The second default of issue 24 (``ss6``): the present one without the caps block, the
-#: ring block's shells the area tertiles.
-SS6_DESCRIPTOR = replace(DescriptorSettings(), caps_weight=0.0, ring_shells=None)
+#: ring block's shells the area tertiles, D2 and D1 of the sample as it is.
+SS6_DESCRIPTOR = replace(DescriptorSettings(), caps_weight=0.0, ring_shells=None,
+                         evened_distances=False)
 
-#: The third default of issue 24 (``ss7``): the caps block along the principal axes alone
-#: and the ring block's shells the area tertiles.
-SS7_DESCRIPTOR = replace(DescriptorSettings(), caps_sharpness=None, ring_shells=None)
+#: The third default of issue 24 (``ss7``): the caps block along the principal axes alone,
+#: the ring block's shells the area tertiles, D2 and D1 of the sample as it is.
+SS7_DESCRIPTOR = replace(DescriptorSettings(), caps_sharpness=None, ring_shells=None,
+                         evened_distances=False)
 
-#: The fourth default of issue 24 (``ss8``): the ring block's shells the area tertiles.
-SS8_DESCRIPTOR = replace(DescriptorSettings(), ring_shells=None)
+#: The fourth default of issue 24 (``ss8``): the ring block's shells the area tertiles, D2
+#: and D1 of the sample as it is.
+SS8_DESCRIPTOR = replace(DescriptorSettings(), ring_shells=None, evened_distances=False)
+
+#: The fifth default of issue 24 (``ss9``): D2 and D1 of the sample as it is.
+SS9_DESCRIPTOR = replace(DescriptorSettings(), evened_distances=False)
 
 
 def _without(settings: DescriptorSettings, weight: str) -> DescriptorSettings:
@@ -150,13 +160,15 @@ def _variants() -> dict[str, EngineSettings]:
         "ss3": _engine(descriptor=replace(
             default.intrinsic(), d2_weight=1.0, spread_weight=1.0, local_weight=0.0)),
         # Issue 24: the defaults before it (ss4), before its ring block (ss5), before its
-        # caps block (ss6), before the caps block's soft axes (ss7) and before the ring
-        # block's soft shells (ss8), and the descriptor family for bendable shapes.
+        # caps block (ss6), before the caps block's soft axes (ss7), before the ring
+        # block's soft shells (ss8) and before the evened D2 and D1 (ss9), and the
+        # descriptor family for bendable shapes.
         "ss4": _engine(descriptor=SS4_DESCRIPTOR),
         "ss5": _engine(descriptor=SS5_DESCRIPTOR),
         "ss6": _engine(descriptor=SS6_DESCRIPTOR),
         "ss7": _engine(descriptor=SS7_DESCRIPTOR),
         "ss8": _engine(descriptor=SS8_DESCRIPTOR),
+        "ss9": _engine(descriptor=SS9_DESCRIPTOR),
         "bendable": _engine(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
         "default-no-local": _engine(descriptor=replace(default, local_weight=0.0)),
         **{
