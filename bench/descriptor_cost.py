@@ -5,7 +5,8 @@ Every loadable part of the shared parts folder and a seeded sample of capod is d
 to end (``core.pipeline.describe``) with the default before issue 24 (``ss4``: no local
 block), its first default (``ss5``: no ring block), its second (``ss6``: no caps block), its
 third (``ss7``: the caps block along the principal axes alone), its fourth (``ss8``: the
-ring block's shells the area tertiles), the present default and the ``bendable`` family,
+ring block's shells the area tertiles), its fifth (``ss9``: D2 and D1 of the sample as it
+is), the present default and the ``bendable`` family,
 interleaved per part (so drifting machine load falls on all alike), ``--repeats`` times;
 BLAS pinned to one thread. Prints per-kind medians of wall and CPU seconds, the ratios to
 ``ss4`` and the descriptor widths (index memory and exact-search time grow with the
@@ -34,6 +35,7 @@ from core.evaluation.variants import (  # noqa: E402
     SS6_DESCRIPTOR,
     SS7_DESCRIPTOR,
     SS8_DESCRIPTOR,
+    SS9_DESCRIPTOR,
 )
 from core.pipeline import describe  # noqa: E402
 from core.settings import DESCRIPTOR_FAMILIES, EngineSettings  # noqa: E402
@@ -45,6 +47,7 @@ KINDS = {
     "ss6": EngineSettings(descriptor=SS6_DESCRIPTOR),
     "ss7": EngineSettings(descriptor=SS7_DESCRIPTOR),
     "ss8": EngineSettings(descriptor=SS8_DESCRIPTOR),
+    "ss9": EngineSettings(descriptor=SS9_DESCRIPTOR),
     "default": EngineSettings(),
     "bendable": EngineSettings(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
 }
