@@ -137,6 +137,8 @@ def stretched(points: np.ndarray, areas: np.ndarray, stretch: str) -> np.ndarray
     if stretch == "length":
         factors = np.array([spreads[1] / spreads[0], 1.0, 1.0])
     else:
+        # What ``core.extrinsic.evened_spreads`` ships since ``ss10`` (the D2 and D1 blocks
+        # of both were checked identical on stored samples); kept here as the study ran.
         factors = spreads[1] / np.maximum(spreads, spreads[1] / FLATTEST)
     return frame * factors
 
