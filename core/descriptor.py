@@ -483,10 +483,8 @@ class DescriptorSpec:
         if points is None or points.shape != (count, 3):
             raise ValueError("the extrinsic blocks need the (n, 3) points of the signature")
         blocks: dict[str, np.ndarray] = {}
-        # Distances are measured apart from the proportions when asked (evened_spreads).
-        distance_points = (evened_spreads(points, areas)
-                  if self.evened_distances and (self.d2_weight > 0 or self.d1_weight > 0)
-                  else points)
+        # D2 and D1 measure distances apart from the proportions when asked (evened_spreads).
+        distance_points = evened_spreads(points, areas) if self.evened_distances else points
         if self.d2_weight > 0:
             d2 = distance_distribution(
                 distance_points, areas, np.asarray(self.d2_edges), self.d2_pairs, self.d2_seed

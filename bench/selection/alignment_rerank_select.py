@@ -85,6 +85,7 @@ from local_features_select import Study, nonrigid_rows  # noqa: E402
 from mcad_check import CANDIDATE, CATALOGUE, KEYS  # noqa: E402
 from profile_block_select import decide, score_distances, study_command, study_samples  # noqa: E402
 
+from core.extrinsic import principal_frame  # noqa: E402
 from core.hubness import SAME_DESCRIPTOR  # noqa: E402
 from core.reciprocal import first_kept  # noqa: E402
 
@@ -116,11 +117,11 @@ class Aligned:
 
     def __init__(self, points: np.ndarray, areas: np.ndarray) -> None:
         weights = areas / areas.sum()
-        centred = points - weights @ points
-        centred /= np.sqrt(weights @ np.einsum("ij,ij->i", centred, centred))
-        variances, axes = np.linalg.eigh((centred * weights[:, None]).T @ centred)
-        self.variances_ = variances[::-1]
-        self.points_ = centred @ axes[:, ::-1]
+        frame, variances, _ = principal_frame(points, areas)
+        # Unit RMS radius about the centroid: the variances' sum is its square.
+        radius = np.sqrt(variances.sum())
+        self.variances_ = variances / radius**2
+        self.points_ = frame / radius
         self.tree_ = cKDTree(self.points_)
         rng = np.random.default_rng(0)
         count = min(SUBSAMPLE, len(points))

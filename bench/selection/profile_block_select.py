@@ -243,29 +243,48 @@ def ss9_blocks(study: Study, cache: Path) -> tuple[dict[str, np.ndarray], dict[s
     return rest, caps
 
 
+class Replacing:
+    """``ss9``'s unit rows with some of its ``ss4-noprop`` base blocks replaced: the base's
+    blocks in their stored order (``load_source``), each the stored one or its replacement,
+    each at its weight in ``ss9`` or the one given, then the local, ring and caps blocks as
+    the service joins them. Built once per study (the blocks are loaded once), called per
+    candidate; with nothing replaced it gives ``ss9``'s rows exactly."""
+
+    def __init__(self, study: Study, cache: Path) -> None:
+        self.study = study
+        self.weights = {name: w for name, w in BASES["ss4-noprop"].items() if w > 0}
+        self.stored = {name: stored_blocks(study, name) for name in self.weights}
+        self.local = study.with_nonrigid(default_local_blocks(study.sources, cache))
+        self.ring, self.caps = default_ring_and_caps(study)
+
+    def __call__(self, replaced: dict[str, dict[str, np.ndarray]],
+                 weights: dict[str, float] | None = None,
+                 local: dict[str, np.ndarray] | None = None,
+                 names: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+        """Unit rows per source of ``names`` (default: every scored one).
+
+        ``replaced`` maps a base block's name to its new unit block per source; ``weights``
+        a block's name to a weight in place of ``ss9``'s; ``local``: local blocks in place
+        of the study's own (a pooled catalogue's encoding)."""
+        blocks = {**self.stored, **replaced}
+        weights = {**self.weights, **(weights or {})}
+        local = local or self.local
+        rows = {}
+        for name in names or [s.name for s in self.study.scored]:
+            base = np.hstack([weights[key] * blocks[key][name] for key in self.weights])
+            rows[name] = joined(np.hstack([base, local[name], SS6_RING_WEIGHT * self.ring[name]]),
+                                self.caps[name], 1.0)
+        return rows
+
+
 def ss9_replacing(study: Study, cache: Path, key: str
                   ) -> Callable[[dict[str, np.ndarray], float], dict[str, np.ndarray]]:
     """``ss9``'s unit rows with its ``ss4-noprop`` block ``key`` replaced: a function of the
-    new unit block per source and its weight, giving the rows of every scored source (the
-    other base blocks as stored, the local, ring and caps blocks as the service joins
-    them)."""
-    weights = {name: w for name, w in BASES["ss4-noprop"].items() if w > 0 and name != key}
-    others = {name: stored_blocks(study, name) for name in weights}
-    local = study.with_nonrigid(default_local_blocks(study.sources, cache))
-    ring, caps = default_ring_and_caps(study)
+    new unit block per source and its weight, giving the rows of every scored source
+    (``Replacing``)."""
+    replacing = Replacing(study, cache)
     print("blocks done", flush=True)
-
-    def rows(block: dict[str, np.ndarray], weight: float) -> dict[str, np.ndarray]:
-        joined_rows = {}
-        for s in study.scored:
-            base = np.hstack([w * others[name][s.name] for name, w in weights.items()]
-                             + [weight * block[s.name]])
-            joined_rows[s.name] = joined(
-                np.hstack([base, local[s.name], SS6_RING_WEIGHT * ring[s.name]]),
-                caps[s.name], 1.0)
-        return joined_rows
-
-    return rows
+    return lambda block, weight: replacing({key: block}, {key: weight})
 
 
 def ss6_rows(source: Source, local: np.ndarray, ring: np.ndarray) -> np.ndarray:

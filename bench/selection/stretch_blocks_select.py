@@ -88,23 +88,25 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from alignment_rerank_select import service_keys  # noqa: E402
 from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from hubness_select import pooled_local, pooled_rows  # noqa: E402
-from local_features_select import BASES, Study, joined  # noqa: E402
+from local_features_select import Study, joined  # noqa: E402
 from mcad_check import CATALOGUE, NN_SLACK  # noqa: E402
 from profile_block_select import (  # noqa: E402
-    SS6_RING_WEIGHT,
+    Replacing,
     blocks_per_source,
     decide,
-    default_local_blocks,
-    default_ring_and_caps,
     score_distances,
     ss9_blocks,
-    stored_blocks,
     study_command,
     study_samples,
 )
 
 from core.descriptor import _unit_block, area_histograms  # noqa: E402
-from core.extrinsic import centroid_distance_ratios, pair_distance_ratios  # noqa: E402
+from core.extrinsic import (  # noqa: E402
+    centroid_distance_ratios,
+    evened_spreads,
+    pair_distance_ratios,
+    principal_frame,
+)
 from core.settings import DescriptorSettings  # noqa: E402
 
 SS9 = "ss9"
@@ -127,20 +129,13 @@ def stretched(points: np.ndarray, areas: np.ndarray, stretch: str) -> np.ndarray
     -------
     (n, 3) float
     """
-    weights = areas / areas.sum()
-    centred = points - weights @ points
-    variances, axes = np.linalg.eigh((centred * weights[:, None]).T @ centred)
-    spreads = np.sqrt(np.maximum(variances[::-1], 0.0))
-    frame = centred @ axes[:, ::-1]
+    if stretch == "whole":
+        return evened_spreads(points, areas, FLATTEST)
+    frame, variances, _ = principal_frame(points, areas)
+    spreads = np.sqrt(variances)
     if spreads[1] <= 0.0:
         return frame
-    if stretch == "length":
-        factors = np.array([spreads[1] / spreads[0], 1.0, 1.0])
-    else:
-        # What ``core.extrinsic.evened_spreads`` ships since ``ss10`` (the D2 and D1 blocks
-        # of both were checked identical on stored samples); kept here as the study ran.
-        factors = spreads[1] / np.maximum(spreads, spreads[1] / FLATTEST)
-    return frame * factors
+    return frame * np.array([spreads[1] / spreads[0], 1.0, 1.0])
 
 
 def stretch_blocks(points: np.ndarray, areas: np.ndarray, stretch: str,
@@ -153,37 +148,6 @@ def stretch_blocks(points: np.ndarray, areas: np.ndarray, stretch: str,
     d2 = area_histograms(pairs[:, None], np.ones(pairs.size), d2_edges)[0]
     d1 = area_histograms(centroid_distance_ratios(sample, areas)[:, None], areas, d1_edges)[0]
     return np.concatenate([_unit_block(np.sqrt(d2)), _unit_block(np.sqrt(d1))])
-
-
-class Replacing:
-    """``ss9``'s unit rows with its D2 and D1 blocks replaced, as ``ss9_replacing`` builds
-    them for one block: the base's blocks as stored, D2 and D1 the new ones, each at its
-    weight, then the local, ring and caps blocks as the service joins them.
-    Built once per study, called per candidate."""
-
-    def __init__(self, study: Study, cache: Path) -> None:
-        self.study = study
-        self.weights = {name: w for name, w in BASES["ss4-noprop"].items() if w > 0}
-        self.others = {name: stored_blocks(study, name) for name in self.weights
-                       if name not in ("d2", "d1")}
-        self.local = study.with_nonrigid(default_local_blocks(study.sources, cache))
-        self.ring, self.caps = default_ring_and_caps(study)
-
-    def __call__(self, d2: dict[str, np.ndarray], d1: dict[str, np.ndarray],
-                 local: dict[str, np.ndarray] | None = None,
-                 names: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
-        """Unit rows per source of ``names`` (default: every scored one), ``d2`` and ``d1``
-        the new unit blocks per source; ``local``: local blocks in place of the study's own
-        (a pooled catalogue's encoding)."""
-        local = local or self.local
-        rows = {}
-        for name in names or [s.name for s in self.study.scored]:
-            # In the stored base's order (``load_source``), so that ss9 is rebuilt exactly.
-            blocks = {**self.others, "d2": d2, "d1": d1}
-            base = np.hstack([w * blocks[key][name] for key, w in self.weights.items()])
-            rows[name] = joined(np.hstack([base, local[name], SS6_RING_WEIGHT * self.ring[name]]),
-                                self.caps[name], 1.0)
-        return rows
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -200,13 +164,12 @@ def main(argv: list[str] | None = None) -> int:
                  for s in study.scored}
     replacing = Replacing(study, cache)
     # The replacement's scaffolding must give ss9 back with the stored D2 and D1.
-    same = replacing(stored_blocks(study, "d2"), stored_blocks(study, "d1"))
+    same = replacing({})
     gap = max(float(np.abs(same[name] - rows).max()) for name, rows in reference.items())
     print(f"ss9 rebuilt with its stored D2 and D1: largest difference {gap:.2e}", flush=True)
     if gap > 1e-9:
         raise SystemExit("the replacement does not rebuild ss9: stop before scoring")
-    pooled_same = replacing(stored_blocks(study, "d2"), stored_blocks(study, "d1"),
-                            local=pooled_local(study, CATALOGUE), names=CATALOGUE)
+    pooled_same = replacing({}, local=pooled_local(study, CATALOGUE), names=CATALOGUE)
     pooled_gap = float(np.abs(np.vstack([pooled_same[name] for name in CATALOGUE])
                               - pooled_rows(study, CATALOGUE)[0]).max())
     print(f"the one catalogue rebuilt likewise: largest difference {pooled_gap:.2e}", flush=True)
@@ -222,8 +185,8 @@ def main(argv: list[str] | None = None) -> int:
                 blocks[stretch], weight)))
     for stretch in STRETCHES:
         grid.append((f"ss9, D2 and D1 {stretch}", partial(
-            lambda b: replacing({n: rows[:, :bins] for n, rows in b.items()},
-                                {n: rows[:, bins:] for n, rows in b.items()}),
+            lambda b: replacing({"d2": {n: rows[:, :bins] for n, rows in b.items()},
+                                 "d1": {n: rows[:, bins:] for n, rows in b.items()}}),
             blocks[stretch])))
     order = {name: rank for rank, (name, _) in enumerate(grid)}
 
@@ -269,8 +232,8 @@ def pooled_scores(study: Study, chosen: str | None,
     else:
         stretch = chosen.rsplit(" ", 1)[1]
         bins = DescriptorSettings().bins
-        per_source = replacing({n: r[:, :bins] for n, r in blocks[stretch].items()},
-                               {n: r[:, bins:] for n, r in blocks[stretch].items()},
+        per_source = replacing({"d2": {n: r[:, :bins] for n, r in blocks[stretch].items()},
+                                "d1": {n: r[:, bins:] for n, r in blocks[stretch].items()}},
                                local=pooled_local(study, CATALOGUE), names=CATALOGUE)
         rows = np.vstack([per_source[name] for name in CATALOGUE])
     kinds = [KIND_OF.get(label, label) for label in library_kinds]

@@ -53,13 +53,14 @@ from alignment_rerank_select import service_keys  # noqa: E402
 from local_features_select import joined, load_study  # noqa: E402
 from profile_block_select import (  # noqa: E402
     TIE,
+    Replacing,
     blocks_per_source,
     score_distances,
     ss9_blocks,
     study_samples,
 )
 from rerank_select import _bootstrap  # noqa: E402
-from stretch_blocks_select import SS9, Replacing, pooled_scores, stretch_blocks  # noqa: E402
+from stretch_blocks_select import SS9, pooled_scores, stretch_blocks  # noqa: E402
 
 from core.settings import DescriptorSettings  # noqa: E402
 
@@ -80,8 +81,8 @@ def check(out: Path) -> dict[str, object]:
     replacing = Replacing(study, cache)
     rows = {SS9: {s.name: joined(np.hstack([rest[s.name], caps[s.name]]), None, 0.0)
                   for s in study.scored},
-            CANDIDATE: replacing({n: r[:, :bins] for n, r in blocks.items()},
-                                 {n: r[:, bins:] for n, r in blocks.items()})}
+            CANDIDATE: replacing({"d2": {n: r[:, :bins] for n, r in blocks.items()},
+                                  "d1": {n: r[:, bins:] for n, r in blocks.items()}})}
     table, queries = score_distances(
         ((name, {s.name: service_keys(r[s.name]) for s in study.scored})
          for name, r in rows.items()), study.scored)
