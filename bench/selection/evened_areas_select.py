@@ -62,6 +62,14 @@ The evened areas are extrinsic: the ``bendable`` family would not use them.
     # the same two extractions with --seed 7 into /work/seed7, then
     nice -n 5 .venv/bin/python bench/selection/evened_areas_select.py /work/seed7 \\
         --confirm "CHOICE" --json /work/seed7/evened_areas.json
+
+**Result** (2026-11-28, nineteenth session). Seed 0: the rule chooses ``evened areas
+extrinsic p1`` (mean of eight 0.8887 against 0.8818; every source up or level: MCAD 0.785 ->
+0.813, generator 0.819 -> 0.831, pymadcad 0.955 -> 0.961, py-gearworks 0.610 -> 0.619); left
+out +0.0048 (95 % +0.0027 .. +0.0071), the extrinsic candidates chosen without every source;
+one catalogue by kind NN 0.874 -> 0.874, mAP 0.700 -> 0.715: tests 1 and 2 hold. Seed 7, the
+candidate fixed: 0.8821 -> 0.8891, +0.0070 (95 % +0.0048 .. +0.0095), one catalogue by kind
+NN 0.874 -> 0.874, mAP 0.698 -> 0.711: test 3 holds. Adopted as ``ss11``, subject to test 4.
 """
 
 from __future__ import annotations
