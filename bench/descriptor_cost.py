@@ -36,6 +36,7 @@ from core.evaluation.variants import (  # noqa: E402
     SS7_DESCRIPTOR,
     SS8_DESCRIPTOR,
     SS9_DESCRIPTOR,
+    SS10_DESCRIPTOR,
 )
 from core.pipeline import describe  # noqa: E402
 from core.settings import DESCRIPTOR_FAMILIES, EngineSettings  # noqa: E402
@@ -48,6 +49,7 @@ KINDS = {
     "ss7": EngineSettings(descriptor=SS7_DESCRIPTOR),
     "ss8": EngineSettings(descriptor=SS8_DESCRIPTOR),
     "ss9": EngineSettings(descriptor=SS9_DESCRIPTOR),
+    "ss10": EngineSettings(descriptor=SS10_DESCRIPTOR),
     "default": EngineSettings(),
     "bendable": EngineSettings(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
 }

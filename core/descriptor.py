@@ -28,6 +28,9 @@ translation and scale:
   part's own radius (a head, a countersink, a hub or a thread's end, whatever the length),
   each axis averaged over the directions it could take when the shape does not define it.
 
+D2, D1, normals and symmetry weigh each point by the area it has on the evened surface
+(``core.extrinsic.evened_areas``), so a long part's body does not outweigh its ends.
+
 The local block (``core.local_features``) pools every point's whole signature, and for the
 rigid family its surface variation, over a vocabulary shipped in ``core/data``: the detail
 (a screw's head, a flange's hub, a gear's teeth) that per-scale histograms drown.
@@ -58,6 +61,7 @@ from core.extrinsic import (
     axis_offsets,
     centroid_distance_ratios,
     end_profiles,
+    evened_areas,
     evened_spreads,
     normal_axis_cosines,
     pair_distance_ratios,
@@ -82,8 +86,9 @@ __all__ = [
 
 # Layout generation: bump when the code changes the vector for unchanged settings.
 # ss5: the local block; ss6: the ring block; ss7: the caps block; ss8: its soft axes; ss9: the
-# ring block's soft shells; ss10: D2 and D1 of the evened sample (issue 24)
-_LAYOUT = "ss10"
+# ring block's soft shells; ss10: D2 and D1 of the evened sample; ss11: the evened surface's
+# areas in D2, D1, normals and symmetry (issue 24)
+_LAYOUT = "ss11"
 
 #: The libraries whose upgrade can change a descriptor for unchanged code and settings
 #: (distribution names): the linear algebra and eigensolvers (numpy, scipy, qdldl), the
@@ -271,6 +276,7 @@ class DescriptorSpec:
     d1_edges: tuple[float, ...]
     d1_weight: float
     evened_distances: bool
+    evened_areas: bool
     normal_neighbours: int
     normal_edges: tuple[float, ...]
     normal_weight: float
@@ -341,6 +347,7 @@ class DescriptorSpec:
             d1_edges=tuple(np.linspace(*settings.d1_range, settings.bins + 1).tolist()),
             d1_weight=settings.d1_weight,
             evened_distances=settings.evened_distances,
+            evened_areas=settings.evened_areas,
             normal_neighbours=settings.normal_neighbours,
             normal_edges=tuple(np.linspace(0.0, 1.0, settings.normal_bins + 1).tolist()),
             normal_weight=settings.normal_weight,
@@ -483,27 +490,35 @@ class DescriptorSpec:
         if points is None or points.shape != (count, 3):
             raise ValueError("the extrinsic blocks need the (n, 3) points of the signature")
         blocks: dict[str, np.ndarray] = {}
-        # D2 and D1 measure distances apart from the proportions when asked (evened_spreads).
-        distance_points = evened_spreads(points, areas) if self.evened_distances else points
+        # D2, D1, normals and symmetry weigh each point by its area on the evened surface
+        # when asked (evened_areas; the spread, axis offsets, ring and caps keep the
+        # sample's), and D2 and D1 measure distances apart from the proportions
+        # (evened_spreads).
+        evens_areas = self.evened_areas and max(
+            self.d2_weight, self.d1_weight, self.normal_weight, self.symmetry_weight) > 0
+        normals = (surface_normals(points, self.normal_neighbours)
+                   if self.normal_weight > 0 or evens_areas else None)
+        layout_areas = (evened_areas(points, areas, normals)
+                        if evens_areas and normals is not None else areas)
+        distance_points = (evened_spreads(points, layout_areas) if self.evened_distances
+                           else points)
         if self.d2_weight > 0:
-            d2 = distance_distribution(
-                distance_points, areas, np.asarray(self.d2_edges), self.d2_pairs, self.d2_seed
-            )
+            d2 = distance_distribution(distance_points, layout_areas,
+                                       np.asarray(self.d2_edges), self.d2_pairs, self.d2_seed)
             blocks["d2"] = self.d2_weight * _unit_block(np.sqrt(d2))
         if self.spread_weight > 0:
             blocks["spread"] = self.spread_weight * spread_profile(points, areas)
         if self.d1_weight > 0:
-            ratios = centroid_distance_ratios(distance_points, areas)
-            d1 = area_histograms(ratios[:, None], areas, np.asarray(self.d1_edges))
+            ratios = centroid_distance_ratios(distance_points, layout_areas)
+            d1 = area_histograms(ratios[:, None], layout_areas, np.asarray(self.d1_edges))
             blocks["d1"] = self.d1_weight * _unit_block(np.sqrt(d1))
-        if self.normal_weight > 0:
-            normals = surface_normals(points, self.normal_neighbours)
-            cosines = normal_axis_cosines(points, areas, normals)
-            facing = area_histograms(cosines, areas, np.asarray(self.normal_edges))
+        if self.normal_weight > 0 and normals is not None:
+            cosines = normal_axis_cosines(points, layout_areas, normals)
+            facing = area_histograms(cosines, layout_areas, np.asarray(self.normal_edges))
             blocks["normals"] = self.normal_weight * _unit_block(np.sqrt(facing))
         if self.symmetry_weight > 0:
             # Raw distances, not unit norm: how symmetric a part is, not only in which way.
-            blocks["symmetry"] = self.symmetry_weight * reflection_symmetry(points, areas)
+            blocks["symmetry"] = self.symmetry_weight * reflection_symmetry(points, layout_areas)
         if self.axis_weight > 0:
             edges = np.asarray(self.axis_edges)
             offsets = area_histograms(axis_offsets(points, areas), areas, edges)
@@ -560,12 +575,15 @@ class DescriptorSpec:
             )
         if self.dna_count:
             parts.append(f"dna={self.dna_count}w{self.dna_weight:g}")
-        # "e": measured on the evened sample (evened_spreads).
+        # "e": measured on the evened sample (evened_spreads); "a": weighed by the areas of
+        # the evened surface (evened_areas).
         evened = "e" if self.evened_distances else ""
+        areas = "a" if self.evened_areas else ""
         extrinsic = {
-            f"d2{evened}": self.d2_weight, "spr": self.spread_weight,
-            f"d1{evened}": self.d1_weight,
-            "nrm": self.normal_weight, "sym": self.symmetry_weight, "ax": self.axis_weight,
+            f"d2{evened}{areas}": self.d2_weight, "spr": self.spread_weight,
+            f"d1{evened}{areas}": self.d1_weight,
+            f"nrm{areas}": self.normal_weight, f"sym{areas}": self.symmetry_weight,
+            "ax": self.axis_weight,
             "ring": self.ring_weight, "caps": self.caps_weight,
         }
         if self.local_weight > 0:

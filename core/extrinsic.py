@@ -39,6 +39,7 @@ __all__ = [
     "axis_offsets",
     "centroid_distance_ratios",
     "end_profiles",
+    "evened_areas",
     "evened_spreads",
     "neighbourhood_normals",
     "normal_axis_cosines",
@@ -137,10 +138,53 @@ def evened_spreads(points: np.ndarray, areas: np.ndarray,
         frame alone when the middle spread is zero (a segment).
     """
     coordinates, variances, _ = principal_frame(points, areas)
+    factors = _evening_factors(variances, flattest)
+    return coordinates if factors is None else coordinates * factors
+
+
+def evened_areas(points: np.ndarray, areas: np.ndarray, normals: np.ndarray,
+                 flattest: float = EVEN_FLATTEST) -> np.ndarray:
+    """The area each point would stand for on the evened surface (``evened_spreads``),
+    ``(n,) float`` with the same total as ``areas``.
+
+    Scaling the principal coordinates by ``F = diag(f)`` takes a surface element of unit
+    normal ``nu`` to ``det(F) |F^-1 nu|`` times its area; ``det(F)`` is one constant, so each
+    area is multiplied by ``|F^-1 nu|`` and the total restored. A screw's shank, its normal
+    across the long axis that the evening shortens, keeps the share it has per unit length
+    of the evened part, and the head's share no longer follows the screw's length (issue 24:
+    area shares weigh every histogram). Rotation, translation, uniform scale, point order and
+    the normals' signs do not change it.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    areas : (n,) float
+        Non-negative, not all zero.
+    normals : (n, 3) float
+        Unit normals of ``points``, either sign (``surface_normals``).
+    flattest : float
+        As in ``evened_spreads``.
+
+    Returns
+    -------
+    (n,) float
+        ``areas`` itself when the middle spread is zero (a segment).
+    """
+    _, variances, axes = principal_frame(points, areas)
+    factors = _evening_factors(variances, flattest)
+    if factors is None:
+        return areas
+    evened = areas * np.linalg.norm((normals @ axes) / factors, axis=1)
+    return evened * (areas.sum() / evened.sum())
+
+
+def _evening_factors(variances: np.ndarray, flattest: float) -> np.ndarray | None:
+    """``evened_spreads``' scale per principal axis, ``(3,) float``; None when the middle
+    spread is zero."""
     spreads = np.sqrt(variances)
     if spreads[1] <= 0.0:
-        return coordinates
-    return coordinates * (spreads[1] / np.maximum(spreads, spreads[1] / flattest))
+        return None
+    return spreads[1] / np.maximum(spreads, spreads[1] / flattest)
 
 
 def spread_profile(points: np.ndarray, areas: np.ndarray) -> np.ndarray:

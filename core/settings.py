@@ -148,6 +148,13 @@ class DescriptorSettings:
     # +0.0097) on the eight tuning sources, four libraries as one catalogue by kind mAP
     # 0.665 -> 0.701.
     evened_distances: bool = True
+    # D2, D1, normals and symmetry weigh each point by the area it has on that evened
+    # surface (core.extrinsic.evened_areas), so a long screw's shank no longer outweighs its
+    # head; False: by the sample's areas (``ss10``). Chosen by
+    # bench/selection/evened_areas_select.py (issue 24, docs/results.md): leave-one-source-out
+    # +0.0048 mAP over ``ss10`` (95 % +0.0027 .. +0.0071), fixed on a second extraction
+    # +0.0070 (+0.0048 .. +0.0095), four libraries as one catalogue by kind mAP 0.700 -> 0.715.
+    evened_areas: bool = True
     # Normals by local PCA of the 12 nearest points; 10 bins of |cos| per principal axis.
     normal_weight: float = 0.5
     normal_bins: int = 10

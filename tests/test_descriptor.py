@@ -205,13 +205,18 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(ring_shells=None),
         DescriptorSettings(ring_shells=(0.25, 1.0, 1.75)),
         DescriptorSettings(evened_distances=False),
+        DescriptorSettings(evened_areas=False),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 44
-    # Readable too: D2 and D1 of the evened sample are marked.
-    assert "ext=d2e,d1e," in spec.version(base)
-    plain = DescriptorSpec.from_settings(DescriptorSettings(evened_distances=False))
-    assert "ext=d2,d1," in plain.version(base)
+    assert len(versions) == 45
+    # Readable too: D2 and D1 of the evened sample ("e") and the blocks weighed by the evened
+    # surface's areas ("a") are marked.
+    assert "ext=d2ea,d1ea,nrma:0.5,syma," in spec.version(base)
+    sample_areas = DescriptorSpec.from_settings(DescriptorSettings(evened_areas=False))
+    assert "ext=d2e,d1e,nrm:0.5,sym," in sample_areas.version(base)
+    plain = DescriptorSpec.from_settings(
+        DescriptorSettings(evened_distances=False, evened_areas=False))
+    assert "ext=d2,d1,nrm:0.5,sym," in plain.version(base)
     assert max(len(version) for version in versions) <= VERSION_LENGTH
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)
 

@@ -53,6 +53,7 @@ from core.evaluation.variants import (
     SS7_DESCRIPTOR,
     SS8_DESCRIPTOR,
     SS9_DESCRIPTOR,
+    SS10_DESCRIPTOR,
 )
 from core.hubness import scan_mode_positions
 from core.pipeline import descriptor_from_eigenpairs
@@ -82,14 +83,16 @@ _DEFAULT = DescriptorSettings()
 DESCRIPTORS: dict[str, tuple[DescriptorSettings, bool]] = {
     "default": (_DEFAULT, False),
     # Issue 24: the defaults before it, before its ring block, before its caps block,
-    # before the caps block's soft axes, before the ring block's soft shells and before the
-    # evened D2 and D1, and the family for bendable shapes.
+    # before the caps block's soft axes, before the ring block's soft shells, before the
+    # evened D2 and D1 and before the evened surface's areas, and the family for bendable
+    # shapes.
     "ss4": (SS4_DESCRIPTOR, False),
     "ss5": (SS5_DESCRIPTOR, False),
     "ss6": (SS6_DESCRIPTOR, False),
     "ss7": (SS7_DESCRIPTOR, False),
     "ss8": (SS8_DESCRIPTOR, False),
     "ss9": (SS9_DESCRIPTOR, False),
+    "ss10": (SS10_DESCRIPTOR, False),
     "bendable": (DESCRIPTOR_FAMILIES["bendable"], False),
     "boundary": (_DEFAULT, True),
     # ShapeDNA is a global spectrum: a partial surface's eigenvalues are not the whole's.
