@@ -3,11 +3,14 @@ the profile families they were added to tell apart."""
 
 from __future__ import annotations
 
+from types import ModuleType
+
 import numpy as np
 import pytest
 import trimesh
 from manifold3d import CrossSection
 
+from core.descriptor import DescriptorSpec
 from core.evaluation.scans import random_rotation
 from core.extrinsic import (
     ANGULAR_BANDS,
@@ -385,6 +388,20 @@ def test_evened_spreads_even_a_box_and_keep_a_plate_flat() -> None:
     assert spreads[0] < 0.15 * middle
 
 
+def _screw_blocks(standard: ModuleType, length: float, head: str, spec: DescriptorSpec,
+                  keys: tuple[str, ...]) -> np.ndarray:
+    """The extrinsic blocks ``keys`` of pymadcad's M8 screw ``length`` long with ``head``
+    (``madcad.standard``), joined: 3000 evenly drawn points, each of equal area."""
+    from core.evaluation.sources.madcad_parts import _to_trimesh
+
+    mesh = _to_trimesh(standard.screw(8, length, head=head))
+    points, _ = trimesh.sample.sample_surface_even(mesh, 3000, seed=0)
+    points = np.asarray(points)
+    blocks = spec._extrinsic_blocks(points, np.full(len(points), mesh.area / len(points)),
+                                    len(points))
+    return np.concatenate([blocks[key] for key in keys])
+
+
 def test_evened_distances_put_a_screws_head_before_its_length() -> None:
     # pymadcad's M8 screws: on the sample as it is, D2 and D1 part a socket-head screw 16
     # long from one 48 long far more than from a button head of its length (the length
@@ -395,8 +412,6 @@ def test_evened_distances_put_a_screws_head_before_its_length() -> None:
     )
     from dataclasses import replace
 
-    from core.descriptor import DescriptorSpec
-    from core.evaluation.sources.madcad_parts import _to_trimesh
     from core.evaluation.variants import SS10_DESCRIPTOR
 
     # Both weigh the points by the sample's areas (ss10 and ss9): the distances alone.
@@ -404,12 +419,7 @@ def test_evened_distances_put_a_screws_head_before_its_length() -> None:
     plain = replace(evened, evened_distances=False)
 
     def distances(length: float, head: str, spec: DescriptorSpec) -> np.ndarray:
-        mesh = _to_trimesh(standard.screw(8, length, head=head))
-        points, _ = trimesh.sample.sample_surface_even(mesh, 3000, seed=0)
-        points = np.asarray(points)
-        blocks = spec._extrinsic_blocks(points, np.full(len(points), mesh.area / len(points)),
-                                        len(points))
-        return np.concatenate([blocks["d2"], blocks["d1"]])
+        return _screw_blocks(standard, length, head, spec, ("d2", "d1"))
 
     for spec, length_over_head in ((plain, 2.0), (evened, None)):
         short, long_ = distances(16, "SH", spec), distances(48, "SH", spec)
@@ -460,17 +470,10 @@ def test_evened_areas_put_a_screws_head_before_its_length() -> None:
     standard = pytest.importorskip(
         "madcad.standard", reason="pymadcad (the test extra) is not installed"
     )
-    from core.descriptor import DescriptorSpec
-    from core.evaluation.sources.madcad_parts import _to_trimesh
     from core.evaluation.variants import SS10_DESCRIPTOR
 
     def layout(length: float, head: str, spec: DescriptorSpec) -> np.ndarray:
-        mesh = _to_trimesh(standard.screw(8, length, head=head))
-        points, _ = trimesh.sample.sample_surface_even(mesh, 3000, seed=0)
-        points = np.asarray(points)
-        blocks = spec._extrinsic_blocks(points, np.full(len(points), mesh.area / len(points)),
-                                        len(points))
-        return np.concatenate([blocks[key] for key in ("d2", "d1", "normals", "symmetry")])
+        return _screw_blocks(standard, length, head, spec, ("d2", "d1", "normals", "symmetry"))
 
     distances = {}
     for name, settings in (("sample", SS10_DESCRIPTOR), ("evened", DescriptorSettings())):
