@@ -256,26 +256,36 @@ def confirm(args: argparse.Namespace, study: Study, replacing: Replacing,
             candidates: dict[str, dict[str, PerSource]], table: dict, queries: dict,
             sources: list[str]) -> int:
     """Test 3: the fixed candidate against ``ss10`` on this extraction."""
-    name = args.confirm
-    mean = {c: float(np.mean([table[c][s]["map"] for s in sources])) for c in table}
-    point, low, high = _bootstrap(queries[name], queries[SS10], sources)
     catalogue = {c: catalogue_scores(study, replacing, candidates[c]) for c in candidates}
+    confirm_report(args.confirm, SS10, table, queries, catalogue, sources, args.json)
+    return 0
+
+
+def confirm_report(name: str, reference: str, table: dict, queries: dict,
+                   catalogue: dict[str, dict[str, float]], sources: list[str],
+                   json_path: Path | None) -> bool:
+    """Test 3 of a fixed candidate ``name`` against ``reference`` on one extraction: the
+    mean of the sources above by more than the tie with the 95 % paired interval above zero,
+    and test 2 (``catalogue_holds``); printed, written to ``json_path``, returned."""
+    mean = {c: float(np.mean([table[c][s]["map"] for s in sources])) for c in table}
+    point, low, high = _bootstrap(queries[name], queries[reference], sources)
     first = point > TIE and low > 0
-    second = catalogue_holds(catalogue[name], catalogue[SS10])
+    second = catalogue_holds(catalogue[name], catalogue[reference])
     for c in table:
         cells = ", ".join(f"{s} {table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}"
                           for s in table[c])
         print(f"{c}: mean of eight {mean[c]:.4f}; {cells}")
-    print(f"candidate - ss10 {point:+.4f} (95 % {low:+.4f} .. {high:+.4f}): {first}")
-    print(f"one catalogue by kind: NN {catalogue[SS10]['nn']:.3f} -> {catalogue[name]['nn']:.3f}, "
-          f"mAP {catalogue[SS10]['map']:.3f} -> {catalogue[name]['map']:.3f}: {second}")
+    print(f"candidate - {reference} {point:+.4f} (95 % {low:+.4f} .. {high:+.4f}): {first}")
+    print(f"one catalogue by kind: NN {catalogue[reference]['nn']:.3f} -> "
+          f"{catalogue[name]['nn']:.3f}, mAP {catalogue[reference]['map']:.3f} -> "
+          f"{catalogue[name]['map']:.3f}: {second}")
     print(f"test 3 holds: {first and second}")
-    if args.json:
-        args.json.write_text(json.dumps({"table": table, "mean": mean,
+    if json_path:
+        json_path.write_text(json.dumps({"table": table, "mean": mean,
                                          "difference": [point, low, high],
                                          "catalogue_by_kind": catalogue,
                                          "holds": first and second}, indent=1))
-    return 0
+    return first and second
 
 
 if __name__ == "__main__":

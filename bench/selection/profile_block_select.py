@@ -260,20 +260,25 @@ class Replacing:
     def __call__(self, replaced: dict[str, dict[str, np.ndarray]],
                  weights: dict[str, float] | None = None,
                  local: dict[str, np.ndarray] | None = None,
-                 names: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+                 names: tuple[str, ...] | None = None,
+                 ring: dict[str, np.ndarray] | None = None,
+                 caps: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
         """Unit rows per source of ``names`` (default: every scored one).
 
         ``replaced`` maps a base block's name to its new unit block per source; ``weights``
         a block's name to a weight in place of ``ss9``'s; ``local``: local blocks in place
-        of the study's own (a pooled catalogue's encoding)."""
+        of the study's own (a pooled catalogue's encoding); ``ring`` (at weight 1) and
+        ``caps`` (at its weight): those blocks in place of the default's."""
         blocks = {**self.stored, **replaced}
         weights = {**self.weights, **(weights or {})}
         local = local or self.local
+        ring = ring or self.ring
+        caps = caps or self.caps
         rows = {}
         for name in names or [s.name for s in self.study.scored]:
             base = np.hstack([weights[key] * blocks[key][name] for key in self.weights])
-            rows[name] = joined(np.hstack([base, local[name], SS6_RING_WEIGHT * self.ring[name]]),
-                                self.caps[name], 1.0)
+            rows[name] = joined(np.hstack([base, local[name], SS6_RING_WEIGHT * ring[name]]),
+                                caps[name], 1.0)
         return rows
 
 
