@@ -22,7 +22,12 @@ above zero, (2) the four third-party libraries as one catalogue by kind lose no 
 most 0.01 NN, (3) the seed-0 choice, fixed, on seed 7 (``--confirm``) passes (1)'s margin and
 (2), and (4) after adoption BOSL2 in the service's order loses at most 0.002 mAP and 0.01 NN.
 Disclosed: seed 7 has been read once already (``evened_areas_select``'s confirmation), but
-none of these candidates ran on it.
+none of these candidates ran on it. Disclosed too: the first run (2026-11-28) scored every
+row on a wrong base: ``evened_areas_select.study_blocks`` built its blocks with the default
+settings, which since ``ss11`` even the areas themselves, so the reference and every
+candidate had them evened twice (``ss11`` 0.8904 there against 0.8887 as chosen). Its
+figures were discarded; ``study_blocks`` now builds on ``ss10``'s settings, and
+``check_service`` stops a run whose reference is not the service's ``ss11``.
 
     nice -n 5 .venv/bin/python bench/selection/evened_areas_rest_select.py /work/study8 \\
         --json /work/study8/evened_areas_rest.json
@@ -50,6 +55,7 @@ from alignment_rerank_select import service_keys  # noqa: E402
 from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from evened_areas_select import (  # noqa: E402
     GROUPS,
+    UNIT_WEIGHTS,
     catalogue_holds,
     confirm_report,
     evened_areas,
@@ -67,7 +73,7 @@ from profile_block_select import (  # noqa: E402
     study_samples,
 )
 
-from core.descriptor import caps_block, ring_block  # noqa: E402
+from core.descriptor import DescriptorSpec, caps_block, ring_block  # noqa: E402
 from core.extrinsic import surface_normals  # noqa: E402
 from core.settings import DescriptorSettings  # noqa: E402
 
@@ -106,6 +112,24 @@ def evened_blocks(study: Study, cache: Path) -> tuple[Study, dict[str, PerSource
     return evened, {"ring": ring, "caps": caps, "local": local}
 
 
+def check_service(study: Study, base: dict[str, PerSource]) -> None:
+    """Stop before scoring unless ``base`` is what the service's default (``ss11``) makes of
+    every model's stored sample: its D2, D1, normals and symmetry blocks at unit weight."""
+    spec = DescriptorSpec.from_settings(replace(DescriptorSettings(), **UNIT_WEIGHTS))
+    gap = 0.0
+    for source, folder in zip(study.sources, study.folders, strict=True):
+        for row, file in enumerate(sorted(folder.glob("*.npz"))):
+            with np.load(file) as data:
+                blocks = spec.blocks(data["signature"].astype(np.float64),
+                                     data["areas"].astype(np.float64), data["eigenvalues"],
+                                     data["points"].astype(np.float64))
+            gap = max(gap, *(float(np.abs(blocks[key] - base[key][source.name][row]).max())
+                             for key in base))
+    print(f"ss11's base blocks against the service's: largest difference {gap:.2e}", flush=True)
+    if gap > 1e-9:
+        raise SystemExit("the reference is not the service's ss11: stop before scoring")
+
+
 def candidate_parts(name: str, blocks: dict[str, PerSource]) -> dict[str, PerSource]:
     """The blocks a candidate takes evened (``Replacing``'s keyword arguments)."""
     parts = {"all": ("ring", "caps", "local"), "ring+caps": ("ring", "caps")}.get(name, (name,))
@@ -138,6 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     # ss11's base blocks: the extrinsic ones with the evened areas (evened_areas_select).
     evened_base = study_blocks(study)["p1"]
     base = {key: evened_base[key] for key in GROUPS["extrinsic"]}
+    check_service(study, base)
     evened, blocks = evened_blocks(study, cache)
     print("blocks done", flush=True)
     names = (SS11, *CANDIDATES) if not args.confirm else (SS11, args.confirm)

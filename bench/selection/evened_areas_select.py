@@ -96,8 +96,8 @@ from profile_block_select import TIE, Replacing, decide, score_distances  # noqa
 from rerank_select import _bootstrap  # noqa: E402
 
 from core.descriptor import BLOCK_WEIGHTS, DescriptorSpec  # noqa: E402
+from core.evaluation.variants import SS10_DESCRIPTOR  # noqa: E402
 from core.extrinsic import EVEN_FLATTEST, principal_frame, surface_normals  # noqa: E402
-from core.settings import DescriptorSettings  # noqa: E402
 
 SS10 = "ss10"
 POWERS = (0.5, 1.0)
@@ -109,6 +109,8 @@ GROUPS = {
 #: ``ss10``'s own D2 and D1 (the evened sample, the sample's areas).
 SS10_KEYS = ("d2", "d1")
 REBUILT = ("hks", "wks", "slope", "normals", "symmetry")
+#: Every block but the local one at weight 1: the studies' unit blocks.
+UNIT_WEIGHTS = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block != "local"}
 
 PerSource = dict[str, np.ndarray]
 
@@ -159,8 +161,8 @@ def model_blocks(file: Path, spec: DescriptorSpec) -> dict[str, dict[str, np.nda
 
 def study_blocks(study: Study) -> dict[str, dict[str, PerSource]]:
     """Every model's unit blocks per area kind, block and source (capod-nonrigid added)."""
-    unit = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block != "local"}
-    spec = DescriptorSpec.from_settings(replace(DescriptorSettings(), **unit))
+    # ss10's blocks (the sample's areas inside the spec): the areas are the study's to set.
+    spec = DescriptorSpec.from_settings(replace(SS10_DESCRIPTOR, **UNIT_WEIGHTS))
     kinds = ("sample", *(f"p{p:g}" for p in POWERS))
     rows: dict[str, dict[str, dict[str, list[np.ndarray]]]] = {k: {} for k in kinds}
     for source, folder in zip(study.sources, study.folders, strict=True):
