@@ -29,6 +29,13 @@ candidate had them evened twice (``ss11`` 0.8904 there against 0.8887 as chosen)
 figures were discarded; ``study_blocks`` now builds on ``ss10``'s settings, and
 ``check_service`` stops a run whose reference is not the service's ``ss11``.
 
+**Result** (2026-11-28, nineteenth session): declined. The reference rebuilds the service's
+``ss11`` exactly (0.0) and scores what ``evened_areas_select`` chose (0.8887). The rule picks
+``ring`` on the eight (0.8907: our generator 0.831 -> 0.852, the others level or lower), but
+left out -0.0036 (95 % -0.0076 .. +0.0001): without bd-vslot it takes ``all``, which costs
+bd-vslot 0.910 -> 0.884; one catalogue by kind mAP 0.715 -> 0.713 (NN 0.874 -> 0.877). Tests
+1 and 2 fail; nothing to confirm on seed 7.
+
     nice -n 5 .venv/bin/python bench/selection/evened_areas_rest_select.py /work/study8 \\
         --json /work/study8/evened_areas_rest.json
     nice -n 5 .venv/bin/python bench/selection/evened_areas_rest_select.py /work/seed7 \\
