@@ -45,7 +45,6 @@ bd-vslot 0.910 -> 0.884; one catalogue by kind mAP 0.715 -> 0.713 (NN 0.874 -> 0
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from dataclasses import replace
@@ -63,10 +62,10 @@ from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from evened_areas_select import (  # noqa: E402
     GROUPS,
     UNIT_WEIGHTS,
-    catalogue_holds,
     confirm_report,
     evened_areas,
     study_blocks,
+    tests_report,
 )
 from hubness_select import pooled_local, pooled_rows  # noqa: E402
 from local_features_select import Study, load_study  # noqa: E402
@@ -193,17 +192,7 @@ def main(argv: list[str] | None = None) -> int:
     catalogue = {SS11: catalogue_scores(study, evened, replacing, base, {})}
     if chosen != SS11:
         catalogue[chosen] = catalogue_scores(study, evened, replacing, base, parts[chosen])
-    for name, result in catalogue.items():
-        print(f"one catalogue by kind, {name}: NN {result['nn']:.3f}, mAP {result['map']:.3f}, "
-              f"top-5 {result['top5']:.3f}")
-    second = catalogue_holds(catalogue[chosen], catalogue[SS11])
-    ships = bool(report["ships"]) and second
-    print(f"tests 1 and 2 (parts test {report['ships']}, catalogue by kind {second}): {ships}; "
-          "test 3 on seed 7 (--confirm) and test 4 (BOSL2) remain")
-    if args.json:
-        data = json.loads(args.json.read_text())
-        args.json.write_text(json.dumps({**data, "catalogue_by_kind": catalogue,
-                                         "tests_1_2": ships}, indent=1))
+    tests_report(catalogue, chosen, SS11, bool(report["ships"]), args.json)
     return 0
 
 

@@ -240,18 +240,27 @@ def main(argv: list[str] | None = None) -> int:
     catalogue = {SS10: catalogue_scores(study, replacing, candidates[SS10])}
     if chosen != SS10:
         catalogue[chosen] = catalogue_scores(study, replacing, candidates[chosen])
+    tests_report(catalogue, chosen, SS10, bool(report["ships"]), args.json)
+    return 0
+
+
+def tests_report(catalogue: dict[str, dict[str, float]], chosen: str, reference: str,
+                 parts_test: bool, json_path: Path | None) -> bool:
+    """Tests 1 and 2 of the rule's ``chosen`` against ``reference``: the parts test's verdict
+    (``decide``) and the one catalogue by kind (``catalogue_holds``); printed, added to the
+    JSON ``decide`` wrote, returned."""
     for name, result in catalogue.items():
         print(f"one catalogue by kind, {name}: NN {result['nn']:.3f}, mAP {result['map']:.3f}, "
               f"top-5 {result['top5']:.3f}")
-    second = catalogue_holds(catalogue[chosen], catalogue[SS10])
-    ships = bool(report["ships"]) and second
-    print(f"tests 1 and 2 (parts test {report['ships']}, catalogue by kind {second}): {ships}; "
+    second = catalogue_holds(catalogue[chosen], catalogue[reference])
+    ships = parts_test and second
+    print(f"tests 1 and 2 (parts test {parts_test}, catalogue by kind {second}): {ships}; "
           "test 3 on seed 7 (--confirm) and test 4 (BOSL2) remain")
-    if args.json:
-        data = json.loads(args.json.read_text())
-        args.json.write_text(json.dumps({**data, "catalogue_by_kind": catalogue,
+    if json_path:
+        data = json.loads(json_path.read_text())
+        json_path.write_text(json.dumps({**data, "catalogue_by_kind": catalogue,
                                          "tests_1_2": ships}, indent=1))
-    return 0
+    return ships
 
 
 def confirm(args: argparse.Namespace, study: Study, replacing: Replacing,
