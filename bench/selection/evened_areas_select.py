@@ -143,9 +143,10 @@ def evened_areas(points: np.ndarray, areas: np.ndarray, normals: np.ndarray,
     return evened * (areas.sum() / evened.sum())
 
 
-def model_blocks(file: Path, spec: DescriptorSpec) -> dict[str, dict[str, np.ndarray]]:
+def model_blocks(file: Path, spec: DescriptorSpec, powers: tuple[float, ...] = POWERS
+                 ) -> dict[str, dict[str, np.ndarray]]:
     """One model's unit base blocks with the sample's areas (``"sample"``) and with the
-    evened areas at each power (``"p0.5"``, ``"p1"``)."""
+    evened areas at each of ``powers`` (``"p0.5"``, ``"p1"``)."""
     with np.load(file) as data:
         points = data["points"].astype(np.float64)
         areas = data["areas"].astype(np.float64)
@@ -153,21 +154,23 @@ def model_blocks(file: Path, spec: DescriptorSpec) -> dict[str, dict[str, np.nda
         eigenvalues = data["eigenvalues"]
     normals = surface_normals(points, spec.normal_neighbours)
     out = {"sample": spec.blocks(signature, areas, eigenvalues, points)}
-    for power in POWERS:
+    for power in powers:
         weights = evened_areas(points, areas, normals, power)
         out[f"p{power:g}"] = spec.blocks(signature, weights, eigenvalues, points)
     return out
 
 
-def study_blocks(study: Study) -> dict[str, dict[str, PerSource]]:
-    """Every model's unit blocks per area kind, block and source (capod-nonrigid added)."""
+def study_blocks(study: Study, powers: tuple[float, ...] = POWERS
+                 ) -> dict[str, dict[str, PerSource]]:
+    """Every model's unit blocks per area kind (the sample's, each of ``powers``), block and
+    source (capod-nonrigid added)."""
     # ss10's blocks (the sample's areas inside the spec): the areas are the study's to set.
     spec = DescriptorSpec.from_settings(replace(SS10_DESCRIPTOR, **UNIT_WEIGHTS))
-    kinds = ("sample", *(f"p{p:g}" for p in POWERS))
+    kinds = ("sample", *(f"p{p:g}" for p in powers))
     rows: dict[str, dict[str, dict[str, list[np.ndarray]]]] = {k: {} for k in kinds}
     for source, folder in zip(study.sources, study.folders, strict=True):
         for file in sorted(folder.glob("*.npz")):
-            for kind, blocks in model_blocks(file, spec).items():
+            for kind, blocks in model_blocks(file, spec, powers).items():
                 for key, block in blocks.items():
                     rows[kind].setdefault(key, {}).setdefault(source.name, []).append(block)
     return {kind: {key: study.with_nonrigid({name: np.array(r) for name, r in per.items()})
@@ -255,7 +258,7 @@ def tests_report(catalogue: dict[str, dict[str, float]], chosen: str, reference:
     second = catalogue_holds(catalogue[chosen], catalogue[reference])
     ships = parts_test and second
     print(f"tests 1 and 2 (parts test {parts_test}, catalogue by kind {second}): {ships}; "
-          "test 3 on seed 7 (--confirm) and test 4 (BOSL2) remain")
+          "test 3 (--confirm, an unseen extraction) and test 4 (BOSL2) remain")
     if json_path:
         data = json.loads(json_path.read_text())
         json_path.write_text(json.dumps({**data, "catalogue_by_kind": catalogue,
