@@ -36,6 +36,14 @@ leave-one-source-out with a paired bootstrap over queries against ``ss11``. It s
    (0.950 there, at the issue's NN target: no slack this time); otherwise the adoption is
    reverted before it lands.
 
+**Result** (2026-11-28, twentieth session): declined. Power 1 rebuilt the service's blocks
+exactly (0.0). Mean over the eight: ``ss11`` 0.8869, ``p1.5`` 0.8881, ``p2`` 0.8887 (within the
+tie of ``ss11``, which the rule then keeps); left out +0.0003 (95 % -0.0003 .. +0.0013): test 1
+fails (one catalogue by kind NN 0.874, mAP 0.715 for ``ss11``). ``p2`` lifts our generator
+(0.825 -> 0.838) and the bent shapes (0.992 -> 1.000) and costs pymadcad (0.962 -> 0.958) and
+bd-vslot (0.911 -> 0.908, NN 0.938 -> 0.896). Nothing to confirm: seed 8 was extracted but not
+scored.
+
     .venv/bin/python bench/selection/local_features_extract.py /work/tuning /work/study8 \\
         --only madcad gearworks vslot parts generated bendable capod
     .venv/bin/python bench/selection/local_features_extract.py /work/tuning-mcad /work/study8
