@@ -34,6 +34,13 @@ leave-one-source-out with a paired bootstrap over queries against ``ss11``. It s
    service's order: mAP not below ``ss11``'s by more than 0.002 and NN not below ``ss11``'s
    (0.950); otherwise the adoption is reverted before it lands.
 
+**Result** (2026-11-28, twentieth session): declined. The reference scored 0.8869 (the check
+held). Mean over the eight: ``ss11`` 0.8869, ShapeDNA at 0.1 0.8888, off 0.8896; the rule
+picks 0.1 (off is within the tie of it); left out -0.0000 (95 % -0.0006 .. +0.0006): test 1
+fails. The in-sample gain is py-gearworks' (0.609 -> 0.619) and our generator's (0.825 ->
+0.831); chosen without either, the rule keeps ``ss11``. One catalogue by kind: NN 0.874 level,
+mAP 0.715 -> 0.718. Seed 8 stays unscored.
+
     nice -n 5 .venv/bin/python bench/selection/dna_weight_select.py /work/study8 --seed0 \\
         --json /work/study8/dna_weight.json
     nice -n 5 .venv/bin/python bench/selection/dna_weight_select.py /work/seed8 \\
