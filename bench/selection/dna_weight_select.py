@@ -65,11 +65,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from alignment_rerank_select import service_keys  # noqa: E402
 from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from evened_areas_rest_select import service_base  # noqa: E402
-from evened_areas_select import confirm_report, tests_report  # noqa: E402
+from evened_areas_select import close_study  # noqa: E402
 from hubness_select import pooled_local, pooled_rows  # noqa: E402
 from local_features_select import Study, load_study  # noqa: E402
 from mcad_check import CATALOGUE  # noqa: E402
-from profile_block_select import Replacing, decide, score_distances  # noqa: E402
+from profile_block_select import Replacing, score_distances  # noqa: E402
 
 SS11 = "ss11"
 #: ShapeDNA's weight per candidate, the reference's (the service's) first.
@@ -116,15 +116,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.seed0 and abs(reference - SEED0_REFERENCE) > 1e-4:
         raise SystemExit("the reference is not evened_power_select's ss11: stop")
     catalogue = {name: catalogue_scores(study, replacing, base, WEIGHTS[name]) for name in names}
-    if args.confirm:
-        confirm_report(args.confirm, SS11, table, queries, catalogue, sources, args.json)
-        return 0
-    order = {name: rank for rank, name in enumerate(names)}
-    report = decide(table, queries, order, "ShapeDNA's weight, parts family", tuple(sources),
-                    SS11, args.json, tie_key="tie order", widths=order)
-    chosen = str(report["chosen"])
-    tests_report({c: catalogue[c] for c in dict.fromkeys((SS11, chosen))}, chosen, SS11,
-                 bool(report["ships"]), args.json)
+    close_study("ShapeDNA's weight, parts family", SS11, table, queries, catalogue, sources,
+                args.confirm, args.json)
     return 0
 
 

@@ -266,6 +266,23 @@ def tests_report(catalogue: dict[str, dict[str, float]], chosen: str, reference:
     return ships
 
 
+def close_study(title: str, reference: str, table: dict, queries: dict,
+                catalogue: dict[str, dict[str, float]], sources: list[str],
+                confirm: str | None, json_path: Path | None) -> None:
+    """A study's last step once every candidate in ``table`` is scored (``catalogue``: each
+    one's catalogue by kind): test 3 of ``confirm`` against ``reference`` when it is given,
+    otherwise the rule (``decide``, ties in ``table``'s order) and tests 1 and 2."""
+    if confirm:
+        confirm_report(confirm, reference, table, queries, catalogue, sources, json_path)
+        return
+    order = {name: rank for rank, name in enumerate(table)}
+    report = decide(table, queries, order, title, tuple(sources), reference, json_path,
+                    tie_key="tie order", widths=order)
+    chosen = str(report["chosen"])
+    tests_report({c: catalogue[c] for c in dict.fromkeys((reference, chosen))}, chosen,
+                 reference, bool(report["ships"]), json_path)
+
+
 def confirm(args: argparse.Namespace, study: Study, replacing: Replacing,
             candidates: dict[str, dict[str, PerSource]], table: dict, queries: dict,
             sources: list[str]) -> int:

@@ -72,12 +72,11 @@ from evened_areas_rest_select import service_base  # noqa: E402
 from evened_areas_select import (  # noqa: E402
     GROUPS,
     catalogue_scores,
-    confirm_report,
+    close_study,
     study_blocks,
-    tests_report,
 )
 from local_features_select import load_study  # noqa: E402
-from profile_block_select import Replacing, decide, score_distances  # noqa: E402
+from profile_block_select import Replacing, score_distances  # noqa: E402
 
 SS11 = "ss11"
 POWERS = (1.5, 2.0)
@@ -125,15 +124,8 @@ def main(argv: list[str] | None = None) -> int:
     sources = [s.name for s in study.sources]
     catalogue = {name: catalogue_scores(study, replacing, replaced)
                  for name, replaced in candidates.items()}
-    if args.confirm:
-        confirm_report(args.confirm, SS11, table, queries, catalogue, sources, args.json)
-        return 0
-    order = {name: rank for rank, name in enumerate(candidates)}
-    report = decide(table, queries, order, "evened areas' power, parts family", tuple(sources),
-                    SS11, args.json, tie_key="tie order", widths=order)
-    chosen = str(report["chosen"])
-    tests_report({c: catalogue[c] for c in dict.fromkeys((SS11, chosen))}, chosen, SS11,
-                 bool(report["ships"]), args.json)
+    close_study("evened areas' power, parts family", SS11, table, queries, catalogue, sources,
+                args.confirm, args.json)
     return 0
 
 
