@@ -104,8 +104,18 @@ KINDS: tuple[str, ...] = ("cap_bolt", "countersunk_bolt", "hex_bolt", "ball_bear
                           "tube", "rounded_box")
 
 
-def parts(kinds: tuple[str, ...] = KINDS) -> Iterator[tuple[str, str, trimesh.Trimesh]]:
+def parts(kinds: tuple[str, ...] = KINDS, resolution: str = ""
+          ) -> Iterator[tuple[str, str, trimesh.Trimesh]]:
     """``(kind, name, mesh)`` of every part of ``kinds``, in a fixed order.
+
+    Parameters
+    ----------
+    kinds : tuple of str
+    resolution : str
+        OpenSCAD statements put before every program, e.g. ``"$fa = 3; $fs = 0.25;"``: the
+        same parts at another tessellation (a program's own ``$fn`` still wins). Empty: as
+        the library renders them by default (``$fa`` 12, ``$fs`` 2: an M3 shank has five
+        sides).
 
     Raises
     ------
@@ -117,4 +127,4 @@ def parts(kinds: tuple[str, ...] = KINDS) -> Iterator[tuple[str, str, trimesh.Tr
     with tempfile.TemporaryDirectory(prefix="mcad-") as folder:
         for kind in kinds:
             for index, program in enumerate(programs[kind]):
-                yield kind, f"{kind}_{index:02d}", render(program, Path(folder))
+                yield kind, f"{kind}_{index:02d}", render(resolution + program, Path(folder))
