@@ -37,6 +37,13 @@ against ``ss11``. It ships only if
 4. after adoption, BOSL2 through ``shapesearch eval`` in the service's order: mAP not below
    ``ss11``'s by more than 0.002 and NN not below ``ss11``'s (0.950).
 
+**Result** (2026-11-28, twentieth session): declined. The service's ring block was rebuilt
+exactly (0.0). Mean over the eight: ``ss11`` 0.8869, ``ring evened`` 0.8889, with the evened
+areas 0.8884; the rule picks ``ring evened`` (our generator 0.825 -> 0.839, py-gearworks 0.609
+-> 0.619, MCAD 0.813 -> 0.822), but it costs the bent shapes (0.992 -> 0.978, NN 1.000 ->
+0.958) and bd-vslot (0.911 -> 0.908); left out **-0.0021 (95 % -0.0041 .. -0.0005)**: test 1
+fails (one catalogue by kind mAP 0.715 -> 0.723, NN 0.874 level). Seed 8 stays unscored.
+
     nice -n 5 .venv/bin/python bench/selection/ring_evened_select.py /work/study8 \\
         --json /work/study8/ring_evened.json
     nice -n 5 .venv/bin/python bench/selection/ring_evened_select.py /work/seed8 \\
