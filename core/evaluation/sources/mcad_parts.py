@@ -112,7 +112,7 @@ def parts(kinds: tuple[str, ...] = KINDS, resolution: str = ""
     ----------
     kinds : tuple of str
     resolution : str
-        OpenSCAD lines put before every program, e.g. ``"$fa = 3; $fs = 0.25;\n"``: the
+        OpenSCAD lines put before every program, e.g. ``"$fa = 3; $fs = 0.25;\\n"``: the
         same parts at another tessellation (a program's own ``$fn`` still wins). Empty: as
         the library renders them by default (``$fa`` 12, ``$fs`` 2: an M3 shank has five
         sides).
