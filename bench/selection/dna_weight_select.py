@@ -63,12 +63,9 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from alignment_rerank_select import service_keys  # noqa: E402
-from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from evened_areas_rest_select import service_base  # noqa: E402
-from evened_areas_select import close_study  # noqa: E402
-from hubness_select import pooled_local, pooled_rows  # noqa: E402
-from local_features_select import Study, load_study  # noqa: E402
-from mcad_check import CATALOGUE  # noqa: E402
+from evened_areas_select import catalogue_scores, close_study  # noqa: E402
+from local_features_select import load_study  # noqa: E402
 from profile_block_select import Replacing, score_distances  # noqa: E402
 
 SS11 = "ss11"
@@ -78,17 +75,6 @@ WEIGHTS = {SS11: 0.2, "dna 0.1": 0.1, "dna off": 0.0}
 SEED0_REFERENCE = 0.8869
 
 PerSource = dict[str, np.ndarray]
-
-
-def catalogue_scores(study: Study, replacing: Replacing, base: dict[str, PerSource],
-                     dna: float) -> dict[str, float]:
-    """The four third-party libraries as one catalogue (one vocabulary for all), by kind, in
-    the service's order, ShapeDNA at weight ``dna``."""
-    _, library_kinds = pooled_rows(study, CATALOGUE)
-    per_source = replacing(base, {"dna": dna}, local=pooled_local(study, CATALOGUE),
-                           names=CATALOGUE)
-    rows = np.vstack([per_source[name] for name in CATALOGUE])
-    return scores(service_keys(rows), [KIND_OF.get(label, label) for label in library_kinds])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -115,7 +101,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"reference ss11: mean of eight {reference:.4f}", flush=True)
     if args.seed0 and abs(reference - SEED0_REFERENCE) > 1e-4:
         raise SystemExit("the reference is not evened_power_select's ss11: stop")
-    catalogue = {name: catalogue_scores(study, replacing, base, WEIGHTS[name]) for name in names}
+    catalogue = {name: catalogue_scores(study, replacing, base, {"dna": WEIGHTS[name]})
+                 for name in names}
     close_study("ShapeDNA's weight, parts family", SS11, table, queries, catalogue, sources,
                 args.confirm, args.json)
     return 0

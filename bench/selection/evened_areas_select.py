@@ -198,12 +198,14 @@ def grid(blocks: dict[str, dict[str, PerSource]]) -> dict[str, dict[str, PerSour
     return candidates
 
 
-def catalogue_scores(study: Study, replacing: Replacing,
-                     replaced: dict[str, PerSource]) -> dict[str, float]:
+def catalogue_scores(study: Study, replacing: Replacing, replaced: dict[str, PerSource],
+                     weights: dict[str, float] | None = None,
+                     ring: PerSource | None = None) -> dict[str, float]:
     """The four third-party libraries as one catalogue (one vocabulary for all), by kind, in
-    the service's order."""
+    the service's order; ``weights`` and ``ring`` as ``Replacing`` takes them."""
     _, library_kinds = pooled_rows(study, CATALOGUE)
-    per_source = replacing(replaced, local=pooled_local(study, CATALOGUE), names=CATALOGUE)
+    per_source = replacing(replaced, weights, local=pooled_local(study, CATALOGUE),
+                           names=CATALOGUE, ring=ring)
     rows = np.vstack([per_source[name] for name in CATALOGUE])
     return scores(service_keys(rows), [KIND_OF.get(label, label) for label in library_kinds])
 

@@ -66,12 +66,9 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from alignment_rerank_select import service_keys  # noqa: E402
-from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from evened_areas_rest_select import service_base  # noqa: E402
-from evened_areas_select import close_study  # noqa: E402
-from hubness_select import pooled_local, pooled_rows  # noqa: E402
+from evened_areas_select import catalogue_scores, close_study  # noqa: E402
 from local_features_select import Study, load_study  # noqa: E402
-from mcad_check import CATALOGUE  # noqa: E402
 from profile_block_select import Replacing, score_distances, study_samples  # noqa: E402
 
 from core.extrinsic import (  # noqa: E402
@@ -136,17 +133,6 @@ def check_rebuilt(rebuilt: PerSource, service: PerSource) -> None:
         raise SystemExit("the ring block is not rebuilt: stop before scoring")
 
 
-def catalogue_scores(study: Study, replacing: Replacing, base: dict[str, PerSource],
-                     ring: PerSource) -> dict[str, float]:
-    """The four third-party libraries as one catalogue (one vocabulary for all), by kind, in
-    the service's order, with ``ring``."""
-    _, library_kinds = pooled_rows(study, CATALOGUE)
-    per_source = replacing(base, local=pooled_local(study, CATALOGUE), names=CATALOGUE,
-                           ring=ring)
-    rows = np.vstack([per_source[name] for name in CATALOGUE])
-    return scores(service_keys(rows), [KIND_OF.get(label, label) for label in library_kinds])
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path)
@@ -167,7 +153,8 @@ def main(argv: list[str] | None = None) -> int:
          for name, rows in ((name, replacing(base, ring=rings[name])) for name in names)),
         study.scored)
     sources = [s.name for s in study.sources]
-    catalogue = {name: catalogue_scores(study, replacing, base, rings[name]) for name in names}
+    catalogue = {name: catalogue_scores(study, replacing, base, ring=rings[name])
+                 for name in names}
     close_study("the ring block on the evened part, parts family", SS11, table, queries,
                 catalogue, sources, args.confirm, args.json)
     return 0
