@@ -143,7 +143,7 @@ def evened_spreads(points: np.ndarray, areas: np.ndarray,
 
 
 def evened_areas(points: np.ndarray, areas: np.ndarray, normals: np.ndarray,
-                 flattest: float = EVEN_FLATTEST) -> np.ndarray:
+                 flattest: float = EVEN_FLATTEST, power: float = 1.0) -> np.ndarray:
     """The area each point would stand for on the evened surface (``evened_spreads``),
     ``(n,) float`` with the same total as ``areas``.
 
@@ -164,6 +164,9 @@ def evened_areas(points: np.ndarray, areas: np.ndarray, normals: np.ndarray,
         Unit normals of ``points``, either sign (``surface_normals``).
     flattest : float
         As in ``evened_spreads``.
+    power : float
+        The factor ``|F^-1 nu|`` is raised to it: 1 for the evened surface (the descriptor),
+        0 for the sample's own areas; the selection studies weigh others.
 
     Returns
     -------
@@ -174,7 +177,7 @@ def evened_areas(points: np.ndarray, areas: np.ndarray, normals: np.ndarray,
     factors = _evening_factors(variances, flattest)
     if factors is None:
         return areas
-    evened = areas * np.linalg.norm((normals @ axes) / factors, axis=1)
+    evened = areas * np.linalg.norm((normals @ axes) / factors, axis=1) ** power
     return evened * (areas.sum() / evened.sum())
 
 

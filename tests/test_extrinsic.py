@@ -461,6 +461,22 @@ def test_a_surface_with_even_spreads_keeps_its_areas() -> None:
     np.testing.assert_allclose(evened_areas(points, areas, normals), areas, rtol=0.03)
 
 
+def test_evened_areas_power_zero_keeps_the_sample_and_two_squares_the_factor() -> None:
+    # A long box: power 0 leaves every area as sampled; at power 2 each point's factor over
+    # its sampled area is the square of power 1's (up to the restored totals).
+    mesh = trimesh.creation.box(extents=(6.0, 1.0, 0.5))
+    points, _ = trimesh.sample.sample_surface_even(mesh, 2000, seed=0)
+    points = np.asarray(points)
+    areas = np.random.default_rng(1).uniform(0.5, 1.5, len(points))
+    normals = surface_normals(points, 12)
+    np.testing.assert_allclose(evened_areas(points, areas, normals, power=0.0), areas)
+    once = evened_areas(points, areas, normals) / areas
+    twice = evened_areas(points, areas, normals, power=2.0) / areas
+    ratio = twice / once**2
+    np.testing.assert_allclose(ratio, ratio[0], rtol=1e-9)
+    assert once.max() / once.min() > 2.0  # the end faces gain against the long sides
+
+
 def test_evened_areas_put_a_screws_head_before_its_length() -> None:
     # pymadcad's M8 screws: D2, D1, normals and symmetry weighed by the sample's areas part a
     # button-head screw 16 long from one 48 long more than from a socket head of its length

@@ -62,19 +62,16 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from alignment_rerank_select import service_keys  # noqa: E402
 from evened_areas_rest_select import service_base  # noqa: E402
-from evened_areas_select import catalogue_scores, close_study  # noqa: E402
+from evened_areas_select import catalogue_scores, close_study, service_scores  # noqa: E402
 from local_features_select import load_study  # noqa: E402
-from profile_block_select import Replacing, score_distances  # noqa: E402
+from profile_block_select import Replacing  # noqa: E402
 
 SS11 = "ss11"
 #: ShapeDNA's weight per candidate, the reference's (the service's) first.
 WEIGHTS = {SS11: 0.2, "dna 0.1": 0.1, "dna off": 0.0}
 #: ``evened_power_select.py``'s ``ss11`` on seed 0 (this machine's extraction).
 SEED0_REFERENCE = 0.8869
-
-PerSource = dict[str, np.ndarray]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -92,10 +89,8 @@ def main(argv: list[str] | None = None) -> int:
     base = service_base(study)
     print("blocks done", flush=True)
     names = (SS11, args.confirm) if args.confirm else tuple(WEIGHTS)
-    table, queries = score_distances(
-        ((name, {s.name: service_keys(rows[s.name]) for s in study.scored})
-         for name, rows in ((name, replacing(base, {"dna": WEIGHTS[name]})) for name in names)),
-        study.scored)
+    table, queries = service_scores(
+        study, ((name, replacing(base, {"dna": WEIGHTS[name]})) for name in names))
     sources = [s.name for s in study.sources]
     reference = float(np.mean([table[SS11][s]["map"] for s in sources]))
     print(f"reference ss11: mean of eight {reference:.4f}", flush=True)

@@ -78,6 +78,7 @@ import argparse
 import json
 import os
 import sys
+from collections.abc import Iterable
 from dataclasses import replace
 from pathlib import Path
 
@@ -97,7 +98,7 @@ from rerank_select import _bootstrap  # noqa: E402
 
 from core.descriptor import BLOCK_WEIGHTS, DescriptorSpec  # noqa: E402
 from core.evaluation.variants import SS10_DESCRIPTOR  # noqa: E402
-from core.extrinsic import EVEN_FLATTEST, principal_frame, surface_normals  # noqa: E402
+from core.extrinsic import evened_areas, surface_normals  # noqa: E402
 
 SS10 = "ss10"
 POWERS = (0.5, 1.0)
@@ -115,34 +116,6 @@ UNIT_WEIGHTS = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block !=
 PerSource = dict[str, np.ndarray]
 
 
-def evened_areas(points: np.ndarray, areas: np.ndarray, normals: np.ndarray,
-                 power: float) -> np.ndarray:
-    """Each point's area on the evened part (module docstring), ``(n,) float``.
-
-    Parameters
-    ----------
-    points : (n, 3) float
-    areas : (n,) float
-    normals : (n, 3) float
-        Unit normals, either sign.
-    power : float
-        1 for the evened part's areas, 0.5 half way.
-
-    Returns
-    -------
-    (n,) float
-        Same total as ``areas``.
-    """
-    _, variances, axes = principal_frame(points, areas)
-    spreads = np.sqrt(variances)
-    if spreads[1] <= 0.0:
-        return areas
-    factors = spreads[1] / np.maximum(spreads, spreads[1] / EVEN_FLATTEST)
-    stretch = np.linalg.norm((normals @ axes) / factors, axis=1) ** power
-    evened = areas * stretch
-    return evened * (areas.sum() / evened.sum())
-
-
 def model_blocks(file: Path, spec: DescriptorSpec, powers: tuple[float, ...] = POWERS
                  ) -> dict[str, dict[str, np.ndarray]]:
     """One model's unit base blocks with the sample's areas (``"sample"``) and with the
@@ -155,7 +128,7 @@ def model_blocks(file: Path, spec: DescriptorSpec, powers: tuple[float, ...] = P
     normals = surface_normals(points, spec.normal_neighbours)
     out = {"sample": spec.blocks(signature, areas, eigenvalues, points)}
     for power in powers:
-        weights = evened_areas(points, areas, normals, power)
+        weights = evened_areas(points, areas, normals, power=power)
         out[f"p{power:g}"] = spec.blocks(signature, weights, eigenvalues, points)
     return out
 
@@ -198,6 +171,16 @@ def grid(blocks: dict[str, dict[str, PerSource]]) -> dict[str, dict[str, PerSour
     return candidates
 
 
+def service_scores(study: Study, candidates: Iterable[tuple[str, dict[str, np.ndarray]]]
+                   ) -> tuple[dict, dict]:
+    """Each candidate's unit rows per source (``(name, rows)``) ranked in the search
+    service's order and scored on every scored source: ``score_distances``' table and each
+    query's average precision."""
+    return score_distances(
+        ((name, {s.name: service_keys(rows[s.name]) for s in study.scored})
+         for name, rows in candidates), study.scored)
+
+
 def catalogue_scores(study: Study, replacing: Replacing, replaced: dict[str, PerSource],
                      weights: dict[str, float] | None = None,
                      ring: PerSource | None = None) -> dict[str, float]:
@@ -232,10 +215,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.confirm:
         candidates = {SS10: candidates[SS10], args.confirm: candidates[args.confirm]}
     order = {name: rank for rank, name in enumerate(candidates)}
-    table, queries = score_distances(
-        ((name, {s.name: service_keys(r[s.name]) for s in study.scored})
-         for name, r in ((name, replacing(replaced)) for name, replaced in candidates.items())),
-        study.scored)
+    table, queries = service_scores(
+        study, ((name, replacing(replaced)) for name, replaced in candidates.items()))
     sources = [s.name for s in study.sources]
     if args.confirm:
         return confirm(args, study, replacing, candidates, table, queries, sources)

@@ -67,16 +67,16 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from alignment_rerank_select import service_keys  # noqa: E402
 from evened_areas_rest_select import service_base  # noqa: E402
 from evened_areas_select import (  # noqa: E402
     GROUPS,
     catalogue_scores,
     close_study,
+    service_scores,
     study_blocks,
 )
 from local_features_select import load_study  # noqa: E402
-from profile_block_select import Replacing, score_distances  # noqa: E402
+from profile_block_select import Replacing  # noqa: E402
 
 SS11 = "ss11"
 POWERS = (1.5, 2.0)
@@ -117,10 +117,8 @@ def main(argv: list[str] | None = None) -> int:
         for power in POWERS}
     if args.confirm:
         candidates = {SS11: service, args.confirm: candidates[args.confirm]}
-    table, queries = score_distances(
-        ((name, {s.name: service_keys(rows[s.name]) for s in study.scored})
-         for name, rows in ((name, replacing(replaced)) for name, replaced in candidates.items())),
-        study.scored)
+    table, queries = service_scores(
+        study, ((name, replacing(replaced)) for name, replaced in candidates.items()))
     sources = [s.name for s in study.sources]
     catalogue = {name: catalogue_scores(study, replacing, replaced)
                  for name, replaced in candidates.items()}

@@ -65,11 +65,10 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from alignment_rerank_select import service_keys  # noqa: E402
 from evened_areas_rest_select import service_base  # noqa: E402
-from evened_areas_select import catalogue_scores, close_study  # noqa: E402
+from evened_areas_select import catalogue_scores, close_study, service_scores  # noqa: E402
 from local_features_select import Study, load_study  # noqa: E402
-from profile_block_select import Replacing, score_distances, study_samples  # noqa: E402
+from profile_block_select import Replacing, study_samples  # noqa: E402
 
 from core.extrinsic import (  # noqa: E402
     evened_areas,
@@ -83,6 +82,8 @@ from core.settings import DescriptorSettings  # noqa: E402
 SS11 = "ss11"
 CANDIDATES = ("ring evened", "ring evened, evened areas")
 REBUILT_WITHIN = 1e-9
+#: The service's settings (its ring shells and normal neighbours).
+SETTINGS = DescriptorSettings()
 
 PerSource = dict[str, np.ndarray]
 
@@ -100,11 +101,10 @@ def ring_of(coordinates: np.ndarray, areas: np.ndarray,
 
 def model_rings(points: np.ndarray, areas: np.ndarray) -> dict[str, np.ndarray]:
     """One model's ring blocks: the service's (rebuilt) and each candidate's."""
-    settings = DescriptorSettings()
-    shells = settings.ring_shells
+    shells = SETTINGS.ring_shells
     frame, _, _ = principal_frame(points, areas)
     evened_weights = evened_areas(points, areas,
-                                  surface_normals(points, settings.normal_neighbours))
+                                  surface_normals(points, SETTINGS.normal_neighbours))
     return {
         SS11: ring_of(frame, areas, shells),
         "ring evened": ring_of(evened_spreads(points, areas), areas, shells),
@@ -148,10 +148,8 @@ def main(argv: list[str] | None = None) -> int:
     print("blocks done", flush=True)
     check_rebuilt(rings[SS11], replacing.ring)
     names = (SS11, args.confirm) if args.confirm else (SS11, *CANDIDATES)
-    table, queries = score_distances(
-        ((name, {s.name: service_keys(rows[s.name]) for s in study.scored})
-         for name, rows in ((name, replacing(base, ring=rings[name])) for name in names)),
-        study.scored)
+    table, queries = service_scores(
+        study, ((name, replacing(base, ring=rings[name])) for name in names))
     sources = [s.name for s in study.sources]
     catalogue = {name: catalogue_scores(study, replacing, base, ring=rings[name])
                  for name in names}
