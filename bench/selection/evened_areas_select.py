@@ -78,7 +78,7 @@ import argparse
 import json
 import os
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import replace
 from pathlib import Path
 
@@ -114,6 +114,8 @@ REBUILT = ("hks", "wks", "slope", "normals", "symmetry")
 UNIT_WEIGHTS = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block != "local"}
 
 PerSource = dict[str, np.ndarray]
+#: A search order: ranking keys ``(m, m)`` (lower first) of unit rows ``(m, d)``.
+Order = Callable[[np.ndarray], np.ndarray]
 
 
 def model_blocks(file: Path, spec: DescriptorSpec, powers: tuple[float, ...] = POWERS
@@ -171,26 +173,28 @@ def grid(blocks: dict[str, dict[str, PerSource]]) -> dict[str, dict[str, PerSour
     return candidates
 
 
-def service_scores(study: Study, candidates: Iterable[tuple[str, dict[str, np.ndarray]]]
-                   ) -> tuple[dict, dict]:
-    """Each candidate's unit rows per source (``(name, rows)``) ranked in the search
-    service's order and scored on every scored source: ``score_distances``' table and each
-    query's average precision."""
+def service_scores(study: Study, candidates: Iterable[tuple[str, dict[str, np.ndarray]]],
+                   order: Order = service_keys) -> tuple[dict, dict]:
+    """Each candidate's unit rows per source (``(name, rows)``) ranked by ``order`` (the
+    search service's) and scored on every scored source: ``score_distances``' table and
+    each query's average precision."""
     return score_distances(
-        ((name, {s.name: service_keys(rows[s.name]) for s in study.scored})
+        ((name, {s.name: order(rows[s.name]) for s in study.scored})
          for name, rows in candidates), study.scored)
 
 
 def catalogue_scores(study: Study, replacing: Replacing, replaced: dict[str, PerSource],
                      weights: dict[str, float] | None = None,
-                     ring: PerSource | None = None) -> dict[str, float]:
-    """The four third-party libraries as one catalogue (one vocabulary for all), by kind, in
-    the service's order; ``weights`` and ``ring`` as ``Replacing`` takes them."""
+                     ring: PerSource | None = None, order: Order = service_keys
+                     ) -> dict[str, float]:
+    """The four third-party libraries as one catalogue (one vocabulary for all), by kind,
+    ranked by ``order`` (the service's); ``weights`` and ``ring`` as ``Replacing`` takes
+    them."""
     _, library_kinds = pooled_rows(study, CATALOGUE)
     per_source = replacing(replaced, weights, local=pooled_local(study, CATALOGUE),
                            names=CATALOGUE, ring=ring)
     rows = np.vstack([per_source[name] for name in CATALOGUE])
-    return scores(service_keys(rows), [KIND_OF.get(label, label) for label in library_kinds])
+    return scores(order(rows), [KIND_OF.get(label, label) for label in library_kinds])
 
 
 def catalogue_holds(chosen: dict[str, float], reference: dict[str, float]) -> bool:
@@ -251,19 +255,21 @@ def tests_report(catalogue: dict[str, dict[str, float]], chosen: str, reference:
 
 def close_study(title: str, reference: str, table: dict, queries: dict,
                 catalogue: dict[str, dict[str, float]], sources: list[str],
-                confirm: str | None, json_path: Path | None) -> None:
+                confirm: str | None, json_path: Path | None) -> str:
     """A study's last step once every candidate in ``table`` is scored (``catalogue``: each
     one's catalogue by kind): test 3 of ``confirm`` against ``reference`` when it is given,
-    otherwise the rule (``decide``, ties in ``table``'s order) and tests 1 and 2."""
+    otherwise the rule (``decide``, ties in ``table``'s order) and tests 1 and 2. Returns
+    the candidate the step judged (``confirm``, or the rule's choice)."""
     if confirm:
         confirm_report(confirm, reference, table, queries, catalogue, sources, json_path)
-        return
+        return confirm
     order = {name: rank for rank, name in enumerate(table)}
     report = decide(table, queries, order, title, tuple(sources), reference, json_path,
                     tie_key="tie order", widths=order)
     chosen = str(report["chosen"])
     tests_report({c: catalogue[c] for c in dict.fromkeys((reference, chosen))}, chosen,
                  reference, bool(report["ships"]), json_path)
+    return chosen
 
 
 def confirm(args: argparse.Namespace, study: Study, replacing: Replacing,
