@@ -24,7 +24,12 @@ A model near a query is more likely of the query's kind when the query is near i
 Chosen by ``bench/selection/reciprocal_rerank_select.py`` (``k1`` 5, ``k2`` 3, ``blend`` 0.3:
 round 2's candidate, +0.017 mAP left out over seven sources) and confirmed on an eighth
 source that no setting had seen, OpenSCAD's MCAD parts (``bench/selection/mcad_check.py``:
-+0.039, 95 % +0.026 .. +0.052). ``reciprocal_keys`` ranks a whole catalogue (the
++0.039, 95 % +0.026 .. +0.052). ``blend`` 0.1 since the twenty-first session
+(``bench/selection/reciprocal_blend_select.py``: ``k1`` {3, 5, 7} x ``lambda`` {0.1, 0.2,
+0.3, 0.5} on ``ss11``, +0.0034 mAP left out over eight sources, 95 % +0.0006 .. +0.0062;
+fixed, on an extraction no score had read, +0.0062, 95 % +0.0045 .. +0.0082): the Jaccard
+distance of the neighbourhoods decides more and the hub discount's order less, and since
+its first answer is kept, no first answer moves. ``reciprocal_keys`` ranks a whole catalogue (the
 evaluation); ``pool_keys`` ranks one query's nearest candidates among themselves (the search
 service, which re-orders the ``reciprocal_depth(k)`` nearest: a neighbourhood is then taken
 within those candidates, measured against the whole catalogue's order by
@@ -40,10 +45,10 @@ from core.hubness import SAME_DESCRIPTOR, rerank_depth
 __all__ = ["BLEND", "EXPANSION", "RECIPROCAL_NEIGHBOURS", "RECIPROCAL_POOL", "first_kept",
            "pool_keys", "reciprocal_depth", "reciprocal_keys", "rescaled_rows"]
 
-#: ``k1``, ``k2`` and ``lambda`` of the rule's choice.
+#: ``k1``, ``k2`` and ``lambda`` of the rules' choices.
 RECIPROCAL_NEIGHBOURS = 5
 EXPANSION = 3
-BLEND = 0.3
+BLEND = 0.1
 #: The fewest plain nearest candidates a search re-ranks among themselves: 4 per result for
 #: 10 results, the hub discount's own depth, chosen for cost after the measurement
 #: (``bench/selection/reciprocal_depth.py`` on 326 parts: precision at 10 0.555 against the

@@ -343,7 +343,7 @@ def test_eval_scores_the_hub_discount_beside_the_plain_ranking(tmp_path: Path) -
     assert entry["hub"]["clean"]["nn"] == 1.0 and entry["hub"]["clean"]["map"] == 1.0
     assert record["hub_discount"] == {
         "neighbours": 1, "weight": 1.0,
-        "reciprocal": {"neighbours": 5, "expansion": 3, "blend": 0.3}}
+        "reciprocal": {"neighbours": 5, "expansion": 3, "blend": 0.1}}
     report = (tmp_path / "hub" / "results.md").read_text()
     assert "## With a hub discount (CSLS, k 1, weight 1), re-ranked k-reciprocally (k1 5" in report
     assert "| default | clean |" in report

@@ -182,7 +182,10 @@ class PairDistances:
 
 
 def service_keys(rows: np.ndarray) -> np.ndarray:
-    """The search service's order ``(m, m)`` of unit ``rows`` (lower first)."""
+    """The search service's order ``(m, m)`` of unit ``rows`` (lower first) as the studies
+    up to the twentieth session ranked by it: the re-rank's ``lambda`` 0.3, which
+    ``reciprocal_blend_select.py`` moved to 0.1 (``core.reciprocal.BLEND``); pinned so that
+    every study re-runs as it ran."""
     return first_kept(KEYS[CANDIDATE](rows), KEYS[REFERENCE](rows))
 
 
