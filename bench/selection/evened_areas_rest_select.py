@@ -46,7 +46,6 @@ bd-vslot 0.910 -> 0.884; one catalogue by kind mAP 0.715 -> 0.713 (NN 0.874 -> 0
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 from dataclasses import replace
@@ -68,7 +67,7 @@ from evened_areas_select import (  # noqa: E402
     tests_report,
 )
 from hubness_select import pooled_local, pooled_rows  # noqa: E402
-from local_features_select import Study, load_study  # noqa: E402
+from local_features_select import Study  # noqa: E402
 from mcad_check import CATALOGUE  # noqa: E402
 from profile_block_select import (  # noqa: E402
     Replacing,
@@ -76,6 +75,7 @@ from profile_block_select import (  # noqa: E402
     decide,
     default_local_blocks,
     score_distances,
+    study_command,
     study_samples,
 )
 
@@ -155,14 +155,8 @@ def catalogue_scores(study: Study, evened: Study, replacing: Replacing,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--json", type=Path)
-    parser.add_argument("--confirm", help="test 3: this candidate, fixed, against ss11")
-    args = parser.parse_args(argv)
-    study = load_study(args.out / "features" / "clean")
-    cache = args.out / "profile_cache" / "clean"
-    cache.mkdir(parents=True, exist_ok=True)
+    args, study, cache = study_command(
+        __doc__, argv, confirm="test 3: this candidate, fixed, against ss11")
     replacing = Replacing(study, cache)
     base = service_base(study)
     evened, blocks = evened_blocks(study, cache)

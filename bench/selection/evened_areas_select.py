@@ -91,9 +91,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from alignment_rerank_select import service_keys  # noqa: E402
 from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from hubness_select import pooled_local, pooled_rows  # noqa: E402
-from local_features_select import Study, load_study  # noqa: E402
+from local_features_select import Study  # noqa: E402
 from mcad_check import CATALOGUE, NN_SLACK  # noqa: E402
-from profile_block_select import TIE, Replacing, decide, score_distances  # noqa: E402
+from profile_block_select import TIE, Replacing, decide, score_distances, study_command  # noqa: E402
 from rerank_select import _bootstrap  # noqa: E402
 
 from core.descriptor import BLOCK_WEIGHTS, DescriptorSpec  # noqa: E402
@@ -203,14 +203,8 @@ def catalogue_holds(chosen: dict[str, float], reference: dict[str, float]) -> bo
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--json", type=Path)
-    parser.add_argument("--confirm", help="test 3: this candidate, fixed, against ss10")
-    args = parser.parse_args(argv)
-    study = load_study(args.out / "features" / "clean")
-    cache = args.out / "profile_cache" / "clean"
-    cache.mkdir(parents=True, exist_ok=True)
+    args, study, cache = study_command(
+        __doc__, argv, confirm="test 3: this candidate, fixed, against ss10")
     replacing = Replacing(study, cache)
     blocks = study_blocks(study)
     print("blocks done", flush=True)

@@ -56,7 +56,6 @@ scored.
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 from pathlib import Path
@@ -75,8 +74,7 @@ from evened_areas_select import (  # noqa: E402
     service_scores,
     study_blocks,
 )
-from local_features_select import load_study  # noqa: E402
-from profile_block_select import Replacing  # noqa: E402
+from profile_block_select import Replacing, study_command  # noqa: E402
 
 SS11 = "ss11"
 POWERS = (1.5, 2.0)
@@ -98,14 +96,8 @@ def check_reference(rebuilt: dict[str, PerSource], service: dict[str, PerSource]
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--json", type=Path)
-    parser.add_argument("--confirm", help="test 3: this candidate, fixed, against ss11")
-    args = parser.parse_args(argv)
-    study = load_study(args.out / "features" / "clean")
-    cache = args.out / "profile_cache" / "clean"
-    cache.mkdir(parents=True, exist_ok=True)
+    args, study, cache = study_command(
+        __doc__, argv, confirm="test 3: this candidate, fixed, against ss11")
     replacing = Replacing(study, cache)
     service = service_base(study)
     blocks = study_blocks(study, (1.0, *POWERS))

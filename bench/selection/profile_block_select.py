@@ -164,14 +164,18 @@ def _sample(file: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def study_command(doc: str, argv: list[str] | None, rounds: tuple[int, ...] = (),
-                  models: bool = False) -> tuple[argparse.Namespace, Study, Path]:
+                  models: bool = False, confirm: str | None = None
+                  ) -> tuple[argparse.Namespace, Study, Path]:
     """A selector's command line (``OUT``, ``--json``, ``--round`` among ``rounds`` when
     given, ``--models`` (the sources' model folders, ``SOURCES/<source>/<class>/<file>``)
-    when ``models``; ``doc``'s first line describes it), the clean study under ``OUT`` and
-    the cache folder the studies share."""
+    when ``models``, ``--confirm`` (a candidate fixed, on another extraction) helped by
+    ``confirm`` when given; ``doc``'s first line describes it), the clean study under
+    ``OUT`` and the cache folder the studies share."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("out", type=Path)
     parser.add_argument("--json", type=Path)
+    if confirm:
+        parser.add_argument("--confirm", help=confirm)
     if rounds:
         parser.add_argument("--round", type=int, choices=rounds, default=rounds[0])
     if models:

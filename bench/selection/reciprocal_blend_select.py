@@ -63,7 +63,6 @@ there. Disclosed: ``lambda`` 0.1 is the grid's lower edge; a second round was no
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -80,8 +79,8 @@ from evened_areas_rest_select import service_base  # noqa: E402
 from evened_areas_select import Order, catalogue_scores, close_study, service_scores  # noqa: E402
 from extraction_select import NON_RIGID_SOURCES, bendable_blocks  # noqa: E402
 from hubness_select import hub_discounted  # noqa: E402
-from local_features_select import Source, joined, load_study  # noqa: E402
-from profile_block_select import TIE, Replacing, score_distances  # noqa: E402
+from local_features_select import Source, joined  # noqa: E402
+from profile_block_select import TIE, Replacing, score_distances, study_command  # noqa: E402
 
 from core.reciprocal import EXPANSION, reciprocal_keys, rescaled_rows  # noqa: E402
 
@@ -142,14 +141,8 @@ def family_means(scored: list[Source], bendable_rows: dict[str, np.ndarray],
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--json", type=Path)
-    parser.add_argument("--confirm", help="test 4: this candidate, fixed, against the service's")
-    args = parser.parse_args(argv)
-    study = load_study(args.out / "features" / "clean")
-    cache = args.out / "profile_cache" / "clean"
-    cache.mkdir(parents=True, exist_ok=True)
+    args, study, cache = study_command(
+        __doc__, argv, confirm="test 4: this candidate, fixed, against the service's")
     replacing = Replacing(study, cache)
     base = service_base(study)
     rows = replacing(base)
@@ -171,7 +164,8 @@ def main(argv: list[str] | None = None) -> int:
     bendable = {s.name: joined(blocks[s.name], None, 0.0) for s in study.scored}
     family = family_means(study.scored, bendable, tuple(dict.fromkeys((REFERENCE, judged))))
     holds = family[judged] >= family[REFERENCE] - TIE
-    print(f"test 3, bendable family over {NON_RIGID_SOURCES}: {judged} {family[judged]:.4f} "
+    print(f"the bendable family (test 3; on --confirm, part of test 4) over {NON_RIGID_SOURCES}: "
+          f"{judged} {family[judged]:.4f} "
           f"against {family[REFERENCE]:.4f}: {holds}")
     if args.json:
         data = json.loads(args.json.read_text())

@@ -54,7 +54,6 @@ fails (one catalogue by kind mAP 0.715 -> 0.723, NN 0.874 level). Seed 8 stays u
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 from pathlib import Path
@@ -67,8 +66,8 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from evened_areas_rest_select import service_base  # noqa: E402
 from evened_areas_select import catalogue_scores, close_study, service_scores  # noqa: E402
-from local_features_select import Study, load_study  # noqa: E402
-from profile_block_select import Replacing, study_samples  # noqa: E402
+from local_features_select import Study  # noqa: E402
+from profile_block_select import Replacing, study_command, study_samples  # noqa: E402
 
 from core.extrinsic import (  # noqa: E402
     evened_areas,
@@ -134,14 +133,8 @@ def check_rebuilt(rebuilt: PerSource, service: PerSource) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--json", type=Path)
-    parser.add_argument("--confirm", help="test 3: this candidate, fixed, against ss11")
-    args = parser.parse_args(argv)
-    study = load_study(args.out / "features" / "clean")
-    cache = args.out / "profile_cache" / "clean"
-    cache.mkdir(parents=True, exist_ok=True)
+    args, study, cache = study_command(
+        __doc__, argv, confirm="test 3: this candidate, fixed, against ss11")
     replacing = Replacing(study, cache)
     base = service_base(study)
     rings = study_rings(study)
