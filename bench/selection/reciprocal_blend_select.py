@@ -75,6 +75,14 @@ seed 9, an extraction no score has read (seed 8 was read by round 1's test 4).
         --round 2 --json /work/study8/reciprocal_blend2.json
     nice -n 5 .venv/bin/python bench/selection/reciprocal_blend_select.py /work/seed9 \\
         --round 2 --confirm "CHOICE" --json /work/seed9/reciprocal_blend2.json
+
+**Result of round 2** (2026-11-28, twenty-first session): declined; ``lambda`` stays 0.1. The
+reference rebuilt ``core.reciprocal``'s defaults. Mean of eight: the reference 0.8909, ``k1 5
+lambda 0.03`` 0.8931 (the rule's choice), ``k1`` 7 0.8925-0.8926, ``k1`` 10 0.8870-0.8871. The
+gain in sample is MCAD's (0.824 -> 0.838); without MCAD the rule takes ``k1 7 lambda 0.03``,
+which scores MCAD 0.815: left out **-0.0006 (95 % -0.0023 .. +0.0011)**, test 1 fails (one
+catalogue by kind mAP 0.718 -> 0.719, NN level; the family 0.9929 -> 0.9991). Seed 9 was not
+needed and not kept.
 """
 
 from __future__ import annotations
