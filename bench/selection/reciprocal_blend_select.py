@@ -106,7 +106,13 @@ from hubness_select import hub_discounted  # noqa: E402
 from local_features_select import Source, joined  # noqa: E402
 from profile_block_select import TIE, Replacing, score_distances, study_command  # noqa: E402
 
-from core.reciprocal import EXPANSION, reciprocal_keys, rescaled_rows  # noqa: E402
+from core.reciprocal import (  # noqa: E402
+    BLEND,
+    EXPANSION,
+    RECIPROCAL_NEIGHBOURS,
+    reciprocal_keys,
+    rescaled_rows,
+)
 
 #: Per round: the grid's ``k1`` and ``lambda`` values and the reference, the service's ``k1``
 #: and ``lambda`` when the round was asked (pinned, so that each round re-runs as it ran).
@@ -142,16 +148,10 @@ def orders_of(round_: int) -> dict[str, Order]:
 
 
 def service_order(round_: int) -> Order:
-    """The service's order when ``round_`` was asked, built independently of the grid:
-    ``alignment_rerank_select.service_keys`` (``lambda`` 0.3, which every earlier study
-    used) for round 1, ``core.reciprocal``'s defaults (as ``shapesearch eval`` ranks) after."""
-    if round_ == 1:
-        return service_keys
-
-    def keys(rows: np.ndarray) -> np.ndarray:
-        return reciprocal_keys(rows, rescaled_rows(hub_discounted(rows, HUB_NEIGHBOURS,
-                                                                   HUB_BETA)))
-    return keys
+    """The service's order when ``round_`` was asked: ``alignment_rerank_select.service_keys``
+    (``lambda`` 0.3, which every earlier study used) for round 1, ``core.reciprocal``'s
+    ``k1`` and ``lambda`` after."""
+    return service_keys if round_ == 1 else order_of(RECIPROCAL_NEIGHBOURS, BLEND)
 
 
 def check_rebuilt(rows: dict[str, np.ndarray], round_: int) -> None:
