@@ -12,7 +12,7 @@ saved, so that stage 2 (``bench/selection/local_features_select.py``) only recom
 
     .venv/bin/python bench/selection/local_features_extract.py SOURCES OUT [--scan KIND]
         [--feature-share S] [--max-points N] [--cutoff-t T] [--hks-scale F] [--wks-sigma W]
-        [--seed S]
+        [--seed S] [--evened-spectrum]
 
 ``--feature-share`` samples clean models feature-aware (``core.evaluation.feature_sampling``)
 instead of uniformly, ``--max-points`` changes the point budget (the engine's default 3000),
@@ -22,6 +22,10 @@ width in energy steps (default 2): the studies of ``bench/selection/extraction_s
 ``OUT`` per setting. ``--seed`` draws another extraction of the same models: the sample seed
 ``S`` (the engine's default 0) and the rotation seed ``ROTATION_SEED + S``, for checks that a
 result is not one sample's (``bench/selection/reciprocal_seeds_check.py``).
+``--evened-spectrum`` solves the Laplacian of the sample with its principal spreads evened
+(``core.extrinsic.evened_spreads``, with the sample's areas) instead of the sample's own, and
+stores that surface's points, areas, signature and blocks under ``OUT/features/<kind>-evened/``:
+the spectrum of the evened part (``bench/selection/evened_spectrum_select.py``).
 
 Eigenpairs are cached under ``OUT/cache`` (the evaluation's cache layout), features under
 ``OUT/features/<kind>/<source>/``; a re-run resumes.
@@ -45,15 +49,37 @@ from core.descriptor import BLOCK_WEIGHTS, DescriptorSpec  # noqa: E402
 from core.eigen import SpectralSolver  # noqa: E402
 from core.errors import InvalidShapeError, SolverError  # noqa: E402
 from core.evaluation.dataset import load_dataset  # noqa: E402
-from core.evaluation.runner import describe_sampling, run_variants, sampling_of  # noqa: E402
+from core.evaluation.runner import (  # noqa: E402
+    EigenStore,
+    describe_sampling,
+    run_variants,
+    sampling_of,
+)
 from core.evaluation.scan_retrieval import ROTATION_SEED  # noqa: E402
+from core.extrinsic import evened_spreads  # noqa: E402
+from core.pipeline import normalised_operators  # noqa: E402
 from core.settings import EngineSettings  # noqa: E402
+
+
+def evened_store(store: EigenStore, settings: EngineSettings) -> EigenStore:
+    """A lazy eigen store of the evened part of ``store``'s sample: its points, principal
+    spreads evened with the sample's areas, centred and scaled to unit area again, and
+    their own Laplacian (eigenpairs computed when a variant asks for them)."""
+    assert store.points is not None
+    evened = evened_spreads(store.points, store.areas)
+    points, stiffness, mass = normalised_operators(evened, settings)
+    return EigenStore(
+        eigenvalues=np.empty(0), eigenvectors=np.empty((mass.shape[0], 0)),
+        areas=np.asarray(mass.diagonal(), dtype=np.float64), bands=[],
+        timings=dict(store.timings), factory=lambda: SpectralSolver(stiffness, mass),
+        points=points)
 
 
 def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
             feature_share: float = 0.0, max_points: int | None = None,
             cutoff_t: float | None = None, hks_scale: float = 1.0,
-            wks_sigma: float | None = None, seed: int = 0) -> None:
+            wks_sigma: float | None = None, seed: int = 0,
+            evened_spectrum: bool = False) -> None:
     settings = replace(EngineSettings(), sample_seed=seed)
     if hks_scale != 1.0:
         times = tuple(hks_scale * time for time in settings.descriptor.hks_times)
@@ -76,7 +102,8 @@ def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
         if only and source.name not in only:
             continue
         models = load_dataset(source).models
-        target = out / "features" / scan / source.name
+        kind = f"{scan}-evened" if evened_spectrum else scan
+        target = out / "features" / kind / source.name
         target.mkdir(parents=True, exist_ok=True)
         # Features of files the source no longer holds (it was rebuilt) must not be scored.
         current = {f"{model.sha256[:24]}.npz" for model in models}
@@ -89,9 +116,14 @@ def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
             if path.exists():
                 continue
             try:
-                store = describe_sampling(model, sampling, settings, cache, SpectralSolver)
+                if evened_spectrum:
+                    # The sample's points and areas only: no eigenpair of the part itself.
+                    plain = describe_sampling(model, sampling, settings, None, SpectralSolver)
+                    store = evened_store(plain, settings)
+                else:
+                    store = describe_sampling(model, sampling, settings, cache, SpectralSolver)
                 result = run_variants(store, {"default": settings})["default"]
-                if store.changed:
+                if store.changed and not evened_spectrum:
                     store.save(cache / sampling.cache_name(model.sha256))
             except (InvalidShapeError, SolverError, ValueError, RuntimeError) as error:
                 print(f"  failed {source.name}/{model.name}: {error}", file=sys.stderr)
@@ -129,9 +161,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--hks-scale", type=float, default=1.0)
     parser.add_argument("--wks-sigma", type=float)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--evened-spectrum", action="store_true")
     args = parser.parse_args(argv)
     extract(args.sources, args.out, args.scan, args.only, args.feature_share, args.max_points,
-            args.cutoff_t, args.hks_scale, args.wks_sigma, args.seed)
+            args.cutoff_t, args.hks_scale, args.wks_sigma, args.seed, args.evened_spectrum)
     return 0
 
 
