@@ -67,6 +67,23 @@ Otherwise the adoption is reverted before it lands.
     # the same four extractions with --seed 9 into /work/seed9, then
     nice -n 5 .venv/bin/python bench/selection/evened_spectrum_select.py /work/seed9 \\
         --confirm "CHOICE" --json /work/seed9/evened_spectrum.json
+
+**Result** (2026-11-28, twenty-second session, a 2-core AMD EPYC): declined. The evened
+extraction held the study's models. Mean of eight: ``ss11`` 0.8927 (this machine's build;
+0.8909 on the twenty-first session's), ``dna`` 0.8955 (py-gearworks 0.614 -> 0.626, our
+generator 0.843 -> 0.852, MCAD 0.828 -> 0.834; bent shapes 0.992 -> 0.985), ``spectrum``
+0.8759 (bd-vslot 0.915 -> 0.982, our generator 0.874, py-gearworks 0.642, MCAD NN 0.898 ->
+0.932; pymadcad 0.963 -> 0.889, capod 0.989 -> 0.937, bent shapes 0.893). The rule picks
+``dna``; without py-gearworks or our generator it keeps ``ss11``: left out **-0.0000 (95 %
+-0.0015 .. +0.0014)**, test 1 fails (one catalogue by kind NN 0.877 level, mAP 0.718 ->
+0.726). Seed 9 was not needed and not kept. After the verdict, per kind in the service's
+order (``spectrum`` against ``ss11``): pymadcad's button, flat and hex heads 1.00 / 0.99 /
+1.00 -> 0.62 / 0.68 / 0.81, capod's Human and Hand 1.00 / 0.98 -> 0.65 / 0.76, MCAD's spur and
+helical gears 0.87 / 0.86 -> 0.54 / 0.57; bd-vslot's build plates and end caps 0.80 / 0.76 ->
+1.00 / 1.00. The evening is one affine map of the whole part: shortening a screw shortens its
+head too, so the heads' heights, which the spectrum tells them apart by, are squashed with
+the length. The spectrum keeps the proportions as a kind's signature where the distances
+could give them up.
 """
 
 from __future__ import annotations
