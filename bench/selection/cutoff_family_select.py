@@ -58,6 +58,14 @@ Otherwise the adoption is reverted before it lands. Each extraction ``OUT-t<t>``
     # the same with --seed 9 into /work/seed9 and /work/seed9-t<CHOICE>, then
     nice -n 5 .venv/bin/python bench/selection/cutoff_family_select.py /work/seed9 \\
         --confirm "t CHOICE" --json /work/seed9/cutoff_family.json
+
+**Result** (2026-11-28, twenty-second session, a 2-core AMD EPYC): declined, ``t`` stays
+0.01. Every extraction held the reference's models; pymadcad's median ``n`` 187 / 94 / 80 at
+``t`` 0.01 / 0.02 / 0.03. Mean of eight: 0.8927 / 0.8886 / 0.8926 (0.02: MCAD 0.828 -> 0.810,
+bd-vslot 0.915 -> 0.898; 0.03: our generator 0.843 -> 0.865, MCAD 0.817, bd-vslot 0.907). The
+rule keeps 0.01 without every source: left out **+0.0000**; test 1 fails. The sixth session's
+gain at 0.02 (+0.0027 on ``ss6``, pymadcad +0.017) is gone: pymadcad scores 0.963 at 0.01
+and 0.02. Seed 9 was extracted for test 3 and not read.
 """
 
 from __future__ import annotations
