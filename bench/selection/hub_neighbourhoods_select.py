@@ -43,6 +43,15 @@ bootstrap against the reference. It ships only if
         --confirm "hub neighbourhoods" --json /work/seed9/hub_neighbourhoods.json
 
 (``/work/study8`` and ``/work/seed9`` as ``reciprocal_blend_select.py`` builds them.)
+
+**Result** (2026-11-28, twenty-second session, a 2-core AMD EPYC): declined. ``beta`` 0
+rebuilt the service's order on every source. Mean of eight: the service's order 0.8927,
+``hub neighbourhoods`` 0.8907 (py-gearworks 0.614 -> 0.645, our generator 0.843 -> 0.854,
+capod 0.989 -> 0.991; MCAD 0.828 -> 0.792, bent shapes 0.992 -> 0.972, pymadcad 0.963 ->
+0.958). The rule keeps the service's order without every source but MCAD, and without MCAD
+picks the candidate, which scores MCAD 0.792: left out **-0.0044 (95 % -0.0061 .. -0.0028)**,
+test 1 fails (one catalogue by kind NN 0.877, mAP 0.718 for the reference; the ``bendable``
+family 0.9942 level). Seed 9 was not read.
 """
 
 from __future__ import annotations
