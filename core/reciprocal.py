@@ -76,12 +76,14 @@ def _reciprocal_members(ranks: np.ndarray, k: int) -> np.ndarray:
     return members
 
 
-def _weights(squared: np.ndarray, neighbours: int, expansion: int
-             ) -> tuple[np.ndarray, np.ndarray]:
+def _weights(squared: np.ndarray, neighbours: int, expansion: int,
+             ranks: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``V`` (step 3) and the scaled distances ``D``, each ``(m, m)``, of the ``(m, m)``
-    squared distances (a zero diagonal)."""
+    squared distances (a zero diagonal); the neighbourhoods in ``ranks`` ``(m, m)`` (each
+    row's models, nearest first, itself first) when given, in ``D``'s order otherwise."""
     scaled = squared / np.maximum(squared.max(axis=1, keepdims=True), 1e-12)
-    ranks = np.argsort(scaled, axis=1, kind="stable")
+    if ranks is None:
+        ranks = np.argsort(scaled, axis=1, kind="stable")
     m = len(squared)
     k1 = min(neighbours, m - 1)
     core = _reciprocal_members(ranks, k1)

@@ -56,7 +56,6 @@ family 0.9942 level). Seed 9 was not read.
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 from pathlib import Path
@@ -69,16 +68,9 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from evened_areas_rest_select import service_base  # noqa: E402
 from evened_areas_select import Order, catalogue_scores, close_study, service_scores  # noqa: E402
-from extraction_select import bendable_blocks  # noqa: E402
 from hubness_select import hub_discounted  # noqa: E402
-from local_features_select import joined  # noqa: E402
-from profile_block_select import TIE, Replacing, study_command  # noqa: E402
-from reciprocal_blend_select import (  # noqa: E402
-    HUB_BETA,
-    HUB_NEIGHBOURS,
-    family_means,
-    order_of,
-)
+from profile_block_select import Replacing, study_command  # noqa: E402
+from reciprocal_blend_select import HUB_BETA, HUB_NEIGHBOURS, family_test, order_of  # noqa: E402
 
 from core.hubness import SAME_DESCRIPTOR  # noqa: E402
 from core.reciprocal import (  # noqa: E402
@@ -86,30 +78,13 @@ from core.reciprocal import (  # noqa: E402
     EXPANSION,
     RECIPROCAL_NEIGHBOURS,
     _jaccard,
-    _reciprocal_members,
+    _weights,
     first_kept,
     rescaled_rows,
 )
 
 REFERENCE = "service's order"
 CANDIDATE = "hub neighbourhoods"
-
-
-def neighbourhood_weights(scaled: np.ndarray, ranks: np.ndarray) -> np.ndarray:
-    """``core.reciprocal._weights``' ``V`` with the neighbourhoods taken in ``ranks``
-    ``(m, m)`` (each row's models, nearest first, itself first) and the weights
-    ``exp(-scaled)``, ``scaled`` ``(m, m)`` the plain squared distances over each row's
-    largest."""
-    m = len(scaled)
-    k1 = min(RECIPROCAL_NEIGHBOURS, m - 1)
-    core = _reciprocal_members(ranks, k1)
-    half = _reciprocal_members(ranks, max(1, round(k1 / 2)))
-    shared = core.astype(np.float32) @ half.T.astype(np.float32)
-    joins = core & (shared > 2.0 / 3.0 * half.sum(axis=1)[None, :])
-    expanded = core | (joins.astype(np.float32) @ half.astype(np.float32) > 0)
-    weights = np.where(expanded, np.exp(-scaled), 0.0)
-    weights /= weights.sum(axis=1, keepdims=True)
-    return weights[ranks[:, : min(EXPANSION, m)]].mean(axis=1)
 
 
 def neighbourhood_keys(rows: np.ndarray, beta: float = HUB_BETA) -> np.ndarray:
@@ -123,7 +98,7 @@ def neighbourhood_keys(rows: np.ndarray, beta: float = HUB_BETA) -> np.ndarray:
     # Each row's own model first, then the others in the discount's order.
     np.fill_diagonal(discounted, -np.inf)
     ranks = np.argsort(discounted if beta > 0 else scaled, axis=1, kind="stable")
-    weights = neighbourhood_weights(scaled, ranks)
+    weights, _ = _weights(squared, RECIPROCAL_NEIGHBOURS, EXPANSION, ranks)
     jaccard = np.vstack([_jaccard(weights, i) for i in range(len(rows))])
     term = rescaled_rows(hub_discounted(rows, HUB_NEIGHBOURS, HUB_BETA))
     keys = (1.0 - BLEND) * jaccard + BLEND * term
@@ -168,19 +143,8 @@ def main(argv: list[str] | None = None) -> int:
     judged = close_study("the re-rank's neighbourhoods in the hub discount's order", REFERENCE,
                          table, queries, catalogue, [s.name for s in study.sources],
                          args.confirm, args.json)
-    blocks = bendable_blocks(study, cache)
-    bendable = {s.name: joined(blocks[s.name], None, 0.0) for s in study.scored}
-    family = family_means(study.scored, bendable, by_name,
-                          tuple(dict.fromkeys((REFERENCE, judged))))
-    holds = family[judged] >= family[REFERENCE] - TIE
-    print(f"the bendable family (test 3; on --confirm, part of test 4): {judged} "
-          f"{family[judged]:.4f} against {family[REFERENCE]:.4f}: {holds}")
-    if args.json:
-        data = json.loads(args.json.read_text())
-        args.json.write_text(json.dumps({**data, "bendable_family": family,
-                                         "family_test": holds}, indent=1))
+    family_test(study, cache, by_name, REFERENCE, judged, args.json)
     return 0
-
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -103,7 +103,7 @@ from evened_areas_rest_select import service_base  # noqa: E402
 from evened_areas_select import Order, catalogue_scores, close_study, service_scores  # noqa: E402
 from extraction_select import NON_RIGID_SOURCES, bendable_blocks  # noqa: E402
 from hubness_select import hub_discounted  # noqa: E402
-from local_features_select import Source, joined  # noqa: E402
+from local_features_select import Source, Study, joined  # noqa: E402
 from profile_block_select import TIE, Replacing, score_distances, study_command  # noqa: E402
 
 from core.reciprocal import (  # noqa: E402
@@ -202,6 +202,15 @@ def main(argv: list[str] | None = None) -> int:
     sources = [s.name for s in study.sources]
     judged = close_study(f"the k-reciprocal re-rank's k1 and lambda, round {args.round}",
                          reference, table, queries, catalogue, sources, args.confirm, args.json)
+    family_test(study, cache, orders, reference, judged, args.json)
+    return 0
+
+
+def family_test(study: Study, cache: Path, orders: dict[str, Order], reference: str,
+                judged: str, json_path: Path | None) -> bool:
+    """Test 3 of an order study (on ``--confirm``, part of test 4): the ``bendable`` family's
+    mean mAP in the ``judged`` candidate's order not below the ``reference``'s by more than
+    the tie; printed, added to the JSON ``close_study`` wrote, returned."""
     blocks = bendable_blocks(study, cache)
     bendable = {s.name: joined(blocks[s.name], None, 0.0) for s in study.scored}
     family = family_means(study.scored, bendable, orders,
@@ -209,11 +218,11 @@ def main(argv: list[str] | None = None) -> int:
     holds = family[judged] >= family[reference] - TIE
     print(f"the bendable family (test 3; on --confirm, part of test 4) over {NON_RIGID_SOURCES}: "
           f"{judged} {family[judged]:.4f} against {family[reference]:.4f}: {holds}")
-    if args.json:
-        data = json.loads(args.json.read_text())
-        args.json.write_text(json.dumps({**data, "bendable_family": family,
+    if json_path:
+        data = json.loads(json_path.read_text())
+        json_path.write_text(json.dumps({**data, "bendable_family": family,
                                          "family_test": holds}, indent=1))
-    return 0
+    return holds
 
 
 if __name__ == "__main__":
