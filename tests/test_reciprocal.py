@@ -17,6 +17,7 @@ from core.hubness import (
 )
 from core.reciprocal import (
     RECIPROCAL_POOL,
+    _weights,
     first_kept,
     pool_keys,
     reciprocal_depth,
@@ -26,13 +27,11 @@ from core.reciprocal import (
 from tests.test_hubness import unit_rows
 
 
-def set_count_keys(rows: np.ndarray, k1: int, k2: int, blend: float,
-                   term: np.ndarray | None) -> np.ndarray:
-    """Zhong et al.'s definitions with Python sets, one pair at a time."""
-    m = len(rows)
-    squared = np.maximum(2.0 - 2.0 * rows @ rows.T, 0.0)
-    scaled = squared / squared.max(axis=1, keepdims=True)
-    order = [sorted(range(m), key=lambda j, i=i: (scaled[i, j], j)) for i in range(m)]
+def set_count_weights(scaled: np.ndarray, order: list[list[int]], k1: int, k2: int
+                      ) -> np.ndarray:
+    """Zhong et al.'s ``V`` with Python sets, one model at a time: the neighbourhoods in
+    ``order`` (each row's models, nearest first), the weights ``exp(-scaled)``."""
+    m = len(scaled)
 
     def nearest(i: int, k: int) -> set[int]:
         return set(order[i][: k + 1])
@@ -51,7 +50,17 @@ def set_count_keys(rows: np.ndarray, k1: int, k2: int, blend: float,
         for j in expanded:
             weights[i, j] = np.exp(-scaled[i, j])
         weights[i] /= weights[i].sum()
-    weights = np.array([weights[order[i][:k2]].mean(axis=0) for i in range(m)])
+    return np.array([weights[order[i][:k2]].mean(axis=0) for i in range(m)])
+
+
+def set_count_keys(rows: np.ndarray, k1: int, k2: int, blend: float,
+                   term: np.ndarray | None) -> np.ndarray:
+    """Zhong et al.'s definitions with Python sets, one pair at a time."""
+    m = len(rows)
+    squared = np.maximum(2.0 - 2.0 * rows @ rows.T, 0.0)
+    scaled = squared / squared.max(axis=1, keepdims=True)
+    order = [sorted(range(m), key=lambda j, i=i: (scaled[i, j], j)) for i in range(m)]
+    weights = set_count_weights(scaled, order, k1, k2)
     jaccard = np.array([[1 - np.minimum(weights[i], weights[j]).sum()
                          / np.maximum(weights[i], weights[j]).sum() for j in range(m)]
                         for i in range(m)])
@@ -78,6 +87,23 @@ def test_the_keys_are_the_set_definitions(k1: int, k2: int, hub_term: bool) -> N
     assert np.isinf(keys[3, 7]) and np.isinf(keys[7, 3])
     finite = np.isfinite(expected)
     assert keys[finite] == pytest.approx(expected[finite], abs=1e-12)
+
+
+def test_neighbourhoods_taken_in_another_order_are_the_set_definitions_in_it() -> None:
+    # bench/selection/hub_neighbourhoods_select.py ranks neighbourhoods by the hub discount's
+    # keys and keeps the weights of plain distance.
+    rows = unit_rows(40, 6, seed=5)
+    squared = np.maximum(2.0 - 2.0 * rows @ rows.T, 0.0)
+    np.fill_diagonal(squared, 0.0)
+    scaled = squared / squared.max(axis=1, keepdims=True)
+    hub = hub_discounted_keys(rows, rows, 10, 1.0, exclude=np.eye(40, dtype=bool))
+    np.fill_diagonal(hub, -np.inf)
+    ranks = np.argsort(hub, axis=1, kind="stable")
+    weights, _ = _weights(squared, 5, 3, ranks)
+    expected = set_count_weights(scaled, [list(row) for row in ranks], 5, 3)
+    assert weights == pytest.approx(expected, abs=1e-12)
+    plain, _ = _weights(squared, 5, 3)
+    assert not np.allclose(weights, plain)  # the hub order moves some neighbourhoods
 
 
 def test_a_pool_of_the_whole_catalogue_ranks_as_the_catalogue() -> None:
