@@ -83,6 +83,11 @@ gain in sample is MCAD's (0.824 -> 0.838); without MCAD the rule takes ``k1 7 la
 which scores MCAD 0.815: left out **-0.0006 (95 % -0.0023 .. +0.0011)**, test 1 fails (one
 catalogue by kind mAP 0.718 -> 0.719, NN level; the family 0.9929 -> 0.9991). Seed 9 was not
 needed and not kept.
+
+**Round 1's choice on a third unseen extraction** (twenty-second session, a report: seed 9,
+drawn again and read by no other study; ``--confirm "k1 5 lambda 0.1"`` against ``lambda``
+0.3): 0.8840 -> 0.8896, +0.0055 (95 % +0.0038 .. +0.0075), every source up or level; one
+catalogue by kind NN 0.877 level, mAP 0.711 -> 0.719; the ``bendable`` family 0.9296 level.
 """
 
 from __future__ import annotations
