@@ -30,11 +30,10 @@ source that no setting had seen, OpenSCAD's MCAD parts (``bench/selection/mcad_c
 fixed, on two extractions no score had read, +0.0062 and +0.0055, 95 % +0.0045 .. +0.0082
 and +0.0038 .. +0.0075): the Jaccard distance of the neighbourhoods decides more and the hub
 discount's order less, and since its first answer is kept, no first answer moves.
-``reciprocal_keys`` ranks a whole catalogue (the
-evaluation); ``pool_keys`` ranks one query's nearest candidates among themselves (the search
-service, which re-orders the ``reciprocal_depth(k)`` nearest: a neighbourhood is then taken
-within those candidates, measured against the whole catalogue's order by
-``bench/selection/reciprocal_depth.py``).
+``reciprocal_keys`` ranks a whole catalogue (the evaluation); ``pool_keys`` ranks one query's
+nearest candidates among themselves (the search service, which re-orders the
+``reciprocal_depth(k)`` nearest: a neighbourhood is then taken within those candidates,
+measured against the whole catalogue's order by ``bench/selection/reciprocal_depth.py``).
 """
 
 from __future__ import annotations
