@@ -80,14 +80,11 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from evened_areas_rest_select import service_base  # noqa: E402
-from evened_areas_select import close_study, service_scores  # noqa: E402
-from evened_spectrum_select import SERVICE_ORDER  # noqa: E402
-from hubness_select import pooled_local, pooled_rows  # noqa: E402
+from evened_areas_select import catalogue_scores, close_study, service_scores  # noqa: E402
 from local_features_select import Study, load_study  # noqa: E402
-from mcad_check import CATALOGUE  # noqa: E402
 from profile_block_select import Replacing, study_command  # noqa: E402
+from reciprocal_blend_select import SERVICE_ORDER  # noqa: E402
 
 REFERENCE_T = 0.01
 GRID = (0.02, 0.03)
@@ -118,12 +115,7 @@ class Extraction:
     def catalogue(self) -> dict[str, float]:
         """The four third-party libraries as one catalogue (one vocabulary for all, fitted
         on the other sources at the same ``t``), by kind, in the service's order."""
-        _, library_kinds = pooled_rows(self.study, CATALOGUE)
-        per_source = self.replacing(self.base, local=pooled_local(self.study, CATALOGUE),
-                                    names=CATALOGUE)
-        rows = np.vstack([per_source[source] for source in CATALOGUE])
-        return scores(SERVICE_ORDER(rows), [KIND_OF.get(label, label) for label in library_kinds])
-
+        return catalogue_scores(self.study, self.replacing, self.base, order=SERVICE_ORDER)
 
 def check_models(reference: Study, other: Study, name: str) -> None:
     """Stop unless ``other`` holds ``reference``'s models of every source in its order."""

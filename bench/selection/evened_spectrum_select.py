@@ -95,30 +95,22 @@ from pathlib import Path
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
-import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from evened_areas_rest_select import service_base  # noqa: E402
-from evened_areas_select import Order, PerSource, close_study, service_scores  # noqa: E402
-from hubness_select import pooled_local, pooled_rows  # noqa: E402
+from evened_areas_select import PerSource, catalogue_scores, close_study, service_scores  # noqa: E402
 from local_features_select import Study, load_study  # noqa: E402
-from mcad_check import CATALOGUE  # noqa: E402
 from profile_block_select import (  # noqa: E402
     Replacing,
     default_local_blocks,
     stored_blocks,
     study_command,
 )
-from reciprocal_blend_select import order_of  # noqa: E402
-
-from core.reciprocal import BLEND, RECIPROCAL_NEIGHBOURS  # noqa: E402
+from reciprocal_blend_select import SERVICE_ORDER  # noqa: E402
 
 SS11 = "ss11"
 #: The spectral base blocks each candidate takes from the evened part.
 EVENED_KEYS = {"dna": ("dna",), "spectrum": ("hks", "wks", "slope", "dna")}
-#: The search service's order.
-SERVICE_ORDER: Order = order_of(RECIPROCAL_NEIGHBOURS, BLEND)
 
 
 def evened_of(study: Study, out: Path) -> Study:
@@ -153,16 +145,11 @@ class Candidates:
     def local(self, name: str) -> PerSource | None:
         return self.evened_local if name == "spectrum" else None
 
-    def catalogue(self, name: str, replacing: Replacing, order: Order) -> dict[str, float]:
-        """The four third-party libraries as one catalogue (one vocabulary for all, fitted
-        on the other sources of the candidate's own kind), by kind, in ``order``."""
-        _, library_kinds = pooled_rows(self.study, CATALOGUE)
-        words_of = self.evened if name == "spectrum" else self.study
-        per_source = replacing(self.replaced(name), local=pooled_local(words_of, CATALOGUE),
-                               names=CATALOGUE)
-        rows = np.vstack([per_source[source] for source in CATALOGUE])
-        return scores(order(rows), [KIND_OF.get(label, label) for label in library_kinds])
-
+    def catalogue(self, name: str, replacing: Replacing) -> dict[str, float]:
+        """The four third-party libraries as one catalogue by kind, in the service's order
+        (the words fitted on the other sources of the candidate's own kind)."""
+        return catalogue_scores(self.study, replacing, self.replaced(name), order=SERVICE_ORDER,
+                                words=self.evened if name == "spectrum" else None)
 
 def main(argv: list[str] | None = None) -> int:
     args, study, cache = study_command(
@@ -175,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     table, queries = service_scores(
         study, ((name, replacing(candidates.replaced(name), local=candidates.local(name)))
                 for name in names), SERVICE_ORDER)
-    catalogue = {name: candidates.catalogue(name, replacing, SERVICE_ORDER) for name in names}
+    catalogue = {name: candidates.catalogue(name, replacing) for name in names}
     close_study("the spectrum of the evened part, parts family", SS11, table, queries,
                 catalogue, [s.name for s in study.sources], args.confirm, args.json)
     return 0

@@ -70,7 +70,12 @@ from evened_areas_rest_select import service_base  # noqa: E402
 from evened_areas_select import Order, catalogue_scores, close_study, service_scores  # noqa: E402
 from hubness_select import hub_discounted  # noqa: E402
 from profile_block_select import Replacing, study_command  # noqa: E402
-from reciprocal_blend_select import HUB_BETA, HUB_NEIGHBOURS, family_test, order_of  # noqa: E402
+from reciprocal_blend_select import (  # noqa: E402
+    HUB_BETA,
+    HUB_NEIGHBOURS,
+    SERVICE_ORDER,
+    family_test,
+)
 
 from core.hubness import SAME_DESCRIPTOR  # noqa: E402
 from core.reciprocal import (  # noqa: E402
@@ -93,14 +98,16 @@ def neighbourhood_keys(rows: np.ndarray, beta: float = HUB_BETA) -> np.ndarray:
     rows ``(m, d)``."""
     squared = np.maximum(2.0 - 2.0 * rows @ rows.T, 0.0)
     np.fill_diagonal(squared, 0.0)
-    scaled = squared / np.maximum(squared.max(axis=1, keepdims=True), 1e-12)
-    discounted = hub_discounted(rows, HUB_NEIGHBOURS, beta)
-    # Each row's own model first, then the others in the discount's order.
-    np.fill_diagonal(discounted, -np.inf)
-    ranks = np.argsort(discounted if beta > 0 else scaled, axis=1, kind="stable")
+    service = hub_discounted(rows, HUB_NEIGHBOURS, HUB_BETA)
+    ranks = None  # beta 0: _weights ranks by plain distance, as the service does
+    if beta > 0:
+        discounted = service if beta == HUB_BETA else hub_discounted(rows, HUB_NEIGHBOURS, beta)
+        # Each row's own model first, then the others in the discount's order.
+        ranks = np.argsort(np.where(np.eye(len(rows), dtype=bool), -np.inf, discounted),
+                           axis=1, kind="stable")
     weights, _ = _weights(squared, RECIPROCAL_NEIGHBOURS, EXPANSION, ranks)
     jaccard = np.vstack([_jaccard(weights, i) for i in range(len(rows))])
-    term = rescaled_rows(hub_discounted(rows, HUB_NEIGHBOURS, HUB_BETA))
+    term = rescaled_rows(service)
     keys = (1.0 - BLEND) * jaccard + BLEND * term
     keys = np.where(np.sqrt(squared) <= SAME_DESCRIPTOR, -np.inf, keys)
     return first_kept(keys, term)
@@ -109,9 +116,8 @@ def neighbourhood_keys(rows: np.ndarray, beta: float = HUB_BETA) -> np.ndarray:
 def check_rebuilt(rows: dict[str, np.ndarray]) -> None:
     """Stop before scoring unless ``neighbourhood_keys`` at ``beta`` 0 ranks every source as
     the service's order does."""
-    service = order_of(RECIPROCAL_NEIGHBOURS, BLEND)
     for source, vectors in rows.items():
-        ours, theirs = neighbourhood_keys(vectors, 0.0), service(vectors)
+        ours, theirs = neighbourhood_keys(vectors, 0.0), SERVICE_ORDER(vectors)
         if not np.array_equal(np.argsort(ours, axis=1, kind="stable"),
                               np.argsort(theirs, axis=1, kind="stable")):
             raise SystemExit(f"beta 0 does not rebuild the service's order on {source}: stop")
@@ -119,7 +125,7 @@ def check_rebuilt(rows: dict[str, np.ndarray]) -> None:
 
 
 def orders() -> dict[str, Order]:
-    return {REFERENCE: order_of(RECIPROCAL_NEIGHBOURS, BLEND), CANDIDATE: neighbourhood_keys}
+    return {REFERENCE: SERVICE_ORDER, CANDIDATE: neighbourhood_keys}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -141,6 +141,10 @@ def order_of(neighbours: int, blend: float) -> Order:
     return keys
 
 
+#: The search service's order: ``core.reciprocal``'s ``k1`` and ``lambda``.
+SERVICE_ORDER: Order = order_of(RECIPROCAL_NEIGHBOURS, BLEND)
+
+
 def reference_of(round_: int) -> str:
     return name_of(*ROUNDS[round_][2])
 
@@ -156,7 +160,7 @@ def service_order(round_: int) -> Order:
     """The service's order when ``round_`` was asked: ``alignment_rerank_select.service_keys``
     (``lambda`` 0.3, which every earlier study used) for round 1, ``core.reciprocal``'s
     ``k1`` and ``lambda`` after."""
-    return service_keys if round_ == 1 else order_of(RECIPROCAL_NEIGHBOURS, BLEND)
+    return service_keys if round_ == 1 else SERVICE_ORDER
 
 
 def check_rebuilt(rows: dict[str, np.ndarray], round_: int) -> None:
