@@ -133,3 +133,16 @@ def test_bosl2_source_renders_closed_parts_of_distinct_sizes() -> None:
         meshes = [mesh for _, _, mesh in islice(bosl2_parts((kind,)), 2)]
         assert all(mesh.is_watertight and len(mesh.faces) > 50 for mesh in meshes), kind
         assert meshes[0].area != meshes[1].area, kind
+
+
+def test_freecad_source_builds_closed_parts_of_distinct_sizes() -> None:
+    if shutil.which("freecadcmd") is None:
+        pytest.skip("freecadcmd (apt-get install freecad) is not installed")
+    from core.evaluation.sources.freecad_parts import KINDS as FREECAD
+    from core.evaluation.sources.freecad_parts import parts as freecad_parts
+
+    # The first two sizes of each kind (the source builds lazily): closed, and not alike.
+    for kind in FREECAD:
+        meshes = [mesh for _, _, mesh in islice(freecad_parts((kind,)), 2)]
+        assert all(mesh.is_watertight and mesh.is_volume for mesh in meshes), kind
+        assert not np.isclose(meshes[0].area, meshes[1].area, rtol=1e-3), kind

@@ -94,15 +94,18 @@ LIBRARIES: tuple[str, ...] = ("madcad", "gearworks", "vslot", "mcad", "bosl2")
 _KIND_OF = {member: kind for kind, members in SHARED_KINDS.items() for member in members}
 
 
-def catalogue(sources: Path, out: Path, kinds: tuple[str, ...] | None = None
-              ) -> dict[str, int]:
-    """Link every part of ``LIBRARIES`` under ``sources`` (of ``kinds`` only, if given) as
-    ``out/<kind>/<source>__<file>``; returns the part count per kind."""
+def catalogue(sources: Path, out: Path, kinds: tuple[str, ...] | None = None,
+              libraries: tuple[str, ...] = LIBRARIES,
+              kind_of: dict[str, str] | None = None) -> dict[str, int]:
+    """Link every part of ``libraries`` under ``sources`` (of ``kinds`` only, if given) as
+    ``out/<kind>/<source>__<file>``, merged by ``kind_of`` (library kind -> kind; this
+    catalogue's by default); returns the part count per kind."""
+    kind_of = _KIND_OF if kind_of is None else kind_of
     counts: dict[str, int] = {}
-    for library in LIBRARIES:
+    for library in libraries:
         for part in sorted((sources / library).glob("*/*.ply")):
             library_kind = f"{library}/{part.parent.name}"
-            kind = _KIND_OF.get(library_kind, library_kind.replace("/", "__"))
+            kind = kind_of.get(library_kind, library_kind.replace("/", "__"))
             if kinds is not None and kind not in kinds:
                 continue
             link = out / kind / f"{library}__{part.name}"

@@ -16,6 +16,7 @@ the libraries' own parametric models.
 | ``bendable`` | ours (``core.evaluation.sources.bendable``) | ours | 6 bendable kinds, 8 poses |
 | ``mcad`` | OpenSCAD's MCAD (``openscad-mcad``) | LGPL-2.1 | 11: bolts (3 heads), gears, ... |
 | ``bosl2`` | BOSL2 (its ``.scad`` in ``solidpython2``) | BSD-2-Clause | 15: screws, nuts, ... |
+| ``freecad`` | FreeCAD's own modules (``freecad``) | LGPL-2.1+ | 7: sprockets, gears, sections |
 | ``poses`` | ours (``bendable.identity_parts``) | ours | 20 shapes of 4 kinds, 8 shared poses |
 
 ``NON_RIGID`` names what bends: the whole ``bendable`` and ``poses`` sources and capod's
@@ -76,6 +77,12 @@ def _bosl2(seed: int, shared: Path) -> Parts:
     return parts()
 
 
+def _freecad(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.freecad_parts import parts
+
+    return parts()
+
+
 def _poses(seed: int, shared: Path) -> Parts:
     from core.evaluation.sources.bendable import identity_parts
     return identity_parts()
@@ -105,14 +112,15 @@ def _bendable(seed: int, shared: Path) -> Parts:
 SOURCES: dict[str, Callable[[int, Path], Parts]] = {
     "madcad": _madcad, "gearworks": _gearworks, "vslot": _vslot, "parts": _parts,
     "generated": _generated, "bendable": _bendable, "mcad": _mcad, "bosl2": _bosl2,
-    "poses": _poses,
+    "freecad": _freecad, "poses": _poses,
 }
 
-#: Sources written only when named: ``mcad`` and ``bosl2`` need the ``openscad`` program
-#: (not a wheel) and were added later, as checks on settings chosen without them (``bosl2``
-#: after every other); ``poses`` checks the
-#: descriptor families (shapes in shared poses) and is not a tuning source.
-CHECK_SOURCES: tuple[str, ...] = ("mcad", "bosl2", "poses")
+#: Sources written only when named: ``mcad`` and ``bosl2`` need the ``openscad`` program,
+#: ``freecad`` the ``freecadcmd`` program (neither a wheel); they were added later, as checks
+#: on settings chosen without them (``bosl2`` and then ``freecad`` after every other);
+#: ``poses`` checks the descriptor families (shapes in shared poses) and is not a tuning
+#: source.
+CHECK_SOURCES: tuple[str, ...] = ("mcad", "bosl2", "freecad", "poses")
 
 #: The sources written when none are named.
 DEFAULT_SOURCES: tuple[str, ...] = (
