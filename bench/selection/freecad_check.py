@@ -36,6 +36,12 @@ the five other libraries):
         --variants default baseline ss4 spectral bendable --out /work/eval_heldout6
     .venv/bin/python bench/selection/freecad_check.py verdict \\
         /work/eval_freecad /work/eval_heldout6
+
+**Result** (2026-11-28, twenty-third session; docs/results.md, "A tenth library, FreeCAD"):
+the claim holds on both. FreeCAD alone, NN / mAP in the service's order: the default 0.929 /
+0.895, the baseline 0.821 / 0.843, ``ss4`` 0.768 / 0.769. The held-out set's kinds across six
+libraries (218 parts): 0.972 / 0.739 against 0.963 / 0.634. Sprockets: mAP 0.980 alone and
+0.860 among the six (``ss4`` 1.000 and 0.889), every first answer a sprocket.
 """
 
 from __future__ import annotations
