@@ -64,6 +64,12 @@ face = Part.Face(Part.Wire([edge.toShape() for edge in wires.wire]))
 """
 
 
+def _involute(create: str) -> str:
+    """The lines that make ``face``, the involute profile ``fcgear``'s ``create`` draws."""
+    return _PROFILE.format(module="fcgear", builder="fcgear", profile="involute",
+                           create=create)
+
+
 def _sprocket(chain: str, teeth: int, bore: float) -> str:
     return (
         "from SprocketFeature import Sprocket\n"
@@ -79,8 +85,7 @@ def _sprocket(chain: str, teeth: int, bore: float) -> str:
 
 def _spur(module: float, teeth: int, width: float, bore: float) -> str:
     return (
-        _PROFILE.format(module="fcgear", builder="fcgear", profile="involute",
-                        create=f"CreateExternalGear(wires, {module}, {teeth}, 20, False)")
+        _involute(f"CreateExternalGear(wires, {module}, {teeth}, 20, False)")
         + f"gear = face.extrude(FreeCAD.Vector(0, 0, {width}))\n"
         f"shape = gear.cut(Part.makeCylinder({bore / 2}, {3 * width}, "
         f"FreeCAD.Vector(0, 0, {-width})))\n"
@@ -90,8 +95,7 @@ def _spur(module: float, teeth: int, width: float, bore: float) -> str:
 def _ring(module: float, teeth: int, width: float, rim: float) -> str:
     outer = module * teeth / 2 + 1.25 * module + rim
     return (
-        _PROFILE.format(module="fcgear", builder="fcgear", profile="involute",
-                        create=f"CreateInternalGear(wires, {module}, {teeth}, 20, False)")
+        _involute(f"CreateInternalGear(wires, {module}, {teeth}, 20, False)")
         + f"teeth = face.extrude(FreeCAD.Vector(0, 0, {3 * width}))\n"
         f"teeth.translate(FreeCAD.Vector(0, 0, {-width}))\n"
         f"shape = Part.makeCylinder({outer}, {width}).cut(teeth)\n"
