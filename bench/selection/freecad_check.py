@@ -48,7 +48,8 @@ the claim holds on both. FreeCAD alone, NN / mAP in the service's order: the def
 libraries (218 parts): 0.972 / 0.739 against 0.963 / 0.634. Sprockets: mAP 0.980 alone and
 0.860 among the six (``ss4`` 1.000 and 0.889), every first answer a sprocket. Every kind
 of the six libraries (``--all-kinds``, 502 parts): 0.888 / 0.687 against the baseline's
-0.841 / 0.558, the sprockets 0.415 there (``ss4`` 0.706), bevel and spur gears among them.
+0.841 / 0.558, the sprockets 0.415 there (``ss4`` 0.706, ``ss5`` 0.470: lost with the local
+words), bevel and spur gears among them.
 """
 
 from __future__ import annotations
