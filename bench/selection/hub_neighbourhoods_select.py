@@ -67,14 +67,14 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from evened_areas_rest_select import service_base  # noqa: E402
-from evened_areas_select import Order, catalogue_scores, close_study, service_scores  # noqa: E402
+from evened_areas_select import Order  # noqa: E402
 from hubness_select import hub_discounted  # noqa: E402
 from profile_block_select import Replacing, study_command  # noqa: E402
 from reciprocal_blend_select import (  # noqa: E402
     HUB_BETA,
     HUB_NEIGHBOURS,
     SERVICE_ORDER,
-    family_test,
+    judge_orders,
 )
 
 from core.hubness import SAME_DESCRIPTOR  # noqa: E402
@@ -137,19 +137,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = replacing(base)
     print("blocks done", flush=True)
     check_rebuilt(rows)
-    names = (REFERENCE, CANDIDATE)
-    table: dict = {}
-    queries: dict = {}
-    for name in names:
-        part, per_query = service_scores(study, [(name, rows)], by_name[name])
-        table.update(part)
-        queries.update(per_query)
-    catalogue = {name: catalogue_scores(study, replacing, base, order=by_name[name])
-                 for name in names}
-    judged = close_study("the re-rank's neighbourhoods in the hub discount's order", REFERENCE,
-                         table, queries, catalogue, [s.name for s in study.sources],
-                         args.confirm, args.json)
-    family_test(study, cache, by_name, REFERENCE, judged, args.json)
+    judge_orders(study, cache, replacing, base, rows, by_name, REFERENCE,
+                 "the re-rank's neighbourhoods in the hub discount's order", args.confirm,
+                 args.json)
     return 0
 
 if __name__ == "__main__":

@@ -200,19 +200,29 @@ def main(argv: list[str] | None = None) -> int:
     print("blocks done", flush=True)
     check_rebuilt(rows, args.round)
     names = (reference, args.confirm) if args.confirm else tuple(orders)
+    judge_orders(study, cache, replacing, base, rows, {name: orders[name] for name in names},
+                 reference, f"the k-reciprocal re-rank's k1 and lambda, round {args.round}",
+                 args.confirm, args.json)
+    return 0
+
+
+def judge_orders(study: Study, cache: Path, replacing: Replacing, base: dict,
+                 rows: dict[str, np.ndarray], orders: dict[str, Order], reference: str,
+                 title: str, confirm: str | None, json_path: Path | None) -> None:
+    """An order study's scoring and verdict: every one of ``orders`` on the sources and on
+    the one catalogue by kind, the rule and tests 1, 2 and 4 (``close_study``), then test 3
+    (``family_test``) on the candidate judged."""
     table: dict = {}
     queries: dict = {}
-    for name in names:
-        part, per_query = service_scores(study, [(name, rows)], orders[name])
+    for name, order in orders.items():
+        part, per_query = service_scores(study, [(name, rows)], order)
         table.update(part)
         queries.update(per_query)
-    catalogue = {name: catalogue_scores(study, replacing, base, order=orders[name])
-                 for name in names}
-    sources = [s.name for s in study.sources]
-    judged = close_study(f"the k-reciprocal re-rank's k1 and lambda, round {args.round}",
-                         reference, table, queries, catalogue, sources, args.confirm, args.json)
-    family_test(study, cache, orders, reference, judged, args.json)
-    return 0
+    catalogue = {name: catalogue_scores(study, replacing, base, order=order)
+                 for name, order in orders.items()}
+    judged = close_study(title, reference, table, queries, catalogue,
+                         [s.name for s in study.sources], confirm, json_path)
+    family_test(study, cache, orders, reference, judged, json_path)
 
 
 def family_test(study: Study, cache: Path, orders: dict[str, Order], reference: str,
