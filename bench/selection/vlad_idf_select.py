@@ -50,6 +50,16 @@ candidate.
     # the same three extractions with --seed 7 into /work/seed7, then
     nice -n 5 .venv/bin/python bench/selection/vlad_idf_select.py /work/seed7 \\
         --confirm "CHOICE" --json /work/seed7/vlad_idf.json
+
+**Result** (2026-11-29, twenty-fourth session, a 2-core AMD EPYC; the seed-0 extraction of
+the nine sources): declined. Mean of nine: ``vlad`` 0.8925 (the same figures as
+``vocabulary_sources_select``'s ``nine``, as it must be), ``vlad idf0.5`` 0.8930, ``vlad
+idf1`` 0.8901. The gains are our generator's (0.838 -> 0.855 / 0.867) and py-gearworks'
+(0.615 -> 0.625 / 0.629); MCAD (0.822 -> 0.814 / 0.796), FreeCAD (0.904 -> 0.899 / 0.887),
+bd-vslot (0.913 -> 0.907) and pymadcad (0.963 -> 0.959 / 0.960) pay. Within the tie the rule
+keeps ``vlad`` on the nine and without every source: left out **+0.0000**. One catalogue by
+kind NN 0.874, mAP 0.719. Tests 3 and 4 were not needed; the seed-7 extraction stays
+unscored.
 """
 
 from __future__ import annotations
