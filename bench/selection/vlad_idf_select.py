@@ -64,8 +64,10 @@ unscored.
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -100,25 +102,13 @@ def idf_weighted(block: np.ndarray, vocabulary: Vocabulary, power: float) -> np.
     return flat / max(float(np.linalg.norm(flat)), 1e-300)
 
 
-def weighted_blocks(study: Study, plain: PerSource, power: float,
+def weighted_blocks(plain: PerSource, power: float,
+                    words: Callable[[str | tuple[str, ...]], Vocabulary],
                     held: dict[str, str | tuple[str, ...]]) -> PerSource:
     """``plain`` (each source's VLAD rows) reweighed by the idf of the words that encoded
-    it: the words fitted without ``held[source]``."""
-    out: PerSource = {}
-    for name, rows in plain.items():
-        vocabulary = _words(study, held[name])
-        out[name] = np.array([idf_weighted(row, vocabulary, power) for row in rows])
-    return out
-
-
-_FITTED: dict[str | tuple[str, ...], Vocabulary] = {}
-
-
-def _words(study: Study, held: str | tuple[str, ...]) -> Vocabulary:
-    """``fold_words`` of the study without ``held``, fitted once per run."""
-    if held not in _FITTED:
-        _FITTED[held] = fold_words(study.sources, held)
-    return _FITTED[held]
+    it: ``words(held[source])``, the words fitted without ``held[source]``."""
+    return {name: np.array([idf_weighted(row, words(held[name]), power) for row in rows])
+            for name, rows in plain.items()}
 
 
 def check_sources(study: Study) -> None:
@@ -138,7 +128,9 @@ def main(argv: list[str] | None = None) -> int:
     # Each source's words are fitted without it (capod-nonrigid: without capod).
     held: dict[str, str | tuple[str, ...]] = {s.name: s.name for s in study.sources}
     held["capod-nonrigid"] = "capod"
-    local = {name: weighted_blocks(study, replacing.local, POWERS[name], held)
+    # Each fold's words fitted once, for every candidate.
+    words = functools.cache(lambda without: fold_words(study.sources, without))
+    local = {name: weighted_blocks(replacing.local, POWERS[name], words, held)
              for name in names}
     pooled = pooled_local(study, CATALOGUE)
     catalogue_held = {name: CATALOGUE for name in CATALOGUE}
@@ -147,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
         study, ((name, replacing(base, local=local[name])) for name in names), SERVICE_ORDER)
     catalogue = {name: catalogue_scores(
         study, replacing, base, order=SERVICE_ORDER,
-        local=weighted_blocks(study, pooled, POWERS[name], catalogue_held)) for name in names}
+        local=weighted_blocks(pooled, POWERS[name], words, catalogue_held)) for name in names}
     close_study("idf-weighted words in the local block, parts family", REFERENCE, table,
                 queries, catalogue, [s.name for s in study.sources], args.confirm, args.json)
     return 0

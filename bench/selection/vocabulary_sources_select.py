@@ -99,7 +99,7 @@ from evened_areas_rest_select import service_base  # noqa: E402
 from evened_areas_select import PerSource, catalogue_scores, close_study, service_scores  # noqa: E402
 from local_features_select import Source, Study  # noqa: E402
 from mcad_check import CATALOGUE  # noqa: E402
-from profile_block_select import Replacing, study_command  # noqa: E402
+from profile_block_select import Replacing, fold_words, study_command  # noqa: E402
 from reciprocal_blend_select import SERVICE_ORDER  # noqa: E402
 
 from core.local_features import Vocabulary, encode_vlad  # noqa: E402
@@ -117,11 +117,9 @@ SHIPPED_DIGEST = "51a42f109a"
 
 
 def words_of(study: Study, pool: tuple[str, ...], held: tuple[str, ...] = ()) -> Vocabulary:
-    """64 words fitted on the sources of ``study`` in ``pool`` but ``held``, in the study's
+    """``fold_words`` of the sources of ``study`` in ``pool`` but ``held``, in the study's
     (sorted) order of sources and models, as the shipped words were fitted."""
-    fitting = [s for s in study.sources if s.name in pool and s.name not in held]
-    return Vocabulary.fit([rows for s in fitting for rows in s.local[FEATURES]], 64, seed=0,
-                          per_model=200)
+    return fold_words([s for s in study.sources if s.name in pool], held, FEATURES)
 
 
 def encoded(source: Source, vocabulary: Vocabulary) -> np.ndarray:
