@@ -266,13 +266,16 @@ class Replacing:
                  local: dict[str, np.ndarray] | None = None,
                  names: tuple[str, ...] | None = None,
                  ring: dict[str, np.ndarray] | None = None,
-                 caps: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
+                 caps: dict[str, np.ndarray] | None = None,
+                 added: tuple[dict[str, np.ndarray], float] | None = None
+                 ) -> dict[str, np.ndarray]:
         """Unit rows per source of ``names`` (default: every scored one).
 
         ``replaced`` maps a base block's name to its new unit block per source; ``weights``
         a block's name to a weight in place of ``ss9``'s; ``local``: local blocks in place
         of the study's own (a pooled catalogue's encoding); ``ring`` (at weight 1) and
-        ``caps`` (at its weight): those blocks in place of the default's."""
+        ``caps`` (at its weight): those blocks in place of the default's; ``added``: one
+        more block per source and its weight, joined last before the one unit scaling."""
         blocks = {**self.stored, **replaced}
         weights = {**self.weights, **(weights or {})}
         local = local or self.local
@@ -283,6 +286,10 @@ class Replacing:
             base = np.hstack([weights[key] * blocks[key][name] for key in self.weights])
             rows[name] = joined(np.hstack([base, local[name], SS6_RING_WEIGHT * ring[name]]),
                                 caps[name], 1.0)
+            if added is not None:
+                # The unit scaling above is undone by joining the raw parts once more.
+                raw = np.hstack([base, local[name], SS6_RING_WEIGHT * ring[name], caps[name]])
+                rows[name] = joined(raw, added[0][name], added[1])
         return rows
 
 
