@@ -419,6 +419,18 @@ def test_unparsable_files(tmp_path, name, content):
     assert _reason(_write(tmp_path, name, content)) == "unparsable"
 
 
+def test_obj_vertex_lines_of_unequal_length_are_unparsable(tmp_path):
+    # trimesh reads one two-number ``v`` line among many three-number ones as a two-column
+    # vertex array; the area computation then failed with numpy's AxisError (found by fuzzing).
+    rng = np.random.default_rng(0)
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in rng.random((300, 3))]
+    lines[5] = "v 0.5 0.25"
+    lines += [f"f {i + 1} {i + 2} {i + 3}" for i in range(0, 290, 3)]
+    with pytest.raises(InvalidShapeError) as info:
+        load_points(_write(tmp_path, "short_vertex.obj", "\n".join(lines) + "\n"))
+    assert info.value.reason == "unparsable" and "three coordinates" in info.value.message
+
+
 def test_truncated_binary_stl_is_unparsable(tmp_path):
     data = _sphere().export(file_type="stl")
     with pytest.raises(InvalidShapeError) as info:

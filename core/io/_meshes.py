@@ -148,13 +148,22 @@ def _load_scene(data: bytes, fmt: str) -> trimesh.Scene:
         raise _unparsable(fmt, f"{type(exc).__name__}: {str(exc)[:120]}") from exc
 
 
-def _flatten(scene: trimesh.Scene) -> RawGeometry | None:
+def _flatten(scene: trimesh.Scene, fmt: str) -> RawGeometry | None:
     """All triangles of the scene in world coordinates; the vertices only if it has none.
 
     Returns None when the scene holds neither triangles nor points (paths are ignored).
+    Vertices that are not three coordinates each are ``unparsable``: trimesh reshapes an OBJ
+    whose ``v`` lines disagree in length (one line of two numbers among thousands of three)
+    into two columns rather than refusing it.
     """
     meshes, clouds = [], []
     for geometry in scene.dump():
+        if isinstance(geometry, trimesh.Trimesh | trimesh.PointCloud):
+            shape = np.shape(geometry.vertices)
+            if len(shape) != 2 or (shape[0] and shape[1] != 3):
+                raise _unparsable(
+                    fmt, f"vertices that are not three coordinates each, read as {shape}"
+                )
         if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces):
             meshes.append((np.asarray(geometry.vertices), np.asarray(geometry.faces)))
         elif isinstance(geometry, trimesh.Trimesh | trimesh.PointCloud) and len(geometry.vertices):
@@ -200,7 +209,7 @@ def read_mesh(data: bytes, fmt: str) -> RawGeometry:
     InvalidShapeError
         ``empty_file``, ``unparsable``, ``too_large``.
     """
-    geometry = _flatten(_load_scene(data, fmt))
+    geometry = _flatten(_load_scene(data, fmt), fmt)
     if geometry is None:
         raise _no_geometry(fmt, data)
     if len(geometry.vertices) > MAX_PARSED_POINTS:
