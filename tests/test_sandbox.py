@@ -50,6 +50,10 @@ def crash() -> None:
     raise KeyError("surprise")
 
 
+def segfault() -> None:
+    os.kill(os.getpid(), signal.SIGSEGV)
+
+
 def test_the_result_comes_back() -> None:
     assert Sandbox(4 * GIB, 60).run(allocate, 0.01) == GIB // 100 // 8
 
@@ -82,6 +86,9 @@ def test_a_killed_child_is_a_refusal_and_other_errors_keep_their_kind() -> None:
         sandbox.run(fail_numerically)
     with pytest.raises(SandboxCrash, match="KeyError"):
         sandbox.run(crash)
+    # A native reader that dereferences a null pointer ends its process by a signal.
+    with pytest.raises(SandboxCrash, match="crashed \\(SIGSEGV\\).*corrupt"):
+        sandbox.run(segfault)
 
 
 def test_the_worker_describes_in_the_sandbox(tmp_path) -> None:

@@ -24,7 +24,13 @@ from app.ingest.sandbox import sandbox_of
 from app.problems import reason_kind
 from app.settings import Settings
 from core.errors import InvalidShapeError
-from core.io import EXPANDING_FORMATS, SUPPORTED_FORMATS, check_header, detect_format
+from core.io import (
+    CRASHING_FORMATS,
+    EXPANDING_FORMATS,
+    SUPPORTED_FORMATS,
+    check_header,
+    detect_format,
+)
 
 __all__ = [
     "UPLOAD_FILE_HELP", "CheckedUpload", "invalid_shape_problem", "out_of_memory_problem",
@@ -44,9 +50,9 @@ _CHUNK = 1024 * 1024
 # Above this size only the format is checked at upload: parsing a huge mesh in the request
 # would hold an API thread for seconds; the worker refuses it later with a reason.
 FULL_CHECK_MAX_BYTES = 16 * 1024 * 1024
-# Files up to this size (of formats whose geometry grows with the file) hold too little
-# geometry to hurt, and are parsed in-process; anything else is parsed in the sandbox, which
-# costs a process start.
+# Files up to this size (of formats whose geometry grows with the file, read by parsers a
+# malformed file cannot crash) hold too little geometry to hurt, and are parsed in-process;
+# anything else is parsed in the sandbox, which costs a process start.
 IN_PROCESS_CHECK_MAX_BYTES = 256 * 1024
 
 
@@ -91,11 +97,13 @@ def out_of_memory_problem() -> Problem:
     )
 
 
-def _bounded_by_size(content: bytes, fmt: str) -> bool:
+def _safe_in_process(content: bytes, fmt: str) -> bool:
     """Whether parsing ``content`` in this process is safe: a small file of a format whose
     geometry grows with its size (not GLB, whose scene can instance a mesh many times, nor
-    LAZ or E57, whose points can compress to almost nothing: ``EXPANDING_FORMATS``)."""
-    return len(content) <= IN_PROCESS_CHECK_MAX_BYTES and fmt not in EXPANDING_FORMATS
+    LAZ or E57, whose points can compress to almost nothing: ``EXPANDING_FORMATS``) and whose
+    reader a malformed file cannot crash (not STEP or IGES: ``CRASHING_FORMATS``)."""
+    return (len(content) <= IN_PROCESS_CHECK_MAX_BYTES
+            and fmt not in EXPANDING_FORMATS and fmt not in CRASHING_FORMATS)
 
 
 def base_name(filename: str | None) -> str:
@@ -126,9 +134,9 @@ def read_checked_upload(
                 content, name, settings.upload_check_points, settings.min_points,
                 settings.sample_seed,
             )
-            if _bounded_by_size(content, fmt):
+            if _safe_in_process(content, fmt):
                 quick_check(*check)
-            else:  # parsed in a child: a bomb cannot grow this process
+            else:  # parsed in a child: a bomb cannot grow this process, nor a crash end it
                 sandbox_of(settings).run(quick_check, *check)
     except InvalidShapeError as error:
         raise invalid_shape_problem(error) from error

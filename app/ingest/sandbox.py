@@ -166,7 +166,20 @@ class Sandbox:
     def _died(self, exitcode: int | None) -> InvalidShapeError | SandboxCrash:
         if exitcode is not None and exitcode == -signal.SIGKILL:  # the kernel's OOM killer
             return self._too_big()
+        if exitcode is not None and exitcode < 0:  # a signal: a native reader crashed
+            return SandboxCrash(
+                f"the process reading this file crashed ({_signal_name(-exitcode)}): the file "
+                "is probably corrupt; export the part again"
+            )
         return SandboxCrash(f"the describing process ended with exit code {exitcode}")
+
+
+def _signal_name(number: int) -> str:
+    """``SIGSEGV`` for 11; ``signal 40`` for a number without a name."""
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
 
 
 def sandbox_of(settings: Settings) -> Sandbox:

@@ -284,12 +284,11 @@ class Replacing:
         rows = {}
         for name in names or [s.name for s in self.study.scored]:
             base = np.hstack([weights[key] * blocks[key][name] for key in self.weights])
-            rows[name] = joined(np.hstack([base, local[name], SS6_RING_WEIGHT * ring[name]]),
-                                caps[name], 1.0)
-            if added is not None:
-                # The unit scaling above is undone by joining the raw parts once more.
-                raw = np.hstack([base, local[name], SS6_RING_WEIGHT * ring[name], caps[name]])
-                rows[name] = joined(raw, added[0][name], added[1])
+            raw = np.hstack([base, local[name], SS6_RING_WEIGHT * ring[name]])
+            if added is None:
+                rows[name] = joined(raw, caps[name], 1.0)
+            else:
+                rows[name] = joined(np.hstack([raw, caps[name]]), added[0][name], added[1])
         return rows
 
 

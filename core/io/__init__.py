@@ -15,6 +15,7 @@ can act on.
 
 from core.io._denoise import denoise_points
 from core.io._formats import (
+    CRASHING_FORMATS,
     EXPANDING_FORMATS,
     FILE_EXTENSIONS,
     SUPPORTED_FORMATS,
@@ -26,6 +27,7 @@ from core.io._outliers import OUTLIER_RATIO, spacing_inliers
 from core.io._validate import MAX_PARSED_POINTS, validate_points
 
 __all__ = [
+    "CRASHING_FORMATS",
     "EXPANDING_FORMATS",
     "FILE_EXTENSIONS",
     "MAX_PARSED_POINTS",
