@@ -15,6 +15,11 @@
     real 11 KB LZF block.
 ``scan_variants()``
     Truncated and lying E57, LAS, LAZ and PCD files made from a valid scan of a sphere.
+``obj_short_vertex()``
+    An OBJ one of whose ``v`` lines holds two numbers (trimesh reads two columns).
+``step_reader_crash()``
+    A STEP part with one ``VECTOR`` entity renamed: OpenCascade's reader ends its process with
+    a segmentation fault (only where OpenCascade imports; found by ``bench/fuzz_loader.py``).
 """
 
 from __future__ import annotations
@@ -38,9 +43,11 @@ from shapes import fibonacci_sphere_points
 __all__ = [
     "HOSTILE_FILES",
     "glb_instancing_bomb",
+    "obj_short_vertex",
     "pcd_lzf_bomb",
     "ply_vertex_bomb",
     "scan_variants",
+    "step_reader_crash",
     "stl_triangle_bomb",
 ]
 
@@ -159,11 +166,50 @@ def scan_variants() -> dict[str, tuple[str, Callable[[], bytes], int, str]]:
     }
 
 
+def obj_short_vertex() -> bytes:
+    """300 vertices of which the sixth has two coordinates, and 97 triangles."""
+    rng = np.random.default_rng(0)
+    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in rng.random((300, 3))]
+    lines[5] = "v 0.5 0.25"
+    lines += [f"f {i + 1} {i + 2} {i + 3}" for i in range(0, 290, 3)]
+    return ("\n".join(lines) + "\n").encode()
+
+
+def step_reader_crash() -> bytes:
+    """A box with a hole as STEP, its first ``VECTOR`` entity given an unknown type."""
+    import tempfile
+    from pathlib import Path
+
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+
+    part = BRepAlgoAPI_Cut(BRepPrimAPI_MakeBox(10.0, 8.0, 4.0).Shape(),
+                           BRepPrimAPI_MakeCylinder(2.0, 4.0).Shape()).Shape()
+    writer = STEPControl_Writer()
+    writer.Transfer(part, STEPControl_AsIs)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "part.step"
+        writer.Write(str(path))
+        return path.read_bytes().replace(b"= VECTOR(", b"= BOGUS_ENTITY(", 1)
+
+
+def _opencascade_imports() -> bool:
+    try:
+        import OCP.STEPControl  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 #: name -> (file name, bytes maker, expected status, expected reason)
 HOSTILE_FILES = {
     "glb-20000-instances": ("bomb.glb", lambda: glb_instancing_bomb(20_000), 413, "too_large"),
     "glb-3000-instances": ("bomb.glb", lambda: glb_instancing_bomb(3_000), 413, "too_large"),
     "stl-3.2e9-triangles": ("bomb.stl", stl_triangle_bomb, 422, "unparsable"),
     "ply-1e9-vertices": ("bomb.ply", ply_vertex_bomb, 413, "too_large"),
+    "obj-short-vertex-line": ("short.obj", obj_short_vertex, 422, "unparsable"),
     **scan_variants(),
+    **({"step-reader-crash": ("crash.step", step_reader_crash, 422, "unparsable")}
+       if _opencascade_imports() else {}),
 }
