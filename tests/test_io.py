@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from hostile_files import obj_short_vertex
 
 from core.errors import InvalidShapeError
 from core.io import SUPPORTED_FORMATS, LoadedShape, detect_format, load_points, validate_points
@@ -422,12 +423,8 @@ def test_unparsable_files(tmp_path, name, content):
 def test_obj_vertex_lines_of_unequal_length_are_unparsable(tmp_path):
     # trimesh reads one two-number ``v`` line among many three-number ones as a two-column
     # vertex array; the area computation then failed with numpy's AxisError (found by fuzzing).
-    rng = np.random.default_rng(0)
-    lines = [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in rng.random((300, 3))]
-    lines[5] = "v 0.5 0.25"
-    lines += [f"f {i + 1} {i + 2} {i + 3}" for i in range(0, 290, 3)]
     with pytest.raises(InvalidShapeError) as info:
-        load_points(_write(tmp_path, "short_vertex.obj", "\n".join(lines) + "\n"))
+        load_points(_write(tmp_path, "short_vertex.obj", obj_short_vertex()))
     assert info.value.reason == "unparsable" and "three coordinates" in info.value.message
 
 
