@@ -46,6 +46,13 @@ candidate.
         --json /work/study9/ring_order.json
     nice -n 5 .venv/bin/python bench/selection/ring_order_select.py /work/seed7 \\
         --confirm "CHOICE" --json /work/seed7/ring_order.json
+**Result** (2026-11-29, twenty-fifth session, a 2-core Intel Xeon; the seed-0 extraction of
+the nine sources): declined. Mean of nine (mAP): ``ss11`` 0.8931, ``ring sorted`` 0.8945,
+``ring both`` 0.8938: within the 0.002 tie, so the rule keeps ``ss11`` on the nine and
+without every source, left out **+0.0000**; one catalogue by kind NN 0.874, mAP 0.719. The
+gain in sample is our generator's (0.838 -> 0.848); FreeCAD +0.002, MCAD +0.001, bd-vslot
+-0.001, and py-gearworks, whose gears the question was about, does not move (0.615). Tests 3
+and 4 were not needed; the seed-7 extraction stays unscored.
 """
 
 from __future__ import annotations
