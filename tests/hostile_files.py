@@ -17,9 +17,10 @@
     Truncated and lying E57, LAS, LAZ and PCD files made from a valid scan of a sphere.
 ``obj_short_vertex()``
     An OBJ one of whose ``v`` lines holds two numbers (trimesh reads two columns).
-``step_reader_crash()``
-    A STEP part with one ``VECTOR`` entity renamed: OpenCascade's reader ends its process with
-    a segmentation fault (only where OpenCascade imports; found by ``bench/fuzz_loader.py``).
+``step_part()``, ``step_reader_crash()``
+    A small STEP part, and the same with one ``VECTOR`` entity renamed: OpenCascade's
+    reader ends its process with a segmentation fault (only where OpenCascade imports;
+    found by ``bench/fuzz_loader.py``).
 """
 
 from __future__ import annotations
@@ -44,9 +45,11 @@ __all__ = [
     "HOSTILE_FILES",
     "glb_instancing_bomb",
     "obj_short_vertex",
+    "opencascade_imports",
     "pcd_lzf_bomb",
     "ply_vertex_bomb",
     "scan_variants",
+    "step_part",
     "step_reader_crash",
     "stl_triangle_bomb",
 ]
@@ -176,7 +179,12 @@ def obj_short_vertex() -> bytes:
 
 
 def step_reader_crash() -> bytes:
-    """A box with a hole as STEP, its first ``VECTOR`` entity given an unknown type."""
+    """``step_part()`` with its first ``VECTOR`` entity given an unknown type."""
+    return step_part().replace(b"= VECTOR(", b"= BOGUS_ENTITY(", 1)
+
+
+def step_part() -> bytes:
+    """A valid STEP file: a 10 x 8 x 4 box with a hole (needs OpenCascade)."""
     import tempfile
     from pathlib import Path
 
@@ -191,10 +199,11 @@ def step_reader_crash() -> bytes:
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "part.step"
         writer.Write(str(path))
-        return path.read_bytes().replace(b"= VECTOR(", b"= BOGUS_ENTITY(", 1)
+        return path.read_bytes()
 
 
-def _opencascade_imports() -> bool:
+def opencascade_imports() -> bool:
+    """Whether OpenCascade (the ``cad`` extra) imports here."""
     try:
         import OCP.STEPControl  # noqa: F401
     except ImportError:
@@ -211,5 +220,5 @@ HOSTILE_FILES = {
     "obj-short-vertex-line": ("short.obj", obj_short_vertex, 422, "unparsable"),
     **scan_variants(),
     **({"step-reader-crash": ("crash.step", step_reader_crash, 422, "unparsable")}
-       if _opencascade_imports() else {}),
+       if opencascade_imports() else {}),
 }

@@ -14,9 +14,10 @@ under ``shapesearch serve`` on one machine, 820 MB under a test runner); a limit
 zero would leave a file whatever that start happens to leave, and a low setting would refuse
 every file.
 
-Children come from a *forkserver* that has imported the engine once, so a child starts in
-milliseconds without re-importing numpy/scipy/trimesh, and without inheriting the threads
-and locks of the server (which a plain fork of a threaded process would).
+Children come from a *forkserver* that has imported the engine (and OpenCascade, when it is
+installed) once, so a child starts in milliseconds without re-importing numpy/scipy/trimesh,
+and without inheriting the threads and locks of the server (which a plain fork of a threaded
+process would).
 
 Outcomes, as the engine's own exceptions so that callers handle them as they always did:
 
@@ -48,7 +49,10 @@ __all__ = ["Sandbox", "SandboxCrash", "sandbox_of"]
 
 T = TypeVar("T")
 
-_PRELOAD = ["core.pipeline", "core.io", "app.ingest.describing"]
+# OpenCascade too, where the cad extra is installed: its import takes about 0.5 s, which
+# every STEP or IGES check and describe would pay in its child (they are parsed in the
+# sandbox only, core.io.CRASHING_FORMATS). The forkserver skips a module that does not import.
+_PRELOAD = ["core.pipeline", "core.io", "app.ingest.describing", "OCP.STEPControl"]
 _context = multiprocessing.get_context("forkserver")
 _context.set_forkserver_preload(_PRELOAD)
 
