@@ -25,7 +25,9 @@ columns; numpy raised ``AxisError``: now refused as ``unparsable``), and 27 of 3
 mutants that end OpenCascade's process with a segmentation fault (an entity a vector points
 to given an unknown type), which the API's quick check ran in its own process: STEP and IGES
 are now parsed in the sandbox only (``core.io.CRASHING_FORMATS``). Every other mutant was
-read or refused with a reason.
+read or refused with a reason. After the fixes, ``--cases 2500 --seed 7``: 602 read, 1,887
+refused with a reason (1,526 ``unparsable``), 11 STEP mutants ending the reader (contained),
+nothing else; exit 0.
 """
 
 from __future__ import annotations
