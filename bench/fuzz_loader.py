@@ -4,7 +4,7 @@ Bad input must never crash anything: every file ``core.io.load_points`` cannot r
 end in ``core.errors.InvalidShapeError`` with a reason, never another exception, a hang, a
 runaway allocation or the death of the process. This script makes one small seed file per
 format in code (a ring's mesh as STL ascii and binary, PLY ascii and binary, OBJ, OFF, GLB;
-its sampled points as XYZ, CSV, NPY, PCD ascii, binary and LZF-compressed, LAS and E57; a
+its sampled points as XYZ, CSV, NPY, PCD ascii, binary and LZF-compressed, LAS, LAZ and E57; a
 STEP and an IGES part when OpenCascade imports), mutates seeds at random (truncated, bytes
 flipped or inserted, a chunk repeated, numbers replaced by huge, negative, NaN or infinite
 ones, binary integers and floats overwritten, the header cut off) and reads every mutant in
@@ -15,9 +15,10 @@ a child process limited to 3 GiB of address space, 30 s per file.
 It prints how many files were read, and refused by reason, and lists every other outcome:
 ``CRASH`` (an exception other than the engine's), ``DIED`` (the child ended by a signal: a
 native reader crashed), ``HANG`` (30 s without an answer) and files that took over 5 s or
-1.5 GB. The exit status is 1 when there is any, but for the deaths of a reader the
-service runs in its sandbox only (STEP, IGES: ``core.io.CRASHING_FORMATS``), which are counted
-apart.
+1.5 GB. The exit status is 1 when there is any, but for deaths and hangs of readers of the
+formats the service parses in its sandbox only (``core.io.EXPANDING_FORMATS`` and
+``CRASHING_FORMATS``: GLB, LAZ, E57, STEP, IGES), where a death is a 422 and a hang a 413 at
+the sandbox's time limit; those are counted apart.
 
 **Found** (2026-11-29, twenty-fifth session, a 2-core Intel Xeon; 4,700 mutants over seeds
 0-9, every format): one OBJ whose ``v`` lines disagree in length (trimesh read two
@@ -25,10 +26,15 @@ columns; numpy raised ``AxisError``: now refused as ``unparsable``), and 27 of 3
 mutants that end OpenCascade's process with a segmentation fault (an entity a vector points
 to given an unknown type), which the API's quick check ran in its own process: STEP and IGES
 are now parsed in the sandbox only (``core.io.CRASHING_FORMATS``). Every other mutant was
-read or refused with a reason. After the fixes, ``--cases 2500 --seed 7`` (16 seeds, before
-the IGES seed was added): 602 read, 1,887 refused with a reason (1,526 ``unparsable``), 11
-STEP mutants ending the reader (contained), nothing else; exit 0. IGES alone (``--cases 300
---seed 3 --formats iges``): 151 read, 149 refused, none ended the reader.
+read or refused with a reason. After the fixes, with the tests' scanner and CAD files as seeds
+(18 seeds: LAZ and IGES added), ``--cases 2500 --seed 7``: 613 read, 1,840 refused with a
+reason, and 47 contained by the sandbox: 37 LAZ mutants abort lazrs (a 48 GB allocation
+refused under the memory limit; LAZ joined ``CRASHING_FORMATS``: through the API, 422 "the
+process reading this file crashed (SIGABRT)"), 8 STEP and 1 IGES crash OpenCascade, and one
+IGES hangs it (over 10 minutes in a plain process; through the API, 413 at the sandbox's
+time limit, ``SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS``, 300 s by default); exit 0. (An earlier
+run of the same command counted 612 read and 9 STEP crashes: OpenCascade does not fail the
+same way on every read of a broken file.)
 """
 
 from __future__ import annotations
@@ -48,7 +54,11 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from core.io import CRASHING_FORMATS
+from core.io import CRASHING_FORMATS, EXPANDING_FORMATS
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from hostile_files import iges_part, opencascade_imports, step_part  # noqa: E402
+from scan_files import e57_file, las_file, pcd_compressed_file  # noqa: E402
 
 #: The child: reads each listed file, prints one ``@@``-prefixed JSON line per file (native
 #: readers print to stdout too).
@@ -75,6 +85,8 @@ for index in range(int(sys.argv[2]), len(cases)):
 """
 
 HANG_SECONDS = 30.0
+#: What the service parses in its sandbox only, whatever the size.
+SANDBOXED = set(EXPANDING_FORMATS) | set(CRASHING_FORMATS)
 SLOW_SECONDS = 5.0
 LARGE_MB = 1500
 
@@ -93,7 +105,7 @@ def seed_files(folder: Path) -> list[Path]:
     np.savetxt(folder / "points.csv", points, delimiter=",")
     np.save(folder / "points.npy", points)
     _write_pcds(folder, points.astype("<f4"))
-    _write_optional(folder, points)
+    _write_scanner_and_cad(folder, points)
     return sorted(folder.iterdir())
 
 
@@ -103,51 +115,18 @@ def _write_pcds(folder: Path, points: np.ndarray) -> None:
     rows = "\n".join(" ".join(map(str, row)) for row in points)
     (folder / "ascii.pcd").write_text(header + "DATA ascii\n" + rows)
     (folder / "binary.pcd").write_bytes((header + "DATA binary\n").encode() + points.tobytes())
-    import lzf
-
-    columns = np.ascontiguousarray(points.T).tobytes()
-    packed = lzf.compress(columns)
-    (folder / "lzf.pcd").write_bytes((header + "DATA binary_compressed\n").encode()
-                                     + struct.pack("<II", len(packed), len(columns)) + packed)
 
 
-def _write_optional(folder: Path, points: np.ndarray) -> None:
-    """LAS, E57 and STEP seeds, where their libraries import."""
-    try:
-        import laspy
-
-        las = laspy.create(point_format=0, file_version="1.2")
-        las.header.scales = [0.001] * 3
-        las.x, las.y, las.z = points.T
-        las.write(str(folder / "points.las"))
-    except ImportError:
-        pass
-    try:
-        import pye57
-
-        e57 = pye57.E57(str(folder / "points.e57"), mode="w")
-        e57.write_scan_raw({"cartesianX": points[:, 0], "cartesianY": points[:, 1],
-                            "cartesianZ": points[:, 2]})
-        e57.close()
-    except ImportError:
-        pass
-    try:
-        from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
-        from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
-        from OCP.IGESControl import IGESControl_Writer
-        from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
-
-        part = BRepAlgoAPI_Cut(BRepPrimAPI_MakeBox(10.0, 8.0, 4.0).Shape(),
-                               BRepPrimAPI_MakeCylinder(2.0, 4.0).Shape()).Shape()
-        writer = STEPControl_Writer()
-        writer.Transfer(part, STEPControl_AsIs)
-        writer.Write(str(folder / "part.step"))
-        iges = IGESControl_Writer("MM", 0)
-        iges.AddShape(part)
-        iges.ComputeModel()
-        iges.Write(str(folder / "part.iges"))
-    except ImportError:
-        pass
+def _write_scanner_and_cad(folder: Path, points: np.ndarray) -> None:
+    """LZF PCD, LAS, LAZ and E57 seeds (the tests' scanner files), and STEP and IGES parts
+    where OpenCascade imports (the tests' hostile files)."""
+    (folder / "lzf.pcd").write_bytes(pcd_compressed_file(points))
+    (folder / "points.las").write_bytes(las_file(points, compressed=False))
+    (folder / "points.laz").write_bytes(las_file(points, compressed=True))
+    (folder / "points.e57").write_bytes(e57_file(points))
+    if opencascade_imports():
+        (folder / "part.step").write_bytes(step_part())
+        (folder / "part.iges").write_bytes(iges_part())
 
 
 NUMBERS = ["999999999", "4294967295", "-1", "0", "1e308", "nan", "inf", "18446744073709551615"]
@@ -247,12 +226,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{len(results)} mutants of {len(seeds)} seeds:",
               dict(Counter(r[1].split(":")[0] if not r[1].startswith("refused") else r[1]
                            for r in results).most_common()))
-        # A reader that may crash is only ever run in the service's sandbox, where its death
-        # is a refusal (``core.io.CRASHING_FORMATS``): counted, not a failure here.
-        contained = [r for r in results if r[1].startswith("DIED")
-                     and Path(cases[r[0]][0]).suffix[1:] in CRASHING_FORMATS]
-        print(f"{len(contained)} of them ended a reader of {', '.join(CRASHING_FORMATS)}, "
-              "which the service runs in its sandbox only")
+        # Formats the service reads in its sandbox only, where a reader's death is a 422 and
+        # a hang a 413 at the sandbox's time limit: counted apart, not failures here.
+        contained = [r for r in results if r[1].startswith(("DIED", "HANG"))
+                     and Path(cases[r[0]][0]).suffix[1:] in SANDBOXED]
+        print(f"{len(contained)} of them ended or hung a reader of a format read in the "
+              f"sandbox only ({', '.join(sorted(SANDBOXED))}):",
+              dict(Counter(f"{Path(cases[r[0]][0]).suffix[1:]} {r[1].split(':')[0]}"
+                           for r in contained)))
         bad = [r for r in results if r not in contained
                and (not (r[1] == "read" or r[1].startswith("refused"))
                     or r[2] > SLOW_SECONDS or r[3] > LARGE_MB)]

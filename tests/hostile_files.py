@@ -17,10 +17,10 @@
     Truncated and lying E57, LAS, LAZ and PCD files made from a valid scan of a sphere.
 ``obj_short_vertex()``
     An OBJ one of whose ``v`` lines holds two numbers (trimesh reads two columns).
-``step_part()``, ``step_reader_crash()``
-    A small STEP part, and the same with one ``VECTOR`` entity renamed: OpenCascade's
-    reader ends its process with a segmentation fault (only where OpenCascade imports;
-    found by ``bench/fuzz_loader.py``).
+``step_part()``, ``iges_part()``, ``break_step(data)``, ``step_reader_crash()``
+    A small STEP part and the same as IGES; a STEP file with one ``VECTOR`` entity renamed,
+    on which OpenCascade's reader ends its process with a segmentation fault, and the part
+    so broken (only where OpenCascade imports; found by ``bench/fuzz_loader.py``).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from __future__ import annotations
 import json
 import struct
 from collections.abc import Callable
+from typing import Any
 
 import lzf
 import numpy as np
@@ -43,7 +44,9 @@ from shapes import fibonacci_sphere_points
 
 __all__ = [
     "HOSTILE_FILES",
+    "break_step",
     "glb_instancing_bomb",
+    "iges_part",
     "obj_short_vertex",
     "opencascade_imports",
     "pcd_lzf_bomb",
@@ -178,26 +181,50 @@ def obj_short_vertex() -> bytes:
     return ("\n".join(lines) + "\n").encode()
 
 
+def break_step(data: bytes) -> bytes:
+    """A STEP file with its first ``VECTOR`` entity given an unknown type."""
+    return data.replace(b"= VECTOR(", b"= BOGUS_ENTITY(", 1)
+
+
 def step_reader_crash() -> bytes:
-    """``step_part()`` with its first ``VECTOR`` entity given an unknown type."""
-    return step_part().replace(b"= VECTOR(", b"= BOGUS_ENTITY(", 1)
+    """``step_part()`` broken by ``break_step``."""
+    return break_step(step_part())
 
 
 def step_part() -> bytes:
     """A valid STEP file: a 10 x 8 x 4 box with a hole (needs OpenCascade)."""
+    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
+
+    writer = STEPControl_Writer()
+    writer.Transfer(_box_with_hole(), STEPControl_AsIs)
+    return _written(writer, "part.step")
+
+
+def iges_part() -> bytes:
+    """``step_part()``'s box as IGES (needs OpenCascade)."""
+    from OCP.IGESControl import IGESControl_Writer
+
+    writer = IGESControl_Writer("MM", 0)
+    writer.AddShape(_box_with_hole())
+    writer.ComputeModel()
+    return _written(writer, "part.iges")
+
+
+def _box_with_hole() -> Any:
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
+
+    return BRepAlgoAPI_Cut(BRepPrimAPI_MakeBox(10.0, 8.0, 4.0).Shape(),
+                           BRepPrimAPI_MakeCylinder(2.0, 4.0).Shape()).Shape()
+
+
+def _written(writer: Any, name: str) -> bytes:
+    """What an OpenCascade writer (which writes to paths only) writes, as bytes."""
     import tempfile
     from pathlib import Path
 
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
-    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
-    from OCP.STEPControl import STEPControl_AsIs, STEPControl_Writer
-
-    part = BRepAlgoAPI_Cut(BRepPrimAPI_MakeBox(10.0, 8.0, 4.0).Shape(),
-                           BRepPrimAPI_MakeCylinder(2.0, 4.0).Shape()).Shape()
-    writer = STEPControl_Writer()
-    writer.Transfer(part, STEPControl_AsIs)
     with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "part.step"
+        path = Path(folder) / name
         writer.Write(str(path))
         return path.read_bytes()
 

@@ -15,6 +15,7 @@ import pytest
 import trimesh
 from conftest import PARTS, make_settings, upload, wait_for_status
 from fastapi.testclient import TestClient
+from hostile_files import break_step
 
 try:
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut, BRepAlgoAPI_Fuse
@@ -150,7 +151,7 @@ def test_a_step_file_that_crashes_opencascade_is_refused_and_the_service_lives_o
     # OpenCascade's STEP reader dereferences a null handle when a vector's entity has an
     # unknown type, and the segmentation fault ends its process (found by fuzzing). Parsed in
     # this process, the upload's quick check took the whole API down with it.
-    crashing = cad_files["plate.step"].replace(b"= VECTOR(", b"= BOGUS_ENTITY(", 1)
+    crashing = break_step(cad_files["plate.step"])
     assert crashing != cad_files["plate.step"]
     app = create_app(make_settings(database_url, workers=0))
     with TestClient(app) as client:

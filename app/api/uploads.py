@@ -101,7 +101,7 @@ def _safe_in_process(content: bytes, fmt: str) -> bool:
     """Whether parsing ``content`` in this process is safe: a small file of a format whose
     geometry grows with its size (not GLB, whose scene can instance a mesh many times, nor
     LAZ or E57, whose points can compress to almost nothing: ``EXPANDING_FORMATS``) and whose
-    reader a malformed file cannot crash (not STEP or IGES: ``CRASHING_FORMATS``)."""
+    reader a malformed file cannot crash (not STEP, IGES or LAZ: ``CRASHING_FORMATS``)."""
     return (len(content) <= IN_PROCESS_CHECK_MAX_BYTES
             and fmt not in EXPANDING_FORMATS and fmt not in CRASHING_FORMATS)
 

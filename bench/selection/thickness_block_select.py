@@ -94,6 +94,7 @@ seed-7 extraction, made beside the first to save time, was not scored).
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
 import time
@@ -107,6 +108,20 @@ import numpy as np  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from evened_areas_rest_select import service_base  # noqa: E402
+from evened_areas_select import catalogue_scores, close_study, service_scores  # noqa: E402
+from hubness_select import pooled_local  # noqa: E402
+from mcad_check import CATALOGUE  # noqa: E402
+from profile_block_select import (  # noqa: E402
+    Replacing,
+    blocks_per_source,
+    study_command,
+    study_samples,
+)
+from reciprocal_blend_select import SERVICE_ORDER  # noqa: E402
+from vlad_idf_select import check_sources  # noqa: E402
+
+from core.extrinsic import surface_normals  # noqa: E402
 
 REFERENCE = "ss11"
 #: The cone about the normal line within which another wall counts, and how far apart the
@@ -176,8 +191,6 @@ def thickness_block(points: np.ndarray, areas: np.ndarray, form: str) -> np.ndar
     areas : (n,) float
     form : {"near", "pair"}
     """
-    from core.extrinsic import surface_normals
-
     near, far = wall_distances(points, surface_normals(points, NEIGHBOURS), areas)
     count = FORMS[form]
     if form == "near":
@@ -235,21 +248,6 @@ def main(argv: list[str] | None = None) -> int:
     args_list = sys.argv[1:] if argv is None else argv
     if args_list == ["--check"]:
         return check()
-    import functools
-
-    from evened_areas_rest_select import service_base
-    from evened_areas_select import catalogue_scores, close_study, service_scores
-    from hubness_select import pooled_local
-    from mcad_check import CATALOGUE
-    from profile_block_select import (
-        Replacing,
-        blocks_per_source,
-        study_command,
-        study_samples,
-    )
-    from reciprocal_blend_select import SERVICE_ORDER
-    from vlad_idf_select import check_sources
-
     args, study, cache = study_command(
         __doc__, argv, confirm="test 3: this candidate, fixed, against ss11")
     check_sources(study)

@@ -43,11 +43,13 @@ SUPPORTED_FORMATS: tuple[str, ...] = (*MESH_FORMATS, *POINT_FORMATS, *CAD_FORMAT
 #: Their size says nothing about the memory parsing takes, so they are parsed in a sandbox.
 #: (LZF, in PCD files, expands at most 88-fold: a small PCD stays small.)
 EXPANDING_FORMATS: tuple[str, ...] = ("glb", "laz", "e57")
-#: Formats read by native code that a malformed file can crash outright: OpenCascade's STEP
-#: reader dereferences a null handle when an entity a vector points to has an unknown type
-#: (27 of 300 mutated STEP files ended their process with a segmentation fault, which no
-#: exception handler sees). Like the expanding formats, they are parsed in a sandbox only.
-CRASHING_FORMATS: tuple[str, ...] = CAD_FORMATS
+#: Formats read by native code that a malformed file can crash outright, which no exception
+#: handler sees: OpenCascade's STEP reader dereferences a null handle when an entity a vector
+#: points to has an unknown type (27 of 300 mutated STEP files ended their process with a
+#: segmentation fault), and lazrs aborts its process when an allocation a corrupt LAZ chunk
+#: table asks for (48 GB in one mutant) is refused. Like the expanding formats, they are
+#: parsed in a sandbox only (``bench/fuzz_loader.py``).
+CRASHING_FORMATS: tuple[str, ...] = (*CAD_FORMATS, "laz")
 #: Every file name extension that names a format (compared case-insensitively).
 FILE_EXTENSIONS: tuple[str, ...] = (*SUPPORTED_FORMATS, *_CAD_ALIASES)
 
