@@ -87,6 +87,19 @@ class Settings(BaseSettings):
         description="Points sampled when an upload is parsed at once to reject bad files "
         "with 422 (the full description runs later in a worker).",
     )
+    upload_check_timeout_seconds: float = Field(
+        default=10.0,
+        gt=0,
+        description="Time an upload's sandboxed quick check (STEP, IGES, GLB, LAZ, E57 and "
+        "files over 256 KiB) may take, waiting for a free check slot included; past it the "
+        "upload is accepted unchecked and its describe in the worker decides.",
+    )
+    upload_check_max_concurrent: int = Field(
+        default=2,
+        ge=1,
+        description="Sandboxed quick checks one API process runs at once (each a child that "
+        "may take SHAPESEARCH_DESCRIBE_MEMORY_BYTES); more uploads wait for a slot.",
+    )
 
     max_text_length: int = Field(
         default=500,

@@ -17,8 +17,9 @@ It prints how many files were read, and refused by reason, and lists every other
 native reader crashed), ``HANG`` (30 s without an answer) and files that took over 5 s or
 1.5 GB. The exit status is 1 when there is any, but for deaths and hangs of readers of the
 formats the service parses in its sandbox only (``core.io.EXPANDING_FORMATS`` and
-``CRASHING_FORMATS``: GLB, LAZ, E57, STEP, IGES), where a death is a 422 and a hang a 413 at
-the sandbox's time limit; those are counted apart.
+``CRASHING_FORMATS``: GLB, LAZ, E57, STEP, IGES), where a death is a 422 and a hang is
+accepted at the upload check's time limit and fails its job at the describe's; those are
+counted apart.
 
 **Found** (2026-11-29, twenty-fifth session, a 2-core Intel Xeon; 4,700 mutants over seeds
 0-9, every format): one OBJ whose ``v`` lines disagree in length (trimesh read two
@@ -31,8 +32,10 @@ read or refused with a reason. After the fixes, with the tests' scanner and CAD 
 reason, and 47 contained by the sandbox: 37 LAZ mutants abort lazrs (a 48 GB allocation
 refused under the memory limit; LAZ joined ``CRASHING_FORMATS``: through the API, 422 "the
 process reading this file crashed (SIGABRT)"), 8 STEP and 1 IGES crash OpenCascade, and one
-IGES hangs it (over 10 minutes in a plain process; through the API, 413 at the sandbox's
-time limit, ``SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS``, 300 s by default); exit 0. (An earlier
+IGES hangs it (over 10 minutes in a plain process; ``tests/hostile_files.py``
+``iges_reader_hang`` makes it; through the API, 202 at the upload check's time limit,
+``SHAPESEARCH_UPLOAD_CHECK_TIMEOUT_SECONDS``, 10 s, then a failed job at the describe's,
+``SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS``, 300 s: ``bench/upload_checks.py``); exit 0. (An earlier
 run of the same command counted 612 read and 9 STEP crashes: OpenCascade does not fail the
 same way on every read of a broken file.)
 """
@@ -227,7 +230,7 @@ def main(argv: list[str] | None = None) -> int:
               dict(Counter(r[1].split(":")[0] if not r[1].startswith("refused") else r[1]
                            for r in results).most_common()))
         # Formats the service reads in its sandbox only, where a reader's death is a 422 and
-        # a hang a 413 at the sandbox's time limit: counted apart, not failures here.
+        # a hang a failed job at the describe's time limit: counted apart, not failures here.
         contained = [r for r in results if r[1].startswith(("DIED", "HANG"))
                      and Path(cases[r[0]][0]).suffix[1:] in SANDBOXED]
         print(f"{len(contained)} of them ended or hung a reader of a format read in the "

@@ -21,6 +21,9 @@
     A small STEP part and the same as IGES; a STEP file with one ``VECTOR`` entity renamed,
     on which OpenCascade's reader ends its process with a segmentation fault, and the part
     so broken (only where OpenCascade imports; found by ``bench/fuzz_loader.py``).
+``iges_reader_hang()``
+    ``iges_part()`` with two fields overwritten in place, on which OpenCascade's reader
+    never returns (found by ``bench/fuzz_loader.py``).
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ __all__ = [
     "break_step",
     "glb_instancing_bomb",
     "iges_part",
+    "iges_reader_hang",
     "obj_short_vertex",
     "opencascade_imports",
     "pcd_lzf_bomb",
@@ -208,6 +212,20 @@ def iges_part() -> bytes:
     writer.AddShape(_box_with_hole())
     writer.ComputeModel()
     return _written(writer, "part.iges")
+
+
+def iges_reader_hang() -> bytes:
+    """``iges_part()`` with the global section's file name run into the next field (its
+    last byte and the delimiter become a float's bytes) and one arc's coordinate holding a
+    NaN's bytes, both in place (IGES records are fixed columns): OpenCascade's reader spins
+    on it for more than 10 minutes. Either change alone is read."""
+    part = iges_part()
+    hanging = part.replace(b"13HFilename.iges,  ", b"13HFilename.ige\x00\x00\x80\x7f", 1)
+    hanging = hanging.replace(b"-3.920107719E-15", b"-3.920\x00\x00\xc0\x7f19E-15", 1)
+    # Both fields are where OpenCascade's IGES writer puts them for this part; a writer
+    # that changed them must fail here, not leave a test posting a readable file.
+    assert sum(a != b for a, b in zip(part, hanging, strict=True)) == 8
+    return hanging
 
 
 def _box_with_hole() -> Any:

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from conftest import PARTS, fake_describe, make_settings, upload, wait_for_status
 from fastapi.testclient import TestClient
+from prometheus_client import REGISTRY
 from sqlalchemy import create_engine, text
 
 from app.api.main import create_app
@@ -286,6 +287,51 @@ def test_503_not_422_when_the_quick_check_runs_out_of_memory(
     assert client.get("/v1/models").json()["items"] == []
     monkeypatch.undo()  # memory back: the same file is accepted
     assert upload(client, CUBE).status_code == 202
+
+
+# Over IN_PROCESS_CHECK_MAX_BYTES (256 KiB), so its quick check runs in a sandboxed child:
+# every coordinate row holds a NaN, which that check refuses with 422.
+NAN_CLOUD = b"nan 1 2\n" * 40_000
+
+
+def unchecked_uploads(reason: str) -> float:
+    """``shapesearch_uploads_unchecked_total{reason}`` as this process's metrics show it."""
+    return REGISTRY.get_sample_value("shapesearch_uploads_unchecked_total",
+                                     {"reason": reason}) or 0.0
+
+
+def test_a_quick_check_out_of_time_lets_the_upload_through(make_client: ClientFactory) -> None:
+    """The quick check is a courtesy bounded in time (a file can hang its reader for ever):
+    past its limit the upload is accepted unchecked, and the worker's describe decides."""
+    checked = make_client()
+    body = assert_problem(checked.post("/v1/models", files={"file": ("nan.xyz", NAN_CLOUD)}), 422)
+    assert body["reason"] == "non_finite"
+
+    hurried = make_client(upload_check_timeout_seconds=0.001)  # no child answers in 1 ms
+    before = unchecked_uploads("timeout")
+    accepted = hurried.post("/v1/models", files={"file": ("nan.xyz", NAN_CLOUD)})
+    assert accepted.status_code == 202, accepted.text
+    assert unchecked_uploads("timeout") == before + 1
+    # A small file is still checked in-process, whatever the limit.
+    assert_problem(hurried.post("/v1/models", files={"file": ("e.xyz", b"nan 1 2\n" * 300)}), 422)
+
+
+def test_sandboxed_quick_checks_are_bounded_in_number(make_client: ClientFactory) -> None:
+    """At most ``upload_check_max_concurrent`` check children per process: an upload that
+    finds every slot taken for the whole time limit is accepted unchecked, and checked
+    again as soon as a slot is free."""
+    client = make_client(upload_check_max_concurrent=1, upload_check_timeout_seconds=0.5)
+    slots = client.app.state.services.uploads._slots
+    before = unchecked_uploads("busy")
+    assert slots.acquire(timeout=5)  # another upload's check holds the only slot
+    try:
+        waited = client.post("/v1/models", files={"file": ("nan.xyz", NAN_CLOUD)})
+    finally:
+        slots.release()
+    assert waited.status_code == 202, waited.text
+    assert unchecked_uploads("busy") == before + 1
+    freed = client.post("/v1/models", files={"file": ("nan.xyz", NAN_CLOUD)})
+    assert assert_problem(freed, 422)["reason"] == "non_finite"
 
 
 def test_422_for_metadata_that_is_not_an_object(client: TestClient) -> None:

@@ -6,6 +6,7 @@ without the extra a CAD upload is 415 with the way to enable it."""
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,7 @@ import pytest
 import trimesh
 from conftest import PARTS, make_settings, upload, wait_for_status
 from fastapi.testclient import TestClient
-from hostile_files import break_step
+from hostile_files import break_step, iges_part, iges_reader_hang
 
 try:
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut, BRepAlgoAPI_Fuse
@@ -164,6 +165,34 @@ def test_a_step_file_that_crashes_opencascade_is_refused_and_the_service_lives_o
         assert again.status_code == 202, again.text
 
 
+def test_an_iges_file_that_hangs_opencascade_holds_no_request_and_fails_its_job(
+    tmp_path: Path,
+) -> None:
+    # OpenCascade's IGES reader never returns on this file (found by fuzzing). The upload's
+    # quick check gives up at its own limit and lets the file through; the worker's describe
+    # stops at the describe limit and fails the job with the reason; the service answers
+    # throughout. Before, the upload held its request and a child for the describe limit
+    # (300 s by default) and only then got 413.
+    check_seconds, describe_seconds = 1.0, 4.0
+    settings = make_settings(f"sqlite:///{tmp_path / 'db.sqlite'}",
+                             upload_check_timeout_seconds=check_seconds,
+                             describe_timeout_seconds=describe_seconds)
+    with TestClient(create_app(settings, embedded_worker=True)) as client:
+        started = time.monotonic()
+        response = client.post("/v1/models", files={"file": ("part.iges", iges_reader_hang())})
+        answered = time.monotonic() - started
+        assert response.status_code == 202, response.text
+        assert answered < describe_seconds  # the check's limit, not the describe's
+        assert client.get("/healthz").status_code == 200
+        model = wait_for_status(client, response.json()["id"], timeout=60)
+        assert model["status"] == "failed"
+        assert model["error"]["type"] == "urn:shapesearch:problem:too-large"
+        assert "SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS" in model["error"]["detail"]
+        readable = client.post("/v1/models", files={"file": ("part.iges", iges_part())})
+        assert readable.status_code == 202, readable.text
+        assert wait_for_status(client, readable.json()["id"], timeout=60)["status"] == "ready"
+
+
 def test_without_the_extra_a_cad_upload_is_415_saying_how_to_enable_it(
     database_url: str, cad_files: dict[str, bytes], monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -174,7 +203,7 @@ def test_without_the_extra_a_cad_upload_is_415_saying_how_to_enable_it(
     # STEP is parsed in the sandbox, whose children come from a server that imported
     # OpenCascade before this patch: run it in this process here, so that the patch applies
     # (the sandbox passes the engine's refusals through unchanged: tests/test_sandbox.py).
-    monkeypatch.setattr(uploads, "sandbox_of", lambda settings: InProcess())
+    monkeypatch.setattr(uploads, "sandbox_of", lambda *limits: InProcess())
     with TestClient(create_app(make_settings(database_url, workers=0))) as client:
         response = client.post("/v1/models", files={"file": ("p.step", cad_files["plate.step"])})
         assert response.status_code == 415, response.text

@@ -11,6 +11,7 @@ from fastapi import Depends, Request
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session, sessionmaker
 
+from app.api.uploads import UploadReader
 from app.ingest.describing import descriptor_version
 from app.search.index import ShapeIndex
 from app.settings import Settings
@@ -30,6 +31,7 @@ class Services:
     reader: Engine  # hot read-only paths (app.db.session.read_only)
     queries: ThreadPoolExecutor  # similarity queries (app.api.routes.models.similar_models)
     index: ShapeIndex
+    uploads: UploadReader  # reads and quick-checks uploaded files (app.api.uploads)
 
     @property
     def descriptor_version(self) -> str:

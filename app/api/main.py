@@ -27,6 +27,7 @@ from app.api.problems import install_problem_handlers
 from app.api.response_cache import ResponseCache
 from app.api.routes import ROUTERS
 from app.api.search_describer import SearchAdmission, SearchDescriber
+from app.api.uploads import UploadReader
 from app.db.session import make_session_factory, migrated_engine, read_only
 from app.ingest.describing import pin_blas_threads
 from app.jobs.worker import (
@@ -126,6 +127,7 @@ def create_app(
                 settings.query_threads, thread_name_prefix="shapesearch-query"
             ),
             index=index,
+            uploads=UploadReader(settings),
         )
         stop = threading.Event()
         follower = threading.Thread(

@@ -6,6 +6,14 @@ content that fails a quick parse (empty, unparsable, non-finite, too few points)
 this process has no memory left for that parse (the file is not blamed). The quick
 parse samples only ``upload_check_points`` points; the full description runs later.
 
+The quick parse is a courtesy (an early 422 instead of a failed job), not the verdict, so it
+is bounded: a file that could hurt this process is parsed in a sandboxed child, at most
+``upload_check_max_concurrent`` at once per process, and waiting for a slot and checking
+together take at most ``upload_check_timeout_seconds``. Past that the upload is accepted
+unchecked (logged, and counted in ``shapesearch_uploads_unchecked_total``): the worker's
+describe, with the full limits, decides. A file that hangs its reader then holds one worker
+for ``describe_timeout_seconds`` instead of an API thread and a child each per upload.
+
 The upload arrives as Starlette's spooled temporary file (on disk beyond 1 MiB); it is
 hashed in chunks from there and read into memory once, never copied twice.
 """
@@ -14,13 +22,16 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import threading
+import time
 from dataclasses import dataclass
 from typing import BinaryIO
 
 from app.api.limits import too_large_problem
 from app.api.problems import Problem
 from app.ingest.describing import quick_check
-from app.ingest.sandbox import sandbox_of
+from app.ingest.sandbox import SandboxTimeout, sandbox_of
+from app.observability.metrics import UNCHECKED_UPLOADS
 from app.problems import reason_kind
 from app.settings import Settings
 from core.errors import InvalidShapeError
@@ -33,8 +44,8 @@ from core.io import (
 )
 
 __all__ = [
-    "UPLOAD_FILE_HELP", "CheckedUpload", "invalid_shape_problem", "out_of_memory_problem",
-    "read_checked_upload",
+    "UPLOAD_FILE_HELP", "CheckedUpload", "UploadReader", "invalid_shape_problem",
+    "out_of_memory_problem",
 ]
 
 #: The OpenAPI description of every shape upload field.
@@ -113,42 +124,85 @@ def base_name(filename: str | None) -> str:
     return name if name not in ("", ".", "..") else "upload"
 
 
-def read_checked_upload(
-    stream: BinaryIO, filename: str | None, settings: Settings, *, parse: bool = True
-) -> CheckedUpload:
-    """Read the file (bounded) and run the quick checks; raises ``Problem`` on refusal.
+class UploadReader:
+    """Reads one app's uploads: the bounded read, the header checks and the quick parse,
+    holding the slots of its sandboxed checks (one reader per app, built at start).
 
-    ``parse=False`` skips the quick parse, for a caller that describes the file at once
-    anyway (``POST /v1/search``: the describe in the sandbox parses it fully).
+    Parameters
+    ----------
+    settings : Settings
+        The limits: ``max_upload_bytes``, ``upload_check_points``, ``min_points``,
+        ``upload_check_timeout_seconds``, ``upload_check_max_concurrent`` and the sandbox's.
     """
-    sha256 = _hash_limited(stream, settings.max_upload_bytes)
-    content = stream.read()
-    name = base_name(filename)
-    try:
-        if not content or content.isspace():
-            raise InvalidShapeError("empty_file", "file is empty: upload a point cloud or mesh")
-        fmt = detect_format(name, content[:4096])
-        check_header(content, fmt)
-        if parse and len(content) <= FULL_CHECK_MAX_BYTES:
-            check = (
-                content, name, settings.upload_check_points, settings.min_points,
-                settings.sample_seed,
-            )
-            if _safe_in_process(content, fmt):
-                quick_check(*check)
-            else:  # parsed in a child: a bomb cannot grow this process, nor a crash end it
-                sandbox_of(settings).run(quick_check, *check)
-    except InvalidShapeError as error:
-        raise invalid_shape_problem(error) from error
-    except MemoryError as error:
-        # Only a small file of a format that cannot expand is parsed in this process (the
-        # sandbox's limit makes any other 413 too-large): here the service is short of
-        # memory right now, and the file is not at fault.
-        log.error("quick check of %r: this process is out of memory", name)
-        raise out_of_memory_problem() from error
-    except Exception as error:  # a parser bug must not become a 500 for the client
-        log.exception("quick check of %r failed", name)
-        raise invalid_shape_problem(
-            InvalidShapeError("unparsable", f"the file could not be read: {error}")
-        ) from error
-    return CheckedUpload(content=content, filename=name, format=fmt, sha256=sha256)
+
+    def __init__(self, settings: Settings) -> None:
+        self.settings = settings
+        self._slots = threading.BoundedSemaphore(settings.upload_check_max_concurrent)
+
+    def read(
+        self, stream: BinaryIO, filename: str | None, *, parse: bool = True
+    ) -> CheckedUpload:
+        """Read the file (bounded) and run the quick checks; raises ``Problem`` on refusal.
+
+        ``parse=False`` skips the quick parse, for a caller that describes the file at once
+        anyway (``POST /v1/search``: the describe in the sandbox parses it fully).
+        """
+        settings = self.settings
+        sha256 = _hash_limited(stream, settings.max_upload_bytes)
+        content = stream.read()
+        name = base_name(filename)
+        try:
+            if not content or content.isspace():
+                raise InvalidShapeError("empty_file", "file is empty: upload a point cloud or mesh")
+            fmt = detect_format(name, content[:4096])
+            check_header(content, fmt)
+            if parse and len(content) <= FULL_CHECK_MAX_BYTES:
+                check = (
+                    content, name, settings.upload_check_points, settings.min_points,
+                    settings.sample_seed,
+                )
+                if _safe_in_process(content, fmt):
+                    quick_check(*check)
+                else:  # parsed in a child: a bomb cannot grow this process, nor a crash end it
+                    self._check_in_sandbox(check)
+        except InvalidShapeError as error:
+            raise invalid_shape_problem(error) from error
+        except MemoryError as error:
+            # Only a small file of a format that cannot expand is parsed in this process (the
+            # sandbox's limit makes any other 413 too-large): here the service is short of
+            # memory right now, and the file is not at fault.
+            log.error("quick check of %r: this process is out of memory", name)
+            raise out_of_memory_problem() from error
+        except Exception as error:  # a parser bug must not become a 500 for the client
+            log.exception("quick check of %r failed", name)
+            raise invalid_shape_problem(
+                InvalidShapeError("unparsable", f"the file could not be read: {error}")
+            ) from error
+        return CheckedUpload(content=content, filename=name, format=fmt, sha256=sha256)
+
+    def _check_in_sandbox(self, check: tuple) -> None:
+        """``quick_check(*check)`` in a sandboxed child within one of the slots, waiting for
+        the slot and checking within ``upload_check_timeout_seconds`` together; when that
+        runs out the file is let through unchecked (the worker decides)."""
+        budget = self.settings.upload_check_timeout_seconds
+        started = time.monotonic()
+        if not self._slots.acquire(timeout=budget):
+            self._unchecked(check[1], "busy")
+            return
+        try:
+            remaining = budget - (time.monotonic() - started)
+            if remaining <= 0:
+                self._unchecked(check[1], "busy")
+                return
+            sandbox_of(self.settings, remaining).run(quick_check, *check)
+        except SandboxTimeout:
+            self._unchecked(check[1], "timeout")
+        finally:
+            self._slots.release()
+
+    def _unchecked(self, name: str, reason: str) -> None:
+        seconds = self.settings.upload_check_timeout_seconds
+        what = "no check slot came free" if reason == "busy" else "the check did not finish"
+        log.warning("upload %r accepted unchecked: %s within %g s "
+                    "(SHAPESEARCH_UPLOAD_CHECK_TIMEOUT_SECONDS)", name, what, seconds)
+        UNCHECKED_UPLOADS.labels(reason=reason).inc()

@@ -23,7 +23,8 @@ Outcomes, as the engine's own exceptions so that callers handle them as they alw
 
 * ``InvalidShapeError`` raised by ``function`` passes through unchanged;
 * the memory limit (``MemoryError``, or a child killed by the kernel) -> ``too_large``;
-* the wall-clock limit -> ``too_large`` (the child is killed);
+* the wall-clock limit -> ``SandboxTimeout``, an ``InvalidShapeError`` ``too_large`` (the
+  child is killed) that a caller for whom the limit is no verdict can tell apart;
 * ``SolverError`` passes through (it may be transient); any other exception in the child
   becomes ``SandboxCrash`` with the child's description of it.
 """
@@ -45,7 +46,7 @@ from threadpoolctl import threadpool_limits
 from app.settings import Settings
 from core.errors import InvalidShapeError, SolverError
 
-__all__ = ["Sandbox", "SandboxCrash", "sandbox_of"]
+__all__ = ["Sandbox", "SandboxCrash", "SandboxTimeout", "sandbox_of"]
 
 T = TypeVar("T")
 
@@ -59,6 +60,12 @@ _context.set_forkserver_preload(_PRELOAD)
 
 class SandboxCrash(RuntimeError):
     """The child raised an unexpected exception (a bug, or an input nobody foresaw)."""
+
+
+class SandboxTimeout(InvalidShapeError):
+    """The wall-clock limit ran out and the child was killed: ``too_large`` to a describe,
+    but only "not known yet" to an upload's quick check, whose limit is shorter
+    (``app.api.uploads``)."""
 
 
 def _warm_blas() -> None:
@@ -160,8 +167,8 @@ class Sandbox:
             "cloud first",
         )
 
-    def _too_slow(self) -> InvalidShapeError:
-        return InvalidShapeError(
+    def _too_slow(self) -> SandboxTimeout:
+        return SandboxTimeout(
             "too_large",
             f"describing this file took longer than the limit of {self.timeout_seconds:g} s "
             "(SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS): simplify the mesh or thin the cloud first",
@@ -186,6 +193,9 @@ def _signal_name(number: int) -> str:
         return f"signal {number}"
 
 
-def sandbox_of(settings: Settings) -> Sandbox:
-    """The sandbox with the service's limits."""
-    return Sandbox(settings.describe_memory_bytes, settings.describe_timeout_seconds)
+def sandbox_of(settings: Settings, timeout_seconds: float | None = None) -> Sandbox:
+    """The sandbox with the service's limits; ``timeout_seconds`` in place of
+    ``describe_timeout_seconds`` for a shorter task (an upload's quick check)."""
+    if timeout_seconds is None:
+        timeout_seconds = settings.describe_timeout_seconds
+    return Sandbox(settings.describe_memory_bytes, timeout_seconds)

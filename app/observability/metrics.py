@@ -9,6 +9,9 @@ Process metrics, counted as things happen (module-level, one set per process):
     shapesearch_solver_calls_total                               eigen-solver calls
     shapesearch_cutoff_n                                         eigenpairs chosen per model
     shapesearch_webhook_delivery_attempts_total{outcome}         delivered / retry / failed
+    shapesearch_uploads_unchecked_total{reason}                  uploads let through without
+                                                                 their quick check: busy /
+                                                                 timeout (app.api.uploads)
     shapesearch_index_models                                     models in an API process's
                                                                  index (the smallest of them)
 
@@ -70,6 +73,7 @@ from core.cutoff import CutoffRecord
 __all__ = [
     "CONTENT_TYPE_LATEST",
     "MULTIPROCESS_VARIABLE",
+    "UNCHECKED_UPLOADS",
     "WEBHOOK_ATTEMPTS",
     "HttpMetrics",
     "IndexCollector",
@@ -103,6 +107,12 @@ WEBHOOK_ATTEMPTS = Counter(
     "shapesearch_webhook_delivery_attempts",
     "Webhook delivery attempts by outcome: delivered, retry (backing off) or failed (gave up).",
     ["outcome"],
+)
+UNCHECKED_UPLOADS = Counter(
+    "shapesearch_uploads_unchecked",
+    "Uploads accepted without their sandboxed quick check, by reason: busy (no check slot "
+    "came free in time) or timeout (the check ran out of time); the worker's describe decides.",
+    ["reason"],
 )
 CUTOFF_N = Histogram(
     "shapesearch_cutoff_n", "Eigenpairs the cutoff chose per described shape.",

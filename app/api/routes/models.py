@@ -41,7 +41,7 @@ from app.api.search_params import (
     metadata_ranges,
     size_options,
 )
-from app.api.uploads import UPLOAD_FILE_HELP, read_checked_upload
+from app.api.uploads import UPLOAD_FILE_HELP
 from app.auth.dependency import TenantDep
 from app.db.feed import record_event
 from app.db.models import Model, utcnow
@@ -100,7 +100,7 @@ def upload_model(
     limits.text(name, "/name")
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata)
-    upload = read_checked_upload(file.file, file.filename, services.settings)
+    upload = services.uploads.read(file.file, file.filename)
     request_digest = request_sha256(upload.sha256, external_id, name, meta, units)
     if idempotency_key is not None:
         replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest,

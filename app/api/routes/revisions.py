@@ -27,7 +27,7 @@ from app.api.lookups import load_model, parse_model_id
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
 from app.api.search_params import UnitsField
-from app.api.uploads import UPLOAD_FILE_HELP, CheckedUpload, read_checked_upload
+from app.api.uploads import UPLOAD_FILE_HELP, CheckedUpload
 from app.auth.dependency import TenantDep
 from app.db.models import Job, Model, ModelRevision, Upload, utcnow
 from app.ingest.revisions import (
@@ -136,7 +136,7 @@ def upsert_model(
     limits.text(name, "/name")
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata) if metadata is not None else None
-    upload = read_checked_upload(file.file, file.filename, services.settings)
+    upload = services.uploads.read(file.file, file.filename)
     for _ in range(2):  # a concurrent create of the same external id: the second pass updates
         try:
             with services.sessions.begin() as session:

@@ -29,7 +29,7 @@ from app.api.search_params import (
     query_column,
     size_options,
 )
-from app.api.uploads import UPLOAD_FILE_HELP, invalid_shape_problem, read_checked_upload
+from app.api.uploads import UPLOAD_FILE_HELP, invalid_shape_problem
 from app.auth.dependency import TenantDep
 from app.ingest.sandbox import SandboxCrash
 from app.search.similarity import find_similar
@@ -68,7 +68,7 @@ def search_by_upload(
     mode: ModeQuery = "shape",
     units: UnitsField = None,
 ) -> SearchResponse:
-    upload = read_checked_upload(file.file, file.filename, services.settings, parse=False)
+    upload = services.uploads.read(file.file, file.filename, parse=False)
     try:
         # A sync route runs in the threadpool, so describing does not block the event loop.
         described = request.app.state.search_describer.describe(
