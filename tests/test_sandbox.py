@@ -87,9 +87,11 @@ def test_a_killed_child_is_a_refusal_and_other_errors_keep_their_kind() -> None:
         sandbox.run(fail_numerically)
     with pytest.raises(SandboxCrash, match="KeyError"):
         sandbox.run(crash)
-    # A native reader that dereferences a null pointer ends its process by a signal.
-    with pytest.raises(SandboxCrash, match="crashed \\(SIGSEGV\\).*corrupt"):
+    # A native reader that dereferences a null pointer ends its process by a signal: the
+    # file is at fault, a refusal that no worker retries.
+    with pytest.raises(InvalidShapeError, match="crashed \\(SIGSEGV\\).*corrupt") as crashed:
         sandbox.run(segfault)
+    assert crashed.value.reason == "unparsable"
 
 
 def test_the_worker_describes_in_the_sandbox(tmp_path) -> None:

@@ -3,6 +3,8 @@ alive while working and releases its job when stopped."""
 
 from __future__ import annotations
 
+import os
+import signal
 import threading
 import time
 import uuid
@@ -14,6 +16,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from test_queue import RESULT, add_jobs, make_queue
 
 from app.db.models import Job, Model
+from app.ingest.sandbox import Sandbox
 from app.jobs.worker import Worker, WorkerPool
 from core.errors import InvalidShapeError, SolverError
 
@@ -70,6 +73,29 @@ def test_invalid_shapes_fail_at_once_but_transient_errors_retry(
         (status, (error or {}).get("detail")) for status, error in statuses(sessions).values()
     )
     assert final == [("failed", "NaN"), ("queued", None)]
+
+
+def segfault() -> None:
+    os.kill(os.getpid(), signal.SIGSEGV)
+
+
+def test_a_file_that_crashes_its_reader_fails_its_job_at_once(
+    sessions: sessionmaker[Session],
+) -> None:
+    # A native reader ended by a signal (OpenCascade on a malformed STEP file) fails the same
+    # way on every attempt: the job fails at the first, with the upload check's problem.
+    add_jobs(sessions, 1)
+
+    def handler(content: bytes, filename: str) -> dict[str, Any]:
+        return Sandbox(1024**3, 60).run(segfault)
+
+    queue = make_queue(sessions, max_attempts=5)
+    worker = Worker(queue, handler, worker_id="w", poll_interval=0.01, stop=threading.Event())
+    assert worker.run_once()
+    [(status, error)] = statuses(sessions).values()
+    assert status == "failed"
+    assert error["type"] == "urn:shapesearch:problem:unparsable"
+    assert "SIGSEGV" in error["detail"]
 
 
 def test_the_heartbeat_keeps_a_long_job_leased(sessions: sessionmaker[Session]) -> None:

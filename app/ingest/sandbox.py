@@ -25,6 +25,8 @@ Outcomes, as the engine's own exceptions so that callers handle them as they alw
 * the memory limit (``MemoryError``, or a child killed by the kernel) -> ``too_large``;
 * the wall-clock limit -> ``SandboxTimeout``, an ``InvalidShapeError`` ``too_large`` (the
   child is killed) that a caller for whom the limit is no verdict can tell apart;
+* a child ended by any other signal (a native reader that crashed on the file) ->
+  ``unparsable``;
 * ``SolverError`` passes through (it may be transient); any other exception in the child
   becomes ``SandboxCrash`` with the child's description of it.
 """
@@ -177,10 +179,14 @@ class Sandbox:
     def _died(self, exitcode: int | None) -> InvalidShapeError | SandboxCrash:
         if exitcode is not None and exitcode == -signal.SIGKILL:  # the kernel's OOM killer
             return self._too_big()
-        if exitcode is not None and exitcode < 0:  # a signal: a native reader crashed
-            return SandboxCrash(
+        if exitcode is not None and exitcode < 0:
+            # A signal: a native reader crashed on the file (OpenCascade on a malformed STEP,
+            # lazrs on a lying LAZ). The file, not the moment, is at fault: a refusal, which
+            # a worker does not retry.
+            return InvalidShapeError(
+                "unparsable",
                 f"the process reading this file crashed ({_signal_name(-exitcode)}): the file "
-                "is probably corrupt; export the part again"
+                "is probably corrupt; export the part again",
             )
         return SandboxCrash(f"the describing process ended with exit code {exitcode}")
 
