@@ -25,7 +25,7 @@ import logging
 import threading
 import time
 from dataclasses import dataclass
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 from app.api.limits import too_large_problem
 from app.api.problems import Problem
@@ -164,7 +164,7 @@ class UploadReader:
                 if _safe_in_process(content, fmt):
                     quick_check(*check)
                 else:  # parsed in a child: a bomb cannot grow this process, nor a crash end it
-                    self._check_in_sandbox(check)
+                    self._check_in_sandbox(name, check)
         except InvalidShapeError as error:
             raise invalid_shape_problem(error) from error
         except MemoryError as error:
@@ -180,23 +180,23 @@ class UploadReader:
             ) from error
         return CheckedUpload(content=content, filename=name, format=fmt, sha256=sha256)
 
-    def _check_in_sandbox(self, check: tuple) -> None:
-        """``quick_check(*check)`` in a sandboxed child within one of the slots, waiting for
-        the slot and checking within ``upload_check_timeout_seconds`` together; when that
-        runs out the file is let through unchecked (the worker decides)."""
+    def _check_in_sandbox(self, name: str, check: tuple[Any, ...]) -> None:
+        """``quick_check(*check)`` of the file ``name`` in a sandboxed child within one of the
+        slots, waiting for the slot and checking within ``upload_check_timeout_seconds``
+        together; when that runs out the file is let through unchecked (the worker decides)."""
         budget = self.settings.upload_check_timeout_seconds
         started = time.monotonic()
         if not self._slots.acquire(timeout=budget):
-            self._unchecked(check[1], "busy")
+            self._unchecked(name, "busy")
             return
         try:
             remaining = budget - (time.monotonic() - started)
             if remaining <= 0:
-                self._unchecked(check[1], "busy")
+                self._unchecked(name, "busy")
                 return
             sandbox_of(self.settings, remaining).run(quick_check, *check)
         except SandboxTimeout:
-            self._unchecked(check[1], "timeout")
+            self._unchecked(name, "timeout")
         finally:
             self._slots.release()
 
