@@ -188,6 +188,7 @@ def test_an_iges_file_that_hangs_opencascade_holds_no_request_and_fails_its_job(
         assert model["status"] == "failed"
         assert model["error"]["type"] == "urn:shapesearch:problem:too-large"
         assert "SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS" in model["error"]["detail"]
+        assert "probably corrupt" in model["error"]["detail"]
         readable = client.post("/v1/models", files={"file": ("part.iges", iges_part())})
         assert readable.status_code == 202, readable.text
         assert wait_for_status(client, readable.json()["id"], timeout=60)["status"] == "ready"

@@ -173,7 +173,8 @@ class Sandbox:
         return SandboxTimeout(
             "too_large",
             f"describing this file took longer than the limit of {self.timeout_seconds:g} s "
-            "(SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS): simplify the mesh or thin the cloud first",
+            "(SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS): simplify the mesh or thin the cloud first "
+            "(a small file that takes this long is probably corrupt: export it again)",
         )
 
     def _died(self, exitcode: int | None) -> InvalidShapeError | SandboxCrash:
