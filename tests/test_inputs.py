@@ -91,6 +91,31 @@ def test_a_nul_in_the_file_name_is_422(client: TestClient) -> None:
     assert_invalid(response, "/file/filename")
 
 
+@pytest.mark.parametrize(
+    ("route", "method"),
+    [("/v1/models", "POST"), ("/v1/models/by-external-id/P-1", "PUT"), ("/v1/search", "POST")],
+)
+def test_a_form_field_given_twice_is_422_not_one_dropped(
+    client: TestClient, route: str, method: str
+) -> None:
+    """The framework would keep the last of two files (or metadata objects) and drop the
+    other without a word."""
+    two_files = [("file", ("a.stl", CUBE)), ("file", ("b.stl", CUBE))]
+    body = assert_invalid(client.request(method, route, files=two_files), "/file")
+    assert "2 times" in body["detail"]
+    one_file = {"file": ("a.stl", CUBE)}
+    assert_invalid(client.request(method, route, files=one_file, data={"units": ["mm", "in"]}),
+                   "/units")
+    if route != "/v1/search":  # which takes no metadata
+        two_metadata = {"metadata": ['{"a": 1}', '{"a": 2}']}
+        assert_invalid(client.request(method, route, files=one_file, data=two_metadata),
+                       "/metadata")
+    assert client.get("/v1/models").json()["items"] == []  # none of them was stored
+    # A field the route does not read is ignored, as the framework ignores it.
+    ignored = client.request(method, route, files=one_file, data={"colour": ["red", "blue"]})
+    assert ignored.status_code in (200, 201, 202), ignored.text
+
+
 def test_metadata_at_the_limits_is_accepted(client: TestClient) -> None:
     response = post_model(client, metadata=nested(3))
     assert response.status_code == 202, response.text

@@ -10,8 +10,10 @@ text and NaN in JSON) or a RecursionError deep inside a serializer:
   ``max_metadata_bytes`` as compact JSON, finite numbers only, keys and strings valid text.
 
 ``InputLimits`` holds the limits (built from the settings); ``QueryGuard`` applies the text
-rules to every query parameter of every route. Each violation raises
-``Problem(422, slug="validation-error", pointer=...)`` with a JSON pointer to the field.
+rules to every query parameter of every route; ``fields_once``, a dependency of the upload
+routes, refuses a form field given twice (two files: one would be dropped unseen). Each
+violation raises ``Problem(422, slug="validation-error", pointer=...)`` with a JSON pointer
+to the field.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 from urllib.parse import parse_qsl
 
+from fastapi import Request
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from app.api.problems import Problem, problem_response
@@ -33,6 +36,7 @@ __all__ = [
     "METADATA_SCHEMA",
     "InputLimits",
     "QueryGuard",
+    "fields_once",
     "invalid_input",
 ]
 
@@ -65,6 +69,18 @@ def invalid_input(pointer: str, detail: str) -> Problem:
         pointer=pointer,
         errors=[{"pointer": pointer, "detail": detail}],
     )
+
+
+async def fields_once(request: Request) -> None:
+    """Each form field the route reads at most once (a route dependency): the framework
+    would take the last of two files, or of two metadata objects, and drop the other
+    unseen. Fields the route does not read are ignored, as the framework ignores them."""
+    declared = {param.alias for param in request.scope["route"].dependant.body_params}
+    form = await request.form()  # parsed once per request: the route's own parse is cached
+    for name in declared:
+        count = len(form.getlist(name))
+        if count > 1:
+            raise invalid_input(f"/{_escape(name)}", f"given {count} times; send it once")
 
 
 def _escape(key: str) -> str:

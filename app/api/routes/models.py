@@ -16,7 +16,7 @@ from sqlalchemy.orm import Session
 from app.api.cursors import KeysetCursor, encode_keyset, keyset_after
 from app.api.deps import Services, ServicesDep, SessionDep
 from app.api.idempotency import remember, replay_or_refuse, request_sha256
-from app.api.inputs import JSON_OBJECT_FIELD, METADATA_HELP, InputLimits
+from app.api.inputs import JSON_OBJECT_FIELD, METADATA_HELP, InputLimits, fields_once
 from app.api.lookups import load_model, model_not_found, parse_model_id
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import (
@@ -73,6 +73,7 @@ def _duplicate(session: Session, tenant: str, external_id: str) -> Problem | Non
     response_model=ModelResource,
     responses=problem_responses(401, 409, 413, 415, 422, 503),
     summary="Upload a part; it is described in the background",
+    dependencies=[Depends(fields_once)],
 )
 def upload_model(
     request: Request,

@@ -14,7 +14,7 @@ import uuid
 from datetime import datetime
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, File, Form, Path, Response, UploadFile
+from fastapi import APIRouter, Depends, File, Form, Path, Response, UploadFile
 from pydantic import BaseModel, Field
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
@@ -22,7 +22,13 @@ from sqlalchemy.orm import Session
 from starlette.convertors import Convertor, register_url_convertor
 
 from app.api.deps import ServicesDep, SessionDep
-from app.api.inputs import JSON_OBJECT_FIELD, METADATA_HELP, InputLimits, invalid_input
+from app.api.inputs import (
+    JSON_OBJECT_FIELD,
+    METADATA_HELP,
+    InputLimits,
+    fields_once,
+    invalid_input,
+)
 from app.api.lookups import load_model, parse_model_id
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
@@ -109,6 +115,7 @@ def _revision_resource(revision: ModelRevision) -> RevisionResource:
         **problem_responses(401, 413, 415, 422, 503),
     },
     summary="Create or update the model with this external id",
+    dependencies=[Depends(fields_once)],
     description="Absent: created (201 + job). Present with the same file (sha256): only "
     "name and metadata change (200, no job). A new file: a new revision is described (202 + "
     "job) while the model keeps its id and its previous descriptor stays searchable; when "

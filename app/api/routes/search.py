@@ -8,6 +8,7 @@ import numpy as np
 from fastapi import APIRouter, Depends, File, Query, Request, UploadFile
 
 from app.api.deps import ServicesDep, SessionDep
+from app.api.inputs import fields_once
 from app.api.problems import problem_responses
 from app.api.schemas import (
     SearchQuery,
@@ -46,6 +47,7 @@ router = APIRouter(prefix="/v1", tags=["search"])
     response_model=SearchResponse,
     responses=problem_responses(401, 413, 415, 422, 503),
     summary="Find the models most similar to an uploaded scan (nothing is stored)",
+    dependencies=[Depends(fields_once)],
     openapi_extra=FILTER_PARAMETERS,
     description="The scan is described synchronously, which takes seconds; at most "
     "SHAPESEARCH_SEARCH_MAX_CONCURRENT at a time (beyond: 503 with Retry-After). A file "
