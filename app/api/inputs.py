@@ -75,7 +75,7 @@ async def fields_once(request: Request) -> None:
     """Each form field the route reads at most once (a route dependency): the framework
     would take the last of two files, or of two metadata objects, and drop the other
     unseen. Fields the route does not read are ignored, as the framework ignores them."""
-    declared = {param.alias for param in request.scope["route"].dependant.body_params}
+    declared = [param.alias for param in request.scope["route"].dependant.body_params]
     form = await request.form()  # parsed once per request: the route's own parse is cached
     for name in declared:
         count = len(form.getlist(name))
