@@ -157,6 +157,10 @@ def test_metadata_null_is_refused_as_the_schema_says(client: TestClient) -> None
         ("/v1/models?external_id=" + "x" * 501, "/query/external_id"),
         ("/v1/models/00000000-0000-0000-0000-000000000000/similar?metadata.a=%00",
          "/query/metadata.a"),
+        # No parameter is a list: the framework would keep the last value, unseen.
+        ("/v1/models?limit=5&limit=50", "/query/limit"),
+        ("/v1/models/00000000-0000-0000-0000-000000000000/similar?metadata.a=x&metadata.a=y",
+         "/query/metadata.a"),
     ],
 )
 def test_bad_query_parameters_are_422_with_a_pointer(

@@ -10,10 +10,10 @@ text and NaN in JSON) or a RecursionError deep inside a serializer:
   ``max_metadata_bytes`` as compact JSON, finite numbers only, keys and strings valid text.
 
 ``InputLimits`` holds the limits (built from the settings); ``QueryGuard`` applies the text
-rules to every query parameter of every route; ``fields_once``, a dependency of the upload
-routes, refuses a form field given twice (two files: one would be dropped unseen). Each
-violation raises ``Problem(422, slug="validation-error", pointer=...)`` with a JSON pointer
-to the field.
+rules to every query parameter of every route and refuses one given twice; ``fields_once``,
+a dependency of the upload routes, refuses a form field given twice (two files: one would
+be dropped unseen). Each violation raises ``Problem(422, slug="validation-error",
+pointer=...)`` with a JSON pointer to the field.
 """
 
 from __future__ import annotations
@@ -182,7 +182,9 @@ def _refuse_constant(name: str) -> Any:
 
 
 class QueryGuard:
-    """ASGI middleware: every query parameter of every route must be acceptable text."""
+    """ASGI middleware: every query parameter of every route must be acceptable text, and
+    given once (no parameter of the API is a list: the framework would keep the last of
+    two values and drop the other unseen)."""
 
     def __init__(self, app: ASGIApp, limits: InputLimits) -> None:
         self.app = app
@@ -191,10 +193,15 @@ class QueryGuard:
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] == "http" and scope.get("query_string"):
             query = scope["query_string"].decode("latin-1")
+            seen: set[str] = set()
             for name, value in parse_qsl(query, keep_blank_values=True, errors="surrogateescape"):
+                pointer = f"/query/{_escape(name)}"
                 try:
-                    self.limits.text(name, f"/query/{_escape(name)}")
-                    self.limits.text(value, f"/query/{_escape(name)}")
+                    self.limits.text(name, pointer)
+                    self.limits.text(value, pointer)
+                    if name in seen:
+                        raise invalid_input(pointer, "given more than once; send it once")
+                    seen.add(name)
                 except Problem as problem:
                     response = problem_response(problem.record)
                     await response(scope, receive, send)
