@@ -3,8 +3,6 @@ alive while working and releases its job when stopped."""
 
 from __future__ import annotations
 
-import os
-import signal
 import threading
 import time
 import uuid
@@ -14,6 +12,7 @@ import pytest
 from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
 from test_queue import RESULT, add_jobs, make_queue
+from test_sandbox import segfault
 
 from app.db.models import Job, Model
 from app.ingest.sandbox import Sandbox
@@ -73,10 +72,6 @@ def test_invalid_shapes_fail_at_once_but_transient_errors_retry(
         (status, (error or {}).get("detail")) for status, error in statuses(sessions).values()
     )
     assert final == [("failed", "NaN"), ("queued", None)]
-
-
-def segfault() -> None:
-    os.kill(os.getpid(), signal.SIGSEGV)
 
 
 def test_a_file_that_crashes_its_reader_fails_its_job_at_once(
