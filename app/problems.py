@@ -59,6 +59,7 @@ CATALOGUE: dict[str, Kind] = {
     "superseded": Kind(409, "Superseded"),
     # The service, now.
     "busy": Kind(503, "Busy"),
+    "storage-full": Kind(507, "Insufficient storage"),
     "not-ready": Kind(503, "Not ready"),
     "solver-error": Kind(503, "Solver error"),
     "worker-died": Kind(500, "Worker died"),

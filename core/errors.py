@@ -10,12 +10,21 @@ One hierarchy, documented once (in the manner of httpx):
                                 ``fields`` names the settings involved
 
 Every refusal of user input is an ``InvalidShapeError`` with a short machine-readable
-``reason`` code and a human-readable message.
+``reason`` code and a human-readable message. An ``OSError`` whose ``errno`` is one of
+``NO_SPACE_ERRNOS`` (a full disk under a reader's temporary copy) is the machine's, not the
+file's: it is never turned into a refusal.
 """
 
 from __future__ import annotations
 
-__all__ = ["InvalidShapeError", "SettingsError", "ShapeSearchError", "SolverError"]
+import errno
+
+__all__ = [
+    "NO_SPACE_ERRNOS", "InvalidShapeError", "SettingsError", "ShapeSearchError", "SolverError",
+]
+
+#: ``OSError.errno`` values of a full disk or an exhausted quota.
+NO_SPACE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT})
 
 
 class ShapeSearchError(Exception):

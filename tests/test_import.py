@@ -10,13 +10,14 @@ import socket
 import threading
 import time
 import zipfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import httpx
 import pytest
 import uvicorn
 from conftest import EDGE_CASES, PARTS, fake_describe, make_settings
+from fastapi import FastAPI
 from plm_helpers import box_stl
 
 from app.api.main import create_app
@@ -30,6 +31,11 @@ def service(database_url: str) -> Iterator[str]:
     """The app on a free 127.0.0.1 port, with an embedded worker."""
     app = create_app(make_settings(database_url, workers=1), embedded_worker=True,
                      job_handler=fake_describe)
+    yield from served(app)
+
+
+def served(app: FastAPI) -> Iterator[str]:
+    """Serve ``app`` on a free 127.0.0.1 port until the generator is closed."""
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
@@ -314,3 +320,38 @@ def test_a_4xx_is_not_retried(sleeps: list[float], status: int) -> None:
     assert outcome.detail == f"no {status}"
     assert len(handler.requests) == 1 and sleeps == []
     client.close()
+
+
+def test_a_full_service_stops_the_import_and_a_second_run_completes_it(
+    new_database_url: Callable[[str], str], catalogue: Path, tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from test_storage_full import cap_growth
+
+    app = create_app(make_settings(new_database_url("sqlite"), workers=1),
+                     embedded_worker=True, job_handler=fake_describe)
+    server = served(app)
+    service = next(server)
+    try:
+        lift = cap_growth(app.state.services.engine)
+        report = tmp_path / "full.csv"
+        code = main(["import", str(catalogue), "--url", service, "--concurrency", "1",
+                     "--report", str(report)])
+        assert code == 1
+        rows = read_report(report)
+        # One upload met the full storage (the bad files before it, if any, were refused
+        # without being stored); no file after it was sent, to be refused whole.
+        answered = [row["http_status"] for row in rows if row["http_status"]]
+        assert answered[-1] == "507" and set(answered[:-1]) <= {"422"}
+        unsent = [row for row in rows if not row["http_status"]]
+        assert len(rows) == 20 and len(unsent) == 20 - len(answered) >= 16
+        assert all(row["outcome"] == "failed" and "not sent" in row["detail"] for row in unsent)
+        assert f"storage is full (507): {len(unsent)} file(s) not sent" in capsys.readouterr().err
+
+        lift()
+        code = main(["import", str(catalogue), "--url", service, "--report", str(report)])
+        assert code == 1  # the two bad files
+        outcomes = [row["outcome"] for row in read_report(report)]
+        assert outcomes.count("accepted") == 18
+    finally:
+        server.close()

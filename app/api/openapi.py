@@ -47,13 +47,19 @@ _BINARY = "application/octet-stream"
 _EXAMPLE_FILE_NAME = "part.stl"
 
 
-def _complete(operation: dict[str, Any]) -> None:
+# Methods that store something, or spool a request body to disk: a full disk refuses them.
+_WRITES = frozenset({"post", "put", "patch", "delete"})
+
+
+def _complete(method: str, operation: dict[str, Any]) -> None:
     if operation.get("security"):
         operation["security"] = [*operation["security"], {}]
     responses = operation.setdefault("responses", {})
     if "requestBody" in operation:
         for status, response in problem_responses(400, 413).items():
             responses.setdefault(str(status), response)
+    if method in _WRITES:
+        responses.setdefault("507", problem_responses(507)[507])
     # FastAPI documents its parameter validation as application/json; the service answers
     # every refusal as problem+json (app/api/problems.py).
     if _JSON in responses.get("422", {}).get("content", {}):
@@ -189,8 +195,8 @@ def install_openapi(app: FastAPI, limits: InputLimits) -> None:
             schemas["Problem"] = copy.deepcopy(PROBLEM_SCHEMA)
             schemas.update(copy.deepcopy(FILTER_SCHEMAS))
             for path in paths.values():
-                for operation in path.values():
-                    _complete(operation)
+                for method, operation in path.items():
+                    _complete(method, operation)
                     _complete_inputs(operation, schemas, limits)
             _complete_json_bodies(paths, schemas, limits)
             _complete_filters(schemas, limits)

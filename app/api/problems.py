@@ -4,9 +4,11 @@
 error catalogue (``app.problems``); the handlers installed by ``install_problem_handlers``
 also turn the engine's errors (``core.errors``: an ``InvalidShapeError`` by its reason, a
 ``SolverError`` as ``solver-error``), Starlette's HTTP errors (404 of unknown routes, 405,
-...), FastAPI's validation errors (422) and unexpected exceptions (500) into
-``application/problem+json``. Every refused field is ``validation-error`` (with a JSON
-``pointer``), every size limit ``too-large`` (naming the limit's setting).
+...), FastAPI's validation errors (422), full storage (507 ``storage-full``, however the
+database driver or the upload's spooling reported it: ``app.storage``) and unexpected
+exceptions (500) into ``application/problem+json``. Every refused field is
+``validation-error`` (with a JSON ``pointer``), every size limit ``too-large`` (naming the
+limit's setting).
 """
 
 from __future__ import annotations
@@ -20,10 +22,12 @@ from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from sqlalchemy.exc import DBAPIError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import compile_path
 
 from app.problems import CATALOGUE, blank_problem, problem, reason_kind
+from app.storage import storage_full
 from core.errors import InvalidShapeError, SolverError
 
 __all__ = [
@@ -33,6 +37,7 @@ __all__ = [
     "problem_response",
     "problem_responses",
     "PROBLEM_SCHEMA",
+    "storage_full_problem",
 ]
 
 PROBLEM_JSON = "application/problem+json"
@@ -50,7 +55,11 @@ _MEANINGS = {
     415: "Unknown file format",
     422: "Invalid request or shape file",
     503: "Not ready, or the shape could not be described this time",
+    507: "The service's storage is full: nothing was stored; try again after Retry-After",
 }
+
+# Seconds a client is asked to wait when storage is full: an operator has to free space.
+STORAGE_FULL_RETRY_AFTER = 60
 
 
 #: The JSON Schema of every problem+json body: one component, ``#/components/schemas/Problem``,
@@ -141,6 +150,9 @@ async def _on_problem(request: Request, exc: Exception) -> JSONResponse:
         exc.headers = {**(exc.headers or {}), "Allow": _allowed_methods(request)}
     if isinstance(exc, Problem):
         return problem_response(exc.record, headers=exc.headers)
+    if exc.status_code == 400 and exc.__cause__ is not None and storage_full(exc.__cause__):
+        # FastAPI could not spool the upload to a temporary file: the disk is full.
+        return _storage_full_response(exc.__cause__)
     if exc.status_code == 400 and isinstance(exc.__cause__, RecursionError):
         # FastAPI could not parse a JSON body because it is nested too deeply.
         return problem_response(problem(
@@ -193,6 +205,31 @@ def _pointer(loc: Any) -> str:
     return "".join("/" + part.replace("~", "~0").replace("/", "~1") for part in parts)
 
 
+async def _on_storage_error(_request: Request, exc: Exception) -> JSONResponse:
+    """A database or file error: 507 when storage is full; anything else stays unexpected
+    (raised on, to ``_on_unexpected``)."""
+    if not storage_full(exc):
+        raise exc
+    return _storage_full_response(exc)
+
+
+def storage_full_problem() -> Problem:
+    """The 507 of a write that found the storage full."""
+    return Problem(
+        "storage-full",
+        "The service's storage is full, so nothing was stored; an operator has to free "
+        "space. Try again later.",
+        headers={"Retry-After": str(STORAGE_FULL_RETRY_AFTER)},
+    )
+
+
+def _storage_full_response(exc: BaseException) -> JSONResponse:
+    # One line, not a traceback per request: the condition, not the code, is at fault.
+    log.error("storage full, request refused: %s", str(exc).splitlines()[0][:300])
+    refusal = storage_full_problem()
+    return problem_response(refusal.record, headers=refusal.headers)
+
+
 async def _on_unexpected(_request: Request, exc: Exception) -> JSONResponse:
     log.exception("unhandled error", exc_info=exc)
     return problem_response(
@@ -205,4 +242,6 @@ def install_problem_handlers(app: FastAPI) -> None:
     app.add_exception_handler(RequestValidationError, _on_validation)
     app.add_exception_handler(InvalidShapeError, _on_invalid_shape)
     app.add_exception_handler(SolverError, _on_solver_error)
+    app.add_exception_handler(DBAPIError, _on_storage_error)
+    app.add_exception_handler(OSError, _on_storage_error)
     app.add_exception_handler(Exception, _on_unexpected)

@@ -34,6 +34,7 @@ from app.ingest.sandbox import SandboxTimeout, sandbox_of
 from app.observability.metrics import UNCHECKED_UPLOADS
 from app.problems import reason_kind
 from app.settings import Settings
+from app.storage import storage_full
 from core.errors import InvalidShapeError
 from core.io import (
     CRASHING_FORMATS,
@@ -174,6 +175,8 @@ class UploadReader:
             log.error("quick check of %r: this process is out of memory", name)
             raise out_of_memory_problem() from error
         except Exception as error:  # a parser bug must not become a 500 for the client
+            if storage_full(error):  # the machine's fault, not the file's: 507
+                raise
             log.exception("quick check of %r failed", name)
             raise invalid_shape_problem(
                 InvalidShapeError("unparsable", f"the file could not be read: {error}")

@@ -13,7 +13,9 @@ It is a client of the service, like any PLM connector:
        jittered exponential backoff, honouring Retry-After; other 4xx answers are refusals
        with the service's reason. A PUT by external id is safe to repeat: the same file
        again is a 200 (or the revision already pending), never a second model, so no
-       Idempotency-Key is needed (the service reads those on POST /v1/models only);
+       Idempotency-Key is needed (the service reads those on POST /v1/models only). A 507
+       (the service's storage is full) stops the sending: no later file could be stored,
+       and each would be sent whole to be refused; those files are reported as not sent;
     4. with ``--wait``, follow every accepted model to ready or failed;
     5. write a CSV report (one row per file) and exit non-zero if anything was refused
        or failed.
@@ -54,6 +56,9 @@ __all__ = [
 CAD_EXTENSIONS = ("step", "stp", "iges", "igs")
 SHAPE_EXTENSIONS = frozenset((*SUPPORTED_FORMATS, *CAD_EXTENSIONS))
 RETRY_STATUSES = (429, 502, 503, 504)
+STORAGE_FULL = 507  # the service's storage is full: stop sending
+NOT_SENT = ("not sent: the service's storage is full (507); free space and run the import "
+            "again (what was stored is skipped)")
 REPORT_FIELDS = ["path", "external_id", "sha256", "outcome", "http_status", "model_id", "detail"]
 # the service's default SHAPESEARCH_MAX_UPLOAD_BYTES (a larger file would get 413); not read
 # from app.settings, whose pydantic would add 13 MB to the importer (a test keeps them equal)
@@ -347,12 +352,15 @@ class _Importer:
         self.options = options
         self.existing = existing
         self.sidecar = sidecar
+        self.storage_full = threading.Event()
 
     def __call__(self, item: SourceItem) -> Outcome:
         """Read, compare and upload one file; its bytes are dropped on return."""
         external_id = _external_id(item.path, self.options.external_id)
         if item.refusal is not None:
             return Outcome(item.path, external_id, "", "refused", detail=item.refusal)
+        if self.storage_full.is_set():
+            return Outcome(item.path, external_id, "", "failed", detail=NOT_SENT)
         try:
             content = item.read()
         except READ_ERRORS as error:
@@ -364,8 +372,11 @@ class _Importer:
             return Outcome(item.path, external_id, sha256, "skipped", model_id=known[0])
         meta = (self.sidecar.get(external_id) or self.sidecar.get(item.path)
                 or self.sidecar.get(PurePosixPath(item.path).name))
-        return _upload(self.client, item.path, content, sha256, external_id, meta,
-                       self.options.units)
+        outcome = _upload(self.client, item.path, content, sha256, external_id, meta,
+                          self.options.units)
+        if outcome.http_status == STORAGE_FULL:
+            self.storage_full.set()
+        return outcome
 
 
 def upload_all(
@@ -481,10 +492,10 @@ def run_import(path: Path, options: ImportOptions) -> tuple[int, Counter[str]]:
                 if result.outcome == "refused":
                     bar.write(f"refused {result.path}: {result.detail}")
 
+        importer = _Importer(client, options, existing, sidecar)
         try:
             with open_sources(path, options.metadata, options.max_file_bytes) as items:
-                upload_all(items, _Importer(client, options, existing, sidecar),
-                           options.concurrency, done, outcomes)
+                upload_all(items, importer, options.concurrency, done, outcomes)
         except BaseException:
             _write_report(options.report, outcomes)  # what was uploaded before the error
             raise
@@ -499,5 +510,9 @@ def run_import(path: Path, options: ImportOptions) -> tuple[int, Counter[str]]:
     summary = ", ".join(f"{counts.get(k, 0)} {k}" for k in
                         ("accepted", "updated", "skipped", "refused", "failed", "ready"))
     print(f"{len(outcomes)} files: {summary}; report: {options.report}", file=sys.stderr)
+    if importer.storage_full.is_set():
+        unsent = sum(o.detail == NOT_SENT for o in outcomes)
+        print(f"the service's storage is full (507): {unsent} file(s) not sent; free space "
+              "and run the same command again", file=sys.stderr)
     bad = counts.get("refused", 0) + counts.get("failed", 0)
     return (1 if bad else 0), counts

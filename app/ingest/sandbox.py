@@ -27,8 +27,9 @@ Outcomes, as the engine's own exceptions so that callers handle them as they alw
   child is killed) that a caller for whom the limit is no verdict can tell apart;
 * a child ended by any other signal (a native reader that crashed on the file) ->
   ``unparsable``;
-* ``SolverError`` passes through (it may be transient); any other exception in the child
-  becomes ``SandboxCrash`` with the child's description of it.
+* ``SolverError`` passes through (it may be transient), and so does an ``OSError`` of a
+  full disk (``core.errors.NO_SPACE_ERRNOS``: ``app.storage`` tells it); any other exception
+  in the child becomes ``SandboxCrash`` with the child's description of it.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ from scipy.linalg import blas
 from threadpoolctl import threadpool_limits
 
 from app.settings import Settings
-from core.errors import InvalidShapeError, SolverError
+from core.errors import NO_SPACE_ERRNOS, InvalidShapeError, SolverError
 
 __all__ = ["Sandbox", "SandboxCrash", "SandboxTimeout", "sandbox_of"]
 
@@ -109,6 +110,11 @@ def _child(
         outcome = ("solver", str(error))
     except MemoryError:
         outcome = ("memory", None)
+    except OSError as error:
+        if error.errno in NO_SPACE_ERRNOS:  # the parent's storage_full must still see it
+            outcome = ("no-space", (error.errno, str(error)[:2000]))
+        else:
+            outcome = ("crash", f"{type(error).__name__}: {error}"[:2000])
     except BaseException as error:  # reported to the parent, which decides what it means
         outcome = ("crash", f"{type(error).__name__}: {error}"[:2000])
     try:
@@ -159,6 +165,8 @@ class Sandbox:
             raise SolverError(payload)
         if kind == "memory":
             raise self._too_big()
+        if kind == "no-space":
+            raise OSError(*payload)
         raise SandboxCrash(payload)
 
     def _too_big(self) -> InvalidShapeError:

@@ -2,9 +2,9 @@
 
 A worker *claims* a due job, which gives it a lease: ``worker_id``, the ``attempts``
 number of this claim and ``leased_until``. It renews the lease while it works and ends the
-claim with exactly one of ``complete``, ``fail``, ``retry`` or ``release``. Every one of
-those is guarded by (job id, worker id, attempts, status running): a worker whose lease
-expired and was taken over changes nothing.
+claim with exactly one of ``complete``, ``fail``, ``retry``, ``defer`` or ``release``. Every
+one of those is guarded by (job id, worker id, attempts, status running): a worker whose
+lease expired and was taken over changes nothing.
 
 Claiming is one statement (``app.jobs.lease``), which also takes over jobs whose worker's
 lease expired.
@@ -226,6 +226,15 @@ class JobQueue:
         delay = backoff_seconds(claim.attempts, self.backoff_base, self.backoff_cap)
         return self._requeue(
             claim, now, run_after=now + timedelta(seconds=delay), last_error=error
+        )
+
+    def defer(self, claim: Claim, error: dict[str, Any], seconds: float) -> bool:
+        """Put the job back for ``seconds`` with ``error`` shown, this attempt not counted:
+        the machine, not the job, is at fault (storage full)."""
+        now = utcnow()
+        return self._requeue(
+            claim, now, run_after=now + timedelta(seconds=seconds),
+            attempts=Job.attempts - 1, last_error=error,
         )
 
     def release(self, claim: Claim) -> bool:

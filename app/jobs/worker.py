@@ -11,7 +11,10 @@ A job's kind says what it is: ``describe`` and ``redescribe`` describe an upload
                  on one HTTP endpoint (the N processes summed)
 
 A worker never dies on its input: every exception of a job ends that job (failed or
-retried) and is logged; a database outage is waited out.
+retried) and is logged; a database outage is waited out, logged when it starts, once a
+minute while it lasts and when it ends. Full storage (``app.storage``) is nobody's input:
+the job goes back to the queue for a minute without spending an attempt, so that a full
+disk delays jobs instead of failing them.
 """
 
 from __future__ import annotations
@@ -56,6 +59,7 @@ from app.problems import problem, reason_kind
 from app.search.duplicate_reports import store_report
 from app.search.duplicates import DuplicatesQuery, compute_report
 from app.settings import Settings, engine_settings
+from app.storage import storage_full
 from app.webhooks import start_delivery_thread
 from core.errors import InvalidShapeError, SolverError
 
@@ -76,6 +80,11 @@ log = logging.getLogger("shapesearch.worker")
 JobHandler = Callable[[bytes, str], dict[str, Any]]
 # a duplicates job's claim -> what stores its report, given the session of the completion
 ReportHandler = Callable[[Claim], Callable[[Session], object]]
+
+# How long a job waits when storage is full: an operator has to free space.
+STORAGE_FULL_DELAY_SECONDS = 60.0
+# How often a lasting outage of the queue is logged again.
+OUTAGE_LOG_INTERVAL_SECONDS = 60.0
 
 # Worth another attempt later: the numerics, the database or the machine had a bad moment.
 TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
@@ -167,11 +176,13 @@ class Worker:
 
     def run(self) -> None:
         log.info("worker %s started", self.worker_id)
+        outage = _Outage(self.worker_id)
         while not self.stop.is_set():
             try:
                 found = self.run_once()
-            except Exception:  # the database is away: wait and try again
-                log.exception("worker %s: queue unavailable", self.worker_id)
+                outage.end()
+            except Exception as error:  # the database is away or full: wait and try again
+                outage.report(error)
                 found = False
             if not found:
                 self.stop.wait(self.poll_interval)
@@ -209,14 +220,16 @@ class Worker:
                 )
                 return
             except TRANSIENT_ERRORS as error:
-                log.warning("job %s attempt %d: %r", claim.job_id, claim.attempts, error)
-                self.queue.retry(claim, _error_record(error))
+                self._retry(claim, error)
                 return
             except Exception as error:  # a bug or an input we did not foresee: retry, capped
                 log.exception("job %s attempt %d failed", claim.job_id, claim.attempts)
                 self.queue.retry(claim, _error_record(error))
                 return
-        if self.queue.complete(claim, columns):
+        completed = self._stored(claim, lambda: self.queue.complete(claim, columns))
+        if completed is None:
+            return
+        if completed:
             observe_description(columns)
             log.info("job %s done in %.2fs", claim.job_id, time.perf_counter() - started)
             if self.on_done is not None:
@@ -233,22 +246,92 @@ class Worker:
             try:
                 store = self.reports(claim)
             except TRANSIENT_ERRORS as error:
-                log.warning("job %s attempt %d: %r", claim.job_id, claim.attempts, error)
-                self.queue.retry(claim, _error_record(error))
+                self._retry(claim, error)
                 return
             except Exception as error:  # a bug: retry, capped
                 log.exception("job %s attempt %d failed", claim.job_id, claim.attempts)
                 self.queue.retry(claim, _error_record(error))
                 return
-        if not self.queue.complete_report(claim, store):
+        completed = self._stored(claim, lambda: self.queue.complete_report(claim, store))
+        if completed is None:
+            return
+        if not completed:
             log.warning("job %s: lease lost, report discarded", claim.job_id)
         elif self.on_done is not None:
             self.on_done()
+
+    def _stored(self, claim: Claim, complete: Callable[[], bool]) -> bool | None:
+        """``complete()``'s answer (False: the lease was lost), or None when the storage
+        was full and the job was deferred."""
+        try:
+            return complete()
+        except Exception as error:
+            if not storage_full(error):
+                raise
+            self._defer(claim, error)
+            return None
+
+    def _retry(self, claim: Claim, error: BaseException) -> None:
+        """A transient error: try again later, capped; a full storage does not count."""
+        if storage_full(error):
+            self._defer(claim, error)
+            return
+        log.warning("job %s attempt %d: %r", claim.job_id, claim.attempts, error)
+        self.queue.retry(claim, _error_record(error))
+
+    def _defer(self, claim: Claim, error: BaseException) -> None:
+        """Storage is full: the job waits ``STORAGE_FULL_DELAY_SECONDS``, its attempt given
+        back. If even that cannot be written, its lease runs out and it is claimed again."""
+        reason = _first_line(error)
+        log.error("job %s: storage full, the job waits %g s (%s)", claim.job_id,
+                  STORAGE_FULL_DELAY_SECONDS, reason)
+        record = problem("storage-full", f"storage full, the job waits: {reason}")
+        try:
+            self.queue.defer(claim, record, STORAGE_FULL_DELAY_SECONDS)
+        except Exception as again:
+            if not storage_full(again):
+                raise
 
 
 def _error_record(error: BaseException) -> dict[str, str]:
     kind = "solver-error" if isinstance(error, SolverError) else "internal-error"
     return problem(kind, f"{type(error).__name__}: {error}"[:2000])
+
+
+def _first_line(error: BaseException) -> str:
+    """What went wrong, without the SQL and parameters SQLAlchemy appends (a descriptor's
+    bytes among them)."""
+    return (str(error).splitlines() or [type(error).__name__])[0][:300]
+
+
+class _Outage:
+    """The log of one worker's queue outage (a database away or full): the first error in
+    full, a line a minute while it lasts, one when it ends; not a traceback a second."""
+
+    def __init__(self, worker_id: str) -> None:
+        self.worker_id = worker_id
+        self.started: float | None = None
+        self.logged = 0.0
+
+    def report(self, error: Exception) -> None:
+        now = time.monotonic()
+        if self.started is None:
+            self.started = self.logged = now
+            if storage_full(error):
+                log.error("worker %s: storage full, no job can be claimed or stored until "
+                          "space is freed: %s", self.worker_id, _first_line(error))
+            else:
+                log.exception("worker %s: queue unavailable", self.worker_id)
+        elif now - self.logged >= OUTAGE_LOG_INTERVAL_SECONDS:
+            self.logged = now
+            log.warning("worker %s: queue unavailable for %.0f s: %s", self.worker_id,
+                        now - self.started, _first_line(error))
+
+    def end(self) -> None:
+        if self.started is not None:
+            log.info("worker %s: queue available again after %.0f s", self.worker_id,
+                     time.monotonic() - self.started)
+            self.started = None
 
 
 class _Heartbeat:

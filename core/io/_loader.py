@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from core.errors import InvalidShapeError
+from core.errors import NO_SPACE_ERRNOS, InvalidShapeError
 from core.io._cad import read_cad
 from core.io._e57 import read_e57
 from core.io._formats import CAD_FORMATS, TEXT_POINT_FORMATS, detect_format
@@ -93,12 +93,14 @@ def _parse(data: bytes, fmt: str) -> RawGeometry:
 
 def _parse_safely(data: bytes, fmt: str) -> RawGeometry:
     """``_parse`` with every unexpected exception but ``MemoryError`` (the sandbox's limit:
-    too large) turned into ``unparsable``."""
+    too large) and a full disk turned into ``unparsable``."""
     try:
         return _parse(data, fmt)
     except (InvalidShapeError, MemoryError):  # a memory limit means too large, not unreadable
         raise
     except Exception as exc:  # any library error on a bad file means the same to the user
+        if isinstance(exc, OSError) and exc.errno in NO_SPACE_ERRNOS:
+            raise  # a reader's temporary copy found no room: the machine's fault, not the file's
         logger.info("unparsable .%s upload: %r", fmt, exc)
         raise InvalidShapeError(
             "unparsable",
