@@ -9,6 +9,7 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch keys create --tenant NAME | list | revoke PREFIX
     shapesearch redescribe [--from-version V | --all] [--wait]
     shapesearch duplicates [--min-score 0.98] [--size-tolerance T] [--format csv|json] [--tenant T]
+    shapesearch backup DEST
     shapesearch --version
     shapesearch import PATH [--url URL] [--key KEY] [--external-id path|stem] [--metadata F]
                        [--units mm|cm|m|in]
@@ -85,6 +86,12 @@ def _duplicates(args: argparse.Namespace) -> int:
     return duplicates.run(min_score=args.min_score, output_format=args.format,
                           tenant=args.tenant, descriptor_version=args.descriptor_version,
                           size_tolerance=args.size_tolerance)
+
+
+def _backup(args: argparse.Namespace) -> int:
+    from app.cli import backup
+
+    return backup.run(Path(args.destination))
 
 
 def _import(args: argparse.Namespace) -> int:
@@ -211,6 +218,12 @@ def build_parser() -> argparse.ArgumentParser:
     duplicates.add_argument("--descriptor-version", default=None,
                             help="default: the version of the current engine settings")
     duplicates.set_defaults(handler=_duplicates)
+
+    backup = commands.add_parser(
+        "backup", help="copy the embedded SQLite database, consistently, while the service runs"
+    )
+    backup.add_argument("destination", help="a new file, or a directory for a time-stamped one")
+    backup.set_defaults(handler=_backup)
 
     importer = commands.add_parser("import", help="upload a folder, .zip or .tar of parts")
     importer.add_argument("path")
