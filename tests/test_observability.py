@@ -3,10 +3,13 @@ and keys that never reach a log."""
 
 from __future__ import annotations
 
+import errno
 import io
 import json
 import logging
 import re
+import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -14,12 +17,15 @@ import pytest
 from conftest import PARTS, fake_describe, make_settings, wait_for_status
 from fastapi.testclient import TestClient
 from prometheus_client.parser import text_string_to_metric_families
+from sqlalchemy import create_engine
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.api.main import create_app
 from app.auth.keys import create_key
 from app.db.session import make_session_factory
-from app.observability.logs import configure_logging
+from app.jobs.queue import JobQueue
+from app.jobs.worker import Worker
+from app.observability.logs import Outage, configure_logging
 from app.observability.metrics import (
     IndexCollector,
     QueueCollector,
@@ -174,3 +180,49 @@ def test_the_grafana_dashboard_asks_for_metrics_that_exist(
     exported = {family.name for family in registry.collect()}
     assert asked and asked <= exported, asked - exported
     assert len(dashboard["panels"]) == len({panel["id"] for panel in dashboard["panels"]})
+
+
+def test_an_outage_is_logged_when_it_starts_once_a_minute_and_when_it_ends(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    now = [0.0]
+    outage = Outage(logging.getLogger("test.outage"), "worker w: queue", clock=lambda: now[0])
+    away = ConnectionRefusedError("connection refused")
+    with caplog.at_level(logging.INFO, logger="test.outage"):
+        for second in range(150):  # a failed poll every second for 150 s
+            now[0] = float(second)
+            outage.report(away)
+        now[0] = 160.0
+        outage.end()
+        outage.end()  # no outage: nothing more
+        outage.report(OSError(errno.ENOSPC, "No space left on device"))
+    lines = [(r.levelname, r.exc_info is not None, r.getMessage()) for r in caplog.records]
+    assert lines == [
+        ("ERROR", True, "worker w: queue unavailable"),
+        ("WARNING", False, "worker w: queue unavailable for 60 s: connection refused"),
+        ("WARNING", False, "worker w: queue unavailable for 120 s: connection refused"),
+        ("INFO", False, "worker w: queue available again after 160 s"),
+        ("ERROR", False, "worker w: queue: storage full, nothing can be stored until space is "
+                         "freed: [Errno 28] No space left on device"),
+    ]
+
+
+def test_a_worker_whose_database_is_away_logs_it_once_not_every_poll(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture,
+) -> None:
+    # No database can be opened there: every claim fails, 100 times a second.
+    engine = create_engine(f"sqlite:///{tmp_path / 'missing-folder' / 'shapesearch.db'}")
+    queue = JobQueue(make_session_factory(engine), lease_seconds=30, max_attempts=3,
+                     backoff_base=1, backoff_cap=10)
+    stop = threading.Event()
+    worker = Worker(queue, fake_describe, worker_id="w", poll_interval=0.01, stop=stop)
+    thread = threading.Thread(target=worker.run)
+    with caplog.at_level(logging.INFO, logger="shapesearch.worker"):
+        thread.start()
+        time.sleep(0.5)
+        stop.set()
+        thread.join(10)
+    failures = [r for r in caplog.records if "unavailable" in r.getMessage()]
+    assert len(failures) == 1 and failures[0].exc_info is not None  # was one per poll
+    assert "unable to open database" in str(failures[0].exc_info[1])
+    engine.dispose()

@@ -37,7 +37,7 @@ from app.jobs.worker import (
     duplicates_handler,
     make_queue,
 )
-from app.observability.logs import RequestId
+from app.observability.logs import Outage, RequestId
 from app.observability.metrics import (
     HttpMetrics,
     IndexCollector,
@@ -69,12 +69,14 @@ def _follow_feed(index: ShapeIndex, interval: float, stop: threading.Event) -> N
     its hub-discount neighbourhoods (after start-up, or after a bulk change forgot them),
     compute them in the background (``ShapeIndex.keep_neighbourhoods``)."""
     keeper: threading.Thread | None = None
+    outage = Outage(log, "index sync: the change feed")
     while not stop.wait(interval):
         changes = index.changes
         try:
             _sync(index)
-        except Exception:
-            log.exception("index sync failed; retrying")
+            outage.end()
+        except Exception as error:
+            outage.report(error)
             continue
         quiet = index.changes == changes
         if quiet and (keeper is None or not keeper.is_alive()) and index.wants_neighbourhoods():

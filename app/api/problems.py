@@ -26,6 +26,7 @@ from sqlalchemy.exc import DBAPIError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import compile_path
 
+from app.observability.logs import first_line
 from app.problems import CATALOGUE, blank_problem, problem, reason_kind
 from app.storage import storage_full
 from core.errors import InvalidShapeError, SolverError
@@ -225,7 +226,7 @@ def storage_full_problem() -> Problem:
 
 def _storage_full_response(exc: BaseException) -> JSONResponse:
     # One line, not a traceback per request: the condition, not the code, is at fault.
-    log.error("storage full, request refused: %s", str(exc).splitlines()[0][:300])
+    log.error("storage full, request refused: %s", first_line(exc))
     refusal = storage_full_problem()
     return problem_response(refusal.record, headers=refusal.headers)
 

@@ -11,8 +11,8 @@ A job's kind says what it is: ``describe`` and ``redescribe`` describe an upload
                  on one HTTP endpoint (the N processes summed)
 
 A worker never dies on its input: every exception of a job ends that job (failed or
-retried) and is logged; a database outage is waited out, logged when it starts, once a
-minute while it lasts and when it ends. Full storage (``app.storage``) is nobody's input:
+retried) and is logged; a database outage is waited out (``Outage``: logged when it starts,
+once a minute while it lasts and when it ends). Full storage (``app.storage``) is nobody's input:
 the job goes back to the queue for a minute without spending an attempt, so that a full
 disk delays jobs instead of failing them.
 """
@@ -46,7 +46,7 @@ from app.ingest.describing import (
 )
 from app.ingest.sandbox import sandbox_of
 from app.jobs.queue import DUPLICATES, Claim, JobQueue
-from app.observability.logs import configure_logging, job_context
+from app.observability.logs import Outage, configure_logging, first_line, job_context
 from app.observability.metrics import (
     QueueCollector,
     metrics_registry,
@@ -83,9 +83,6 @@ ReportHandler = Callable[[Claim], Callable[[Session], object]]
 
 # How long a job waits when storage is full: an operator has to free space.
 STORAGE_FULL_DELAY_SECONDS = 60.0
-# How often a lasting outage of the queue is logged again.
-OUTAGE_LOG_INTERVAL_SECONDS = 60.0
-
 # Worth another attempt later: the numerics, the database or the machine had a bad moment.
 TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
     SolverError,
@@ -176,7 +173,7 @@ class Worker:
 
     def run(self) -> None:
         log.info("worker %s started", self.worker_id)
-        outage = _Outage(self.worker_id)
+        outage = Outage(log, f"worker {self.worker_id}: queue")
         while not self.stop.is_set():
             try:
                 found = self.run_once()
@@ -282,7 +279,7 @@ class Worker:
     def _defer(self, claim: Claim, error: BaseException) -> None:
         """Storage is full: the job waits ``STORAGE_FULL_DELAY_SECONDS``, its attempt given
         back. If even that cannot be written, its lease runs out and it is claimed again."""
-        reason = _first_line(error)
+        reason = first_line(error)
         log.error("job %s: storage full, the job waits %g s (%s)", claim.job_id,
                   STORAGE_FULL_DELAY_SECONDS, reason)
         record = problem("storage-full", f"storage full, the job waits: {reason}")
@@ -296,42 +293,6 @@ class Worker:
 def _error_record(error: BaseException) -> dict[str, str]:
     kind = "solver-error" if isinstance(error, SolverError) else "internal-error"
     return problem(kind, f"{type(error).__name__}: {error}"[:2000])
-
-
-def _first_line(error: BaseException) -> str:
-    """What went wrong, without the SQL and parameters SQLAlchemy appends (a descriptor's
-    bytes among them)."""
-    return (str(error).splitlines() or [type(error).__name__])[0][:300]
-
-
-class _Outage:
-    """The log of one worker's queue outage (a database away or full): the first error in
-    full, a line a minute while it lasts, one when it ends; not a traceback a second."""
-
-    def __init__(self, worker_id: str) -> None:
-        self.worker_id = worker_id
-        self.started: float | None = None
-        self.logged = 0.0
-
-    def report(self, error: Exception) -> None:
-        now = time.monotonic()
-        if self.started is None:
-            self.started = self.logged = now
-            if storage_full(error):
-                log.error("worker %s: storage full, no job can be claimed or stored until "
-                          "space is freed: %s", self.worker_id, _first_line(error))
-            else:
-                log.exception("worker %s: queue unavailable", self.worker_id)
-        elif now - self.logged >= OUTAGE_LOG_INTERVAL_SECONDS:
-            self.logged = now
-            log.warning("worker %s: queue unavailable for %.0f s: %s", self.worker_id,
-                        now - self.started, _first_line(error))
-
-    def end(self) -> None:
-        if self.started is not None:
-            log.info("worker %s: queue available again after %.0f s", self.worker_id,
-                     time.monotonic() - self.started)
-            self.started = None
 
 
 class _Heartbeat:

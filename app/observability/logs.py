@@ -8,6 +8,8 @@ reach a log: no header is logged, and routes log tenants, never credentials.
     configure_logging()     JSON lines on stderr for the process (serve, worker)
     RequestId               ASGI middleware: request id in, out, on every line, one access line
     job_context(job_id)     context manager: the job id on every line of the block
+    Outage                  a background loop's outage (its database away or full): logged
+                            when it starts, once a minute while it lasts, when it ends
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import logging
 import os
 import re
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import TextIO
@@ -26,7 +28,11 @@ from pythonjsonlogger.json import JsonFormatter
 from starlette.datastructures import MutableHeaders
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-__all__ = ["RequestId", "configure_logging", "job_context", "request_id"]
+from app.storage import storage_full
+
+__all__ = [
+    "Outage", "RequestId", "configure_logging", "first_line", "job_context", "request_id",
+]
 
 request_id: ContextVar[str | None] = ContextVar("request_id", default=None)
 job_id: ContextVar[str | None] = ContextVar("job_id", default=None)
@@ -124,3 +130,61 @@ class RequestId:
                 },
             )
             request_id.reset(token)
+
+
+def first_line(error: BaseException) -> str:
+    """What went wrong, without the SQL and parameters SQLAlchemy appends (a descriptor's
+    bytes among them)."""
+    return (str(error).splitlines() or [type(error).__name__])[0][:300]
+
+
+class Outage:
+    """The log of one background loop's outage (the worker's queue, webhook deliveries,
+    the index sync): the first error in full, a line every ``interval`` seconds while it
+    lasts, one when it ends; not a traceback per poll (a PostgreSQL restart of 30 s was 30
+    of them per loop and process).
+
+    Parameters
+    ----------
+    logger : logging.Logger
+        Where the loop logs.
+    what : str
+        What is unavailable, for the messages ("worker w1: queue").
+    interval : float
+        Seconds between the lines of a lasting outage.
+    clock : () -> float
+        Seconds, monotonic.
+    """
+
+    def __init__(
+        self, logger: logging.Logger, what: str, interval: float = 60.0,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.logger = logger
+        self.what = what
+        self.interval = interval
+        self.clock = clock
+        self.started: float | None = None
+        self.logged = 0.0
+
+    def report(self, error: Exception) -> None:
+        """The loop failed with ``error``."""
+        now = self.clock()
+        if self.started is None:
+            self.started = self.logged = now
+            if storage_full(error):  # the condition, not the code: no traceback
+                self.logger.error("%s: storage full, nothing can be stored until space is "
+                                  "freed: %s", self.what, first_line(error))
+            else:
+                self.logger.error("%s unavailable", self.what, exc_info=error)
+        elif now - self.logged >= self.interval:
+            self.logged = now
+            self.logger.warning("%s unavailable for %.0f s: %s", self.what, now - self.started,
+                                first_line(error))
+
+    def end(self) -> None:
+        """The loop succeeded: an outage, if any, is over."""
+        if self.started is not None:
+            self.logger.info("%s available again after %.0f s", self.what,
+                             self.clock() - self.started)
+            self.started = None

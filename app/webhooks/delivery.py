@@ -24,6 +24,7 @@ from standardwebhooks.webhooks import Webhook as Signer
 from app.db.models import Webhook, WebhookAttempt, WebhookDelivery, utcnow
 from app.db.session import rows_changed
 from app.jobs.lease import backoff_seconds, claim_next
+from app.observability.logs import Outage
 from app.observability.metrics import WEBHOOK_ATTEMPTS
 from app.webhooks.targets import TargetRefused, check_target, pinned
 
@@ -192,11 +193,13 @@ class DeliveryThread:
         self.deliverer.close()
 
     def _run(self) -> None:
+        outage = Outage(log, "webhook deliveries: the database")
         while not self.stop_event.is_set():
             try:
                 found = self.deliverer.run_once()
-            except Exception:
-                log.exception("webhook delivery failed; retrying")
+                outage.end()
+            except Exception as error:
+                outage.report(error)
                 found = False
             if not found:
                 self.stop_event.wait(self.poll_interval)
