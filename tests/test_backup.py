@@ -11,6 +11,7 @@ from typing import Any
 import pytest
 from conftest import PARTS, fake_describe, make_settings, upload, wait_for_status
 from fastapi.testclient import TestClient
+from test_plm_models import wait_for_job
 
 from app.api.main import create_app
 from app.cli import main
@@ -61,7 +62,8 @@ def test_a_backup_taken_while_serving_restores_the_whole_service(tmp_path: Path)
             files={"file": (FILES[1].name, FILES[1].read_bytes())},
         )
         assert changed.status_code == 202, changed.text
-        wait_for_status(client, changed.json()["id"])
+        # The model stays ready meanwhile: wait for the revision's job itself.
+        assert wait_for_job(client, changed.json()["job"]["id"])["status"] == "done"
         before = catalogue(client)
         (tmp_path / "backups").mkdir()
         made = backup_sqlite(live, tmp_path / "backups")  # a directory: a time-stamped file
@@ -81,7 +83,9 @@ def test_a_backup_taken_while_serving_restores_the_whole_service(tmp_path: Path)
     finally:
         client.__exit__(None, None, None)
     assert after == before
-    assert sorted(len(model["revisions"]) for model in after.values()) == [1, 1, 2]
+    assert sorted(model["revisions"] for model in after.values()) == [
+        [(1, "current")], [(1, "current")], [(2, "current"), (1, "superseded")]
+    ]
     assert all(model["similar"] for model in after.values())  # the index was rebuilt
 
 
