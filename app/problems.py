@@ -60,6 +60,7 @@ CATALOGUE: dict[str, Kind] = {
     # The service, now.
     "busy": Kind(503, "Busy"),
     "storage-full": Kind(507, "Insufficient storage"),
+    "database-unavailable": Kind(503, "Database unavailable"),
     "not-ready": Kind(503, "Not ready"),
     "solver-error": Kind(503, "Solver error"),
     "worker-died": Kind(500, "Worker died"),

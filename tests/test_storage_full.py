@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import errno
 import os
-import sqlite3
 import tempfile
 import threading
 from collections.abc import Callable, Iterator
@@ -27,6 +26,7 @@ from hostile_files import step_part
 from sqlalchemy import Engine, create_engine, event, select, text
 from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session, sessionmaker
+from test_database_outage import locked_database_error
 from test_queue import RESULT, add_jobs, make_queue
 
 from app.api.main import create_app
@@ -103,15 +103,7 @@ def test_storage_full_is_told_apart_from_other_errors(tmp_path: Path) -> None:
     assert storage_full(psycopg.errors.DiskFull("could not extend file"))
 
     # A busy database, a missing file, a constraint, a bug: not full.
-    holder = sqlite3.connect(tmp_path / "locked.db", isolation_level=None)
-    holder.execute("CREATE TABLE t (x)")
-    holder.execute("BEGIN IMMEDIATE")
-    waiter = sqlite3.connect(tmp_path / "locked.db", timeout=0, isolation_level=None)
-    with pytest.raises(sqlite3.OperationalError) as locked:
-        waiter.execute("BEGIN IMMEDIATE")
-    assert "locked" in str(locked.value) and not storage_full(locked.value)
-    holder.close()
-    waiter.close()
+    assert not storage_full(locked_database_error(tmp_path))
     with pytest.raises(OSError) as missing:
         (tmp_path / "absent").read_bytes()
     assert not storage_full(missing.value)

@@ -99,18 +99,18 @@ def test_the_heartbeat_keeps_a_long_job_leased(sessions: sessionmaker[Session]) 
 
     def slow(content: bytes, filename: str) -> dict[str, Any]:
         started.set()
-        time.sleep(3.0)  # three times the lease
+        time.sleep(4.0)  # twice the lease
         return RESULT
 
-    # The heartbeat renews every third of the lease: a lease of 1 s leaves a renewal 0.67 s
-    # of slack on a busy machine (0.3 s, with 0.2 s of slack, once lapsed under CI's load).
-    queue = make_queue(sessions, lease_seconds=1.0)
+    # The heartbeat renews every third of the lease: a lease of 2 s leaves a renewal 1.33 s
+    # of slack on a busy machine (0.3 s, then 1 s, each lapsed once under a loaded run).
+    queue = make_queue(sessions, lease_seconds=2.0)
     worker = Worker(queue, slow, worker_id="slow", poll_interval=0.01, stop=threading.Event())
     thread = threading.Thread(target=worker.run_once)
     thread.start()
     started.wait(10)
-    deadline = time.monotonic() + 2.7
-    rival = make_queue(sessions, lease_seconds=1.0)
+    deadline = time.monotonic() + 3.7
+    rival = make_queue(sessions, lease_seconds=2.0)
     while time.monotonic() < deadline:
         assert rival.claim("rival") is None  # the lease never lapses
         time.sleep(0.05)

@@ -16,7 +16,13 @@ from fastapi import FastAPI
 
 from app.api.inputs import invalid_input
 from app.api.limits import too_large_problem
-from app.api.problems import PROBLEM_JSON, Problem, problem_response, storage_full_problem
+from app.api.problems import (
+    PROBLEM_JSON,
+    Problem,
+    database_unavailable_problem,
+    problem_response,
+    storage_full_problem,
+)
 from app.api.uploads import out_of_memory_problem
 from app.problems import blank_problem, problem
 from core.cutoff import CutoffRecord
@@ -124,6 +130,7 @@ _NOT_READY = _problem("model-not-ready",
 _TOO_LARGE = _raised(too_large_problem(67108864))
 _OUT_OF_MEMORY = _raised(out_of_memory_problem())
 _STORAGE_FULL = _raised(storage_full_problem())
+_DATABASE_UNAVAILABLE = _raised(database_unavailable_problem())
 # FastAPI's refusal of a body it cannot parse (app/api/problems.py turns it into problem+json).
 _MALFORMED = blank_problem(400, "There was an error parsing the body")
 _UNKNOWN_FORMAT = _problem("unknown-format",
@@ -463,12 +470,12 @@ def _invalid_parameter(operation: dict[str, Any]) -> dict[str, Any]:
 
 
 def _add_generic_refusals(document: dict[str, Any]) -> None:
-    """Examples of the 400, 413, 422 and 507 that app/api/openapi.py documents for every
+    """Examples of the 400, 413, 422, 503 and 507 that app/api/openapi.py documents for every
     operation that can answer them, where the operation has no example of its own."""
     for operations in document["paths"].values():
         for operation in operations.values():
             refusals = {"400": _MALFORMED, "413": _TOO_LARGE, "422": _invalid_parameter(operation),
-                        "507": _STORAGE_FULL}
+                        "503": _DATABASE_UNAVAILABLE, "507": _STORAGE_FULL}
             for status, value in refusals.items():
                 response = operation.get("responses", {}).get(status, {})
                 content = response.get("content", {}).get(PROBLEM_JSON)

@@ -51,7 +51,7 @@ _EXAMPLE_FILE_NAME = "part.stl"
 _WRITES = frozenset({"post", "put", "patch", "delete"})
 
 
-def _complete(method: str, operation: dict[str, Any]) -> None:
+def _complete(path: str, method: str, operation: dict[str, Any]) -> None:
     if operation.get("security"):
         operation["security"] = [*operation["security"], {}]
     responses = operation.setdefault("responses", {})
@@ -60,6 +60,8 @@ def _complete(method: str, operation: dict[str, Any]) -> None:
             responses.setdefault(str(status), response)
     if method in _WRITES:
         responses.setdefault("507", problem_responses(507)[507])
+    if path.startswith("/v1/"):  # every call of the API reads the database
+        responses.setdefault("503", problem_responses(503)[503])
     # FastAPI documents its parameter validation as application/json; the service answers
     # every refusal as problem+json (app/api/problems.py).
     if _JSON in responses.get("422", {}).get("content", {}):
@@ -194,9 +196,9 @@ def install_openapi(app: FastAPI, limits: InputLimits) -> None:
             # they are.
             schemas["Problem"] = copy.deepcopy(PROBLEM_SCHEMA)
             schemas.update(copy.deepcopy(FILTER_SCHEMAS))
-            for path in paths.values():
-                for method, operation in path.items():
-                    _complete(method, operation)
+            for path, operations in paths.items():
+                for method, operation in operations.items():
+                    _complete(path, method, operation)
                     _complete_inputs(operation, schemas, limits)
             _complete_json_bodies(paths, schemas, limits)
             _complete_filters(schemas, limits)

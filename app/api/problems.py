@@ -5,7 +5,8 @@ error catalogue (``app.problems``); the handlers installed by ``install_problem_
 also turn the engine's errors (``core.errors``: an ``InvalidShapeError`` by its reason, a
 ``SolverError`` as ``solver-error``), Starlette's HTTP errors (404 of unknown routes, 405,
 ...), FastAPI's validation errors (422), full storage (507 ``storage-full``, however the
-database driver or the upload's spooling reported it: ``app.storage``) and unexpected
+database driver or the upload's spooling reported it: ``app.storage``), a database
+unavailable for a moment (503 ``database-unavailable``: ``app.db.errors``) and unexpected
 exceptions (500) into ``application/problem+json``. Every refused field is
 ``validation-error`` (with a JSON ``pointer``), every size limit ``too-large`` (naming the
 limit's setting).
@@ -26,6 +27,7 @@ from sqlalchemy.exc import DBAPIError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import compile_path
 
+from app.db.errors import database_unavailable
 from app.observability.logs import first_line
 from app.problems import CATALOGUE, blank_problem, problem, reason_kind
 from app.storage import storage_full
@@ -38,6 +40,7 @@ __all__ = [
     "problem_response",
     "problem_responses",
     "PROBLEM_SCHEMA",
+    "database_unavailable_problem",
     "storage_full_problem",
 ]
 
@@ -55,12 +58,15 @@ _MEANINGS = {
     413: "Upload larger than the limit",
     415: "Unknown file format",
     422: "Invalid request or shape file",
-    503: "Not ready, or the shape could not be described this time",
+    503: "Not ready, busy, or the database unavailable for a moment: try again after "
+    "Retry-After",
     507: "The service's storage is full: nothing was stored; try again after Retry-After",
 }
 
 # Seconds a client is asked to wait when storage is full: an operator has to free space.
 STORAGE_FULL_RETRY_AFTER = 60
+# ... and when the database was unavailable: the pool reconnects on the next request.
+DATABASE_RETRY_AFTER = 1
 
 
 #: The JSON Schema of every problem+json body: one component, ``#/components/schemas/Problem``,
@@ -206,12 +212,34 @@ def _pointer(loc: Any) -> str:
     return "".join("/" + part.replace("~", "~0").replace("/", "~1") for part in parts)
 
 
-async def _on_storage_error(_request: Request, exc: Exception) -> JSONResponse:
-    """A database or file error: 507 when storage is full; anything else stays unexpected
-    (raised on, to ``_on_unexpected``)."""
+async def _on_database_error(_request: Request, exc: Exception) -> JSONResponse:
+    """A database error: 507 when storage is full, 503 when the database is unavailable
+    for a moment (``app.db.errors``); anything else stays unexpected (raised on, to
+    ``_on_unexpected``)."""
+    if storage_full(exc):
+        return _storage_full_response(exc)
+    if not database_unavailable(exc):
+        raise exc
+    log.warning("database unavailable, request refused: %s", first_line(exc))
+    refusal = database_unavailable_problem()
+    return problem_response(refusal.record, headers=refusal.headers)
+
+
+async def _on_file_error(_request: Request, exc: Exception) -> JSONResponse:
+    """A file error: 507 when storage is full; anything else stays unexpected."""
     if not storage_full(exc):
         raise exc
     return _storage_full_response(exc)
+
+
+def database_unavailable_problem() -> Problem:
+    """The 503 of a request that could not reach the database just now."""
+    return Problem(
+        "database-unavailable",
+        "The database could not be reached just now (a restart or a fail-over); try again "
+        "shortly.",
+        headers={"Retry-After": str(DATABASE_RETRY_AFTER)},
+    )
 
 
 def storage_full_problem() -> Problem:
@@ -243,6 +271,6 @@ def install_problem_handlers(app: FastAPI) -> None:
     app.add_exception_handler(RequestValidationError, _on_validation)
     app.add_exception_handler(InvalidShapeError, _on_invalid_shape)
     app.add_exception_handler(SolverError, _on_solver_error)
-    app.add_exception_handler(DBAPIError, _on_storage_error)
-    app.add_exception_handler(OSError, _on_storage_error)
+    app.add_exception_handler(DBAPIError, _on_database_error)
+    app.add_exception_handler(OSError, _on_file_error)
     app.add_exception_handler(Exception, _on_unexpected)

@@ -77,8 +77,9 @@ def read_only(engine: Engine) -> Engine:
       round trips frame the request. A read path that needs one snapshot across statements
       must not use it;
     * are not pinged when checked out (a round trip per request, a fifth of a ``similar``'s
-      cost): after a server restart the first request on a dead connection fails, and
-      SQLAlchemy then invalidates the whole pool, so the next ones reconnect;
+      cost): after a server restart the first request on a dead connection fails (503
+      ``database-unavailable`` with Retry-After, ``app.db.errors``), and SQLAlchemy then
+      invalidates the whole pool, so the next ones reconnect;
     * fetch results in PostgreSQL's binary format: descriptors (6 KB each, a few dozen per
       query) arrive as bytes instead of hex text to decode, half the cost of the fetch.
 
