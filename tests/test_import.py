@@ -11,6 +11,7 @@ import threading
 import time
 import zipfile
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import httpx
@@ -31,11 +32,14 @@ def service(database_url: str) -> Iterator[str]:
     """The app on a free 127.0.0.1 port, with an embedded worker."""
     app = create_app(make_settings(database_url, workers=1), embedded_worker=True,
                      job_handler=fake_describe)
-    yield from served(app)
+    with served(app) as url:
+        yield url
 
 
+@contextmanager
 def served(app: FastAPI) -> Iterator[str]:
-    """Serve ``app`` on a free 127.0.0.1 port until the generator is closed."""
+    """Serve ``app`` on a free 127.0.0.1 port for the block; stop it (and its worker)
+    after."""
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
@@ -46,9 +50,11 @@ def served(app: FastAPI) -> Iterator[str]:
     while not server.started:
         assert time.monotonic() < deadline and thread.is_alive(), "uvicorn did not start"
         time.sleep(0.05)
-    yield f"http://127.0.0.1:{port}"
-    server.should_exit = True
-    thread.join(30)
+    try:
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        server.should_exit = True
+        thread.join(30)
 
 
 @pytest.fixture
@@ -330,9 +336,7 @@ def test_a_full_service_stops_the_import_and_a_second_run_completes_it(
 
     app = create_app(make_settings(new_database_url("sqlite"), workers=1),
                      embedded_worker=True, job_handler=fake_describe)
-    server = served(app)
-    service = next(server)
-    try:
+    with served(app) as service:
         lift = cap_growth(app.state.services.engine)
         report = tmp_path / "full.csv"
         code = main(["import", str(catalogue), "--url", service, "--concurrency", "1",
@@ -353,5 +357,3 @@ def test_a_full_service_stops_the_import_and_a_second_run_completes_it(
         assert code == 1  # the two bad files
         outcomes = [row["outcome"] for row in read_report(report)]
         assert outcomes.count("accepted") == 18
-    finally:
-        server.close()
