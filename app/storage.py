@@ -38,8 +38,9 @@ def _says_full(error: BaseException) -> bool:
 
 
 def _chain(error: BaseException) -> Iterator[BaseException]:
-    """``error``, the driver's exception under SQLAlchemy's (``orig``), and every cause
-    and context, each once."""
+    """``error``, the driver's exception under SQLAlchemy's (``orig``) and every explicit
+    cause (``raise ... from``), each once. Not the implicit context: an unrelated error
+    raised while a full disk was being handled is not itself a full disk."""
     pending: list[BaseException] = [error]
     seen: set[int] = set()
     while pending:
@@ -48,6 +49,6 @@ def _chain(error: BaseException) -> Iterator[BaseException]:
             continue
         seen.add(id(current))
         yield current
-        for wrapped in (getattr(current, "orig", None), current.__cause__, current.__context__):
+        for wrapped in (getattr(current, "orig", None), current.__cause__):
             if isinstance(wrapped, BaseException):
                 pending.append(wrapped)

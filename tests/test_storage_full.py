@@ -99,6 +99,13 @@ def test_storage_full_is_told_apart_from_other_errors(tmp_path: Path) -> None:
             raise RuntimeError("could not spool the upload") from error
     except RuntimeError as wrapped:
         assert storage_full(wrapped)
+    try:  # but a bug met while handling a full disk is a bug
+        try:
+            write_to_a_full_disk()
+        except OSError:
+            raise ValueError("a bug in the handler")  # noqa: B904
+    except ValueError as unrelated:
+        assert unrelated.__context__ is not None and not storage_full(unrelated)
 
     assert storage_full(psycopg.errors.DiskFull("could not extend file"))
 
