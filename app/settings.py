@@ -131,8 +131,21 @@ class Settings(BaseSettings):
     describe_timeout_seconds: float = Field(
         default=300.0,
         gt=0,
-        description="Wall-clock limit of that child process; a file that takes longer is "
-        "refused as too large.",
+        description="Wall-clock limit of that child process for the largest files; a file "
+        "that takes longer than its limit is refused as too large.",
+    )
+    describe_timeout_base_seconds: float = Field(
+        default=60.0,
+        gt=0,
+        description="The limit of a small file: a file of S MB may take this plus "
+        "describe_timeout_seconds_per_mb times S, at most describe_timeout_seconds (a reader "
+        "that hangs on a small corrupt file is stopped in a minute, not five).",
+    )
+    describe_timeout_seconds_per_mb: float = Field(
+        default=10.0,
+        ge=0,
+        description="What each MB of a file adds to its limit (valid files needed at most "
+        "2.3 s a MB, bench/describe_by_size.py).",
     )
 
     search_max_concurrent: int = Field(

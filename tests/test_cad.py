@@ -6,6 +6,7 @@ without the extra a CAD upload is 415 with the way to enable it."""
 from __future__ import annotations
 
 import os
+import re
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -170,13 +171,16 @@ def test_an_iges_file_that_hangs_opencascade_holds_no_request_and_fails_its_job(
 ) -> None:
     # OpenCascade's IGES reader never returns on this file (found by fuzzing). The upload's
     # quick check gives up at its own limit and lets the file through; the worker's describe
-    # stops at the describe limit and fails the job with the reason; the service answers
-    # throughout. Before, the upload held its request and a child for the describe limit
-    # (300 s by default) and only then got 413.
+    # stops at the limit of a file of its size (19 KB: the base, not the 300 s of the
+    # largest files) and fails the job with the reason; a search by it is 413 as soon; the
+    # service answers throughout. Before, the upload held its request and a child for the
+    # describe limit (300 s by default) and only then got 413, and the job or the search
+    # waited the whole 300 s.
     check_seconds, describe_seconds = 1.0, 4.0
     settings = make_settings(f"sqlite:///{tmp_path / 'db.sqlite'}",
                              upload_check_timeout_seconds=check_seconds,
-                             describe_timeout_seconds=describe_seconds)
+                             describe_timeout_seconds=300.0,
+                             describe_timeout_base_seconds=describe_seconds)
     with TestClient(create_app(settings, embedded_worker=True)) as client:
         started = time.monotonic()
         response = client.post("/v1/models", files={"file": ("part.iges", iges_reader_hang())})
@@ -187,8 +191,14 @@ def test_an_iges_file_that_hangs_opencascade_holds_no_request_and_fails_its_job(
         model = wait_for_status(client, response.json()["id"], timeout=60)
         assert model["status"] == "failed"
         assert model["error"]["type"] == "urn:shapesearch:problem:too-large"
-        assert "SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS" in model["error"]["detail"]
+        limit = re.search(r"limit of ([0-9.]+) s", model["error"]["detail"])
+        assert limit is not None and 4.0 <= float(limit.group(1)) < 4.5  # 4 s and 19 KB
+        assert "SHAPESEARCH_DESCRIBE_TIMEOUT_BASE_SECONDS" in model["error"]["detail"]
         assert "probably corrupt" in model["error"]["detail"]
+        started = time.monotonic()
+        searched = client.post("/v1/search", files={"file": ("part.iges", iges_reader_hang())})
+        assert searched.status_code == 413, searched.text
+        assert time.monotonic() - started < 60  # the file's limit (4 s), not 300 s
         readable = client.post("/v1/models", files={"file": ("part.iges", iges_part())})
         assert readable.status_code == 202, readable.text
         assert wait_for_status(client, readable.json()["id"], timeout=60)["status"] == "ready"

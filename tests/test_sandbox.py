@@ -12,7 +12,13 @@ import pytest
 import trimesh
 from conftest import PARTS, make_settings
 
-from app.ingest.sandbox import Sandbox, SandboxCrash, SandboxTimeout, _address_space
+from app.ingest.sandbox import (
+    Sandbox,
+    SandboxCrash,
+    SandboxTimeout,
+    _address_space,
+    describe_limit_seconds,
+)
 from app.jobs.worker import describe_handler
 from core.errors import InvalidShapeError, SolverError
 
@@ -74,6 +80,17 @@ def test_the_time_limit_kills_the_child_and_refuses_the_file() -> None:
     # A describe's caller takes it as any refusal; an upload's quick check can tell it apart.
     assert isinstance(refused.value, InvalidShapeError) and refused.value.reason == "too_large"
     assert "SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS" in refused.value.message
+
+
+def test_the_describe_limit_grows_with_the_file_up_to_the_largest_files_limit() -> None:
+    settings = make_settings("sqlite://", describe_timeout_seconds=300.0,
+                             describe_timeout_base_seconds=60.0,
+                             describe_timeout_seconds_per_mb=10.0)
+    assert describe_limit_seconds(settings, 19_000) == pytest.approx(60.19)  # a small IGES
+    assert describe_limit_seconds(settings, 10_000_000) == pytest.approx(160.0)
+    assert describe_limit_seconds(settings, 64 * 2**20) == 300.0  # the upload limit: capped
+    low_cap = make_settings("sqlite://", describe_timeout_seconds=30.0)
+    assert describe_limit_seconds(low_cap, 1_000) == 30.0  # a cap below the base wins
 
 
 def test_a_killed_child_is_a_refusal_and_other_errors_keep_their_kind() -> None:

@@ -30,7 +30,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from app.api.problems import Problem, problem_response
 from app.db.models import Model
 from app.ingest.describing import SIZE_COLUMNS, described_columns
-from app.ingest.sandbox import sandbox_of
+from app.ingest.sandbox import describe_limit_seconds, sandbox_of
 from app.observability.metrics import observe_description
 from app.search.similarity import SearchMode
 from app.settings import Settings
@@ -53,7 +53,6 @@ class SearchDescriber:
         self.settings = settings
         self.engine = engine
         self.version = DescriptorSpec.from_settings(engine.descriptor).version(engine)
-        self.sandbox = sandbox_of(settings)
         self._slots = threading.BoundedSemaphore(settings.search_max_concurrent)
         self._cache: OrderedDict[str, dict[str, Any]] = OrderedDict()
         self._lock = threading.Lock()
@@ -73,7 +72,8 @@ class SearchDescriber:
         known = self._cached(key) or self._stored(session, tenant, sha256, mode)
         if known is not None:
             return known
-        columns = self.sandbox.run(
+        sandbox = sandbox_of(self.settings, describe_limit_seconds(self.settings, len(content)))
+        columns = sandbox.run(
             described_columns, content, filename, self.engine, None, mode == "scan"
         )
         observe_description(columns)

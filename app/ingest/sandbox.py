@@ -49,7 +49,7 @@ from threadpoolctl import threadpool_limits
 from app.settings import Settings
 from core.errors import NO_SPACE_ERRNOS, InvalidShapeError, SolverError
 
-__all__ = ["Sandbox", "SandboxCrash", "SandboxTimeout", "sandbox_of"]
+__all__ = ["Sandbox", "SandboxCrash", "SandboxTimeout", "describe_limit_seconds", "sandbox_of"]
 
 T = TypeVar("T")
 
@@ -180,8 +180,10 @@ class Sandbox:
     def _too_slow(self) -> SandboxTimeout:
         return SandboxTimeout(
             "too_large",
-            f"describing this file took longer than the limit of {self.timeout_seconds:g} s "
-            "(SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS): simplify the mesh or thin the cloud first "
+            f"describing this file took longer than its limit of {self.timeout_seconds:.3g} s "
+            "(SHAPESEARCH_DESCRIBE_TIMEOUT_BASE_SECONDS plus SHAPESEARCH_DESCRIBE_TIMEOUT_"
+            "SECONDS_PER_MB a MB, at most SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS): simplify the "
+            "mesh or thin the cloud first "
             "(a small file that takes this long is probably corrupt: export it again)",
         )
 
@@ -206,6 +208,17 @@ def _signal_name(number: int) -> str:
         return signal.Signals(number).name
     except ValueError:
         return f"signal {number}"
+
+
+def describe_limit_seconds(settings: Settings, size_bytes: int) -> float:
+    """The wall-clock limit of describing a file of ``size_bytes``:
+    ``describe_timeout_base_seconds`` plus ``describe_timeout_seconds_per_mb`` a MB, at most
+    ``describe_timeout_seconds``. Valid files need far less (at most 3 s plus 2.3 s a MB
+    here, ``bench/describe_by_size.py``, binary PLY the slowest a MB); a reader that hangs
+    on a small corrupt file holds a worker or a search slot for a minute instead of five."""
+    grown = (settings.describe_timeout_base_seconds
+             + settings.describe_timeout_seconds_per_mb * size_bytes / 1e6)
+    return min(settings.describe_timeout_seconds, grown)
 
 
 def sandbox_of(settings: Settings, timeout_seconds: float | None = None) -> Sandbox:

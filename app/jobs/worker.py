@@ -44,7 +44,7 @@ from app.ingest.describing import (
     ingest_columns,
     pin_blas_threads,
 )
-from app.ingest.sandbox import sandbox_of
+from app.ingest.sandbox import describe_limit_seconds, sandbox_of
 from app.jobs.queue import DUPLICATES, Claim, JobQueue
 from app.observability.logs import Outage, configure_logging, first_line, job_context
 from app.observability.metrics import (
@@ -96,19 +96,20 @@ TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
 
 def describe_handler(settings: Settings, sessions: Any = None) -> JobHandler:
     """The production handler: run the engine with the service's settings, in a sandbox
-    (a child process with memory and time limits), so that a bomb fails its job instead of
-    growing or killing the worker. Each part is described with its scan-mode entries
+    (a child process with memory and time limits, the time growing with the file's size:
+    ``describe_limit_seconds``), so that a bomb fails its job instead of growing or killing
+    the worker. Each part is described with its scan-mode entries
     (``ingest_columns``: the scan descriptor and ``SHAPESEARCH_SCAN_VIEWS`` virtual views).
 
     With ``sessions`` the adaptive cutoff is predicted from the stored models of the same
     descriptor version (refitted as they arrive); without, or with none stored, it seeds.
     """
     engine = engine_settings(settings)
-    sandbox = sandbox_of(settings)
     cache = None if sessions is None else CutoffPredictorCache(sessions, descriptor_version(engine))
 
     def handle(content: bytes, filename: str) -> dict[str, Any]:
         predictor = None if cache is None else cache.predictor()
+        sandbox = sandbox_of(settings, describe_limit_seconds(settings, len(content)))
         return sandbox.run(ingest_columns, content, filename, engine, predictor)
 
     return handle
