@@ -94,7 +94,9 @@ def test_concurrent_searches_are_bounded_and_health_stays_fast(tmp_path: Path) -
         searcher.close()
 
 
-def test_identical_uploads_are_described_once(database_url: str) -> None:
+def test_identical_uploads_are_described_once(
+    database_url: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """The same bytes again are answered from the cache; bytes that a ready model of the
     tenant was made from are answered from that model; neither starts a describe."""
     from conftest import fake_describe, make_settings, wait_for_status
@@ -114,7 +116,9 @@ def test_identical_uploads_are_described_once(database_url: str) -> None:
             calls.append(content)
             return columns(content, filename)
 
-    app.state.search_describer.sandbox = CountingSandbox()
+    # Every describe of a search goes through a sandbox made for its file's size.
+    monkeypatch.setattr("app.api.search_describer.sandbox_of",
+                        lambda settings, timeout_seconds=None: CountingSandbox())
     with TestClient(app) as client:
         first, second = scan(1), scan(2)
         answers = [
@@ -126,7 +130,6 @@ def test_identical_uploads_are_described_once(database_url: str) -> None:
         assert calls == [first]
 
     stored_app = create_app(make_settings(database_url), embedded_worker=True, job_handler=columns)
-    stored_app.state.search_describer.sandbox = CountingSandbox()
     with TestClient(stored_app) as client:
         model = client.post(
             "/v1/models", files={"file": ("b.xyz", second, "text/plain")}
