@@ -117,8 +117,8 @@ def test_identical_uploads_are_described_once(
             return columns(content, filename)
 
     # Every describe of a search goes through a sandbox made for its file's size.
-    monkeypatch.setattr("app.api.search_describer.sandbox_of",
-                        lambda settings, timeout_seconds=None: CountingSandbox())
+    monkeypatch.setattr("app.api.search_describer.describe_sandbox",
+                        lambda settings, size_bytes: CountingSandbox())
     with TestClient(app) as client:
         first, second = scan(1), scan(2)
         answers = [

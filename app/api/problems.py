@@ -220,9 +220,7 @@ async def _on_database_error(_request: Request, exc: Exception) -> JSONResponse:
         return _storage_full_response(exc)
     if not database_unavailable(exc):
         raise exc
-    log.warning("database unavailable, request refused: %s", first_line(exc))
-    refusal = database_unavailable_problem()
-    return problem_response(refusal.record, headers=refusal.headers)
+    return _condition_response(database_unavailable_problem(), exc, logging.WARNING)
 
 
 async def _on_file_error(_request: Request, exc: Exception) -> JSONResponse:
@@ -253,9 +251,13 @@ def storage_full_problem() -> Problem:
 
 
 def _storage_full_response(exc: BaseException) -> JSONResponse:
-    # One line, not a traceback per request: the condition, not the code, is at fault.
-    log.error("storage full, request refused: %s", first_line(exc))
-    refusal = storage_full_problem()
+    return _condition_response(storage_full_problem(), exc, logging.ERROR)  # needs an operator
+
+
+def _condition_response(refusal: Problem, exc: BaseException, level: int) -> JSONResponse:
+    """``refusal``'s response, logged in one line, not a traceback per request: the
+    machine's condition, not the code, is at fault."""
+    log.log(level, "%s, request refused: %s", refusal.record["title"], first_line(exc))
     return problem_response(refusal.record, headers=refusal.headers)
 
 

@@ -30,7 +30,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from app.api.problems import Problem, problem_response
 from app.db.models import Model
 from app.ingest.describing import SIZE_COLUMNS, described_columns
-from app.ingest.sandbox import describe_limit_seconds, sandbox_of
+from app.ingest.sandbox import describe_sandbox
 from app.observability.metrics import observe_description
 from app.search.similarity import SearchMode
 from app.settings import Settings
@@ -72,8 +72,7 @@ class SearchDescriber:
         known = self._cached(key) or self._stored(session, tenant, sha256, mode)
         if known is not None:
             return known
-        sandbox = sandbox_of(self.settings, describe_limit_seconds(self.settings, len(content)))
-        columns = sandbox.run(
+        columns = describe_sandbox(self.settings, len(content)).run(
             described_columns, content, filename, self.engine, None, mode == "scan"
         )
         observe_description(columns)

@@ -49,7 +49,10 @@ from threadpoolctl import threadpool_limits
 from app.settings import Settings
 from core.errors import NO_SPACE_ERRNOS, InvalidShapeError, SolverError
 
-__all__ = ["Sandbox", "SandboxCrash", "SandboxTimeout", "describe_limit_seconds", "sandbox_of"]
+__all__ = [
+    "Sandbox", "SandboxCrash", "SandboxTimeout", "describe_limit_seconds", "describe_sandbox",
+    "sandbox_of",
+]
 
 T = TypeVar("T")
 
@@ -110,13 +113,11 @@ def _child(
         outcome = ("solver", str(error))
     except MemoryError:
         outcome = ("memory", None)
-    except OSError as error:
-        if error.errno in NO_SPACE_ERRNOS:  # the parent's storage_full must still see it
-            outcome = ("no-space", (error.errno, str(error)[:2000]))
+    except BaseException as error:  # reported to the parent, which decides what it means
+        if isinstance(error, OSError) and error.errno in NO_SPACE_ERRNOS:
+            outcome = ("no-space", (error.errno, str(error)[:2000]))  # storage_full sees it
         else:
             outcome = ("crash", f"{type(error).__name__}: {error}"[:2000])
-    except BaseException as error:  # reported to the parent, which decides what it means
-        outcome = ("crash", f"{type(error).__name__}: {error}"[:2000])
     try:
         connection.send(outcome)
     except MemoryError:  # the result itself does not fit: the input was too large
@@ -221,9 +222,12 @@ def describe_limit_seconds(settings: Settings, size_bytes: int) -> float:
     return min(settings.describe_timeout_seconds, grown)
 
 
-def sandbox_of(settings: Settings, timeout_seconds: float | None = None) -> Sandbox:
-    """The sandbox with the service's limits; ``timeout_seconds`` in place of
-    ``describe_timeout_seconds`` for a shorter task (an upload's quick check)."""
-    if timeout_seconds is None:
-        timeout_seconds = settings.describe_timeout_seconds
+def describe_sandbox(settings: Settings, size_bytes: int) -> Sandbox:
+    """The sandbox that describes a file of ``size_bytes`` (a job's or a search's)."""
+    return sandbox_of(settings, describe_limit_seconds(settings, size_bytes))
+
+
+def sandbox_of(settings: Settings, timeout_seconds: float) -> Sandbox:
+    """A sandbox with the service's memory limit and ``timeout_seconds`` (a describe's
+    limit, ``describe_sandbox``, or an upload's quick check's)."""
     return Sandbox(settings.describe_memory_bytes, timeout_seconds)

@@ -44,7 +44,7 @@ from app.ingest.describing import (
     ingest_columns,
     pin_blas_threads,
 )
-from app.ingest.sandbox import describe_limit_seconds, sandbox_of
+from app.ingest.sandbox import describe_sandbox
 from app.jobs.queue import DUPLICATES, Claim, JobQueue
 from app.observability.logs import Outage, configure_logging, first_line, job_context
 from app.observability.metrics import (
@@ -109,7 +109,7 @@ def describe_handler(settings: Settings, sessions: Any = None) -> JobHandler:
 
     def handle(content: bytes, filename: str) -> dict[str, Any]:
         predictor = None if cache is None else cache.predictor()
-        sandbox = sandbox_of(settings, describe_limit_seconds(settings, len(content)))
+        sandbox = describe_sandbox(settings, len(content))
         return sandbox.run(ingest_columns, content, filename, engine, predictor)
 
     return handle

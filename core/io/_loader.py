@@ -92,8 +92,8 @@ def _parse(data: bytes, fmt: str) -> RawGeometry:
 
 
 def _parse_safely(data: bytes, fmt: str) -> RawGeometry:
-    """``_parse`` with every unexpected exception but ``MemoryError`` (the sandbox's limit:
-    too large) and a full disk turned into ``unparsable``."""
+    """``_parse`` with every unexpected exception turned into ``unparsable``, except
+    ``MemoryError`` (the sandbox's limit: too large) and a full disk (the machine's fault)."""
     try:
         return _parse(data, fmt)
     except (InvalidShapeError, MemoryError):  # a memory limit means too large, not unreadable
