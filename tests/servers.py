@@ -32,9 +32,11 @@ def peak_memory_bytes(pid: int) -> int:
 
 
 @contextmanager
-def running_server(data_dir: Path, **settings: object) -> Iterator[tuple[str, int]]:
-    """(base URL, pid) of ``shapesearch serve --no-worker`` on a new SQLite database, with
-    ``settings`` as SHAPESEARCH_* variables."""
+def running_server(
+    data_dir: Path, *, worker: bool = False, **settings: object
+) -> Iterator[tuple[str, int]]:
+    """(base URL, pid) of ``shapesearch serve`` on a new SQLite database, with ``settings``
+    as SHAPESEARCH_* variables; ``--no-worker`` unless ``worker``."""
     port = _free_port()
     env = {
         **os.environ,
@@ -43,7 +45,7 @@ def running_server(data_dir: Path, **settings: object) -> Iterator[tuple[str, in
         **{f"SHAPESEARCH_{name.upper()}": str(value) for name, value in settings.items()},
     }
     process = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--no-worker"],
+        [sys.executable, "-m", "app.cli", "serve", *([] if worker else ["--no-worker"])],
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )
     base = f"http://127.0.0.1:{port}"

@@ -9,14 +9,27 @@ from collections import Counter
 from datetime import timedelta
 
 import pytest
-from sqlalchemy import Engine, select, update
+from alembic import command
+from sqlalchemy import (
+    Column,
+    Engine,
+    Integer,
+    MetaData,
+    String,
+    Table,
+    Uuid,
+    inspect,
+    select,
+    update,
+)
 from sqlalchemy.orm import Session, sessionmaker
 
-from app.db.migrate import upgrade
-from app.db.models import Job, Model, Upload, utcnow
+from app.db.migrate import alembic_config, upgrade
+from app.db.models import Job, Model, Upload, UTCDateTime, utcnow
 from app.db.session import make_engine, make_session_factory
 from app.jobs.lease import backoff_seconds
 from app.jobs.queue import Claim, JobQueue
+from app.jobs.turns import queue_job
 
 RESULT = {
     "n_points": 10,
@@ -47,14 +60,14 @@ def make_queue(sessions: sessionmaker[Session], **options: float) -> JobQueue:
     return JobQueue(sessions, **values)  # type: ignore[arg-type]
 
 
-def add_jobs(sessions: sessionmaker[Session], count: int) -> list[uuid.UUID]:
-    """``count`` queued models with their jobs; returns the job ids."""
+def add_jobs(sessions: sessionmaker[Session], count: int, tenant: str = "t") -> list[uuid.UUID]:
+    """``count`` queued models of ``tenant`` with their jobs; returns the job ids."""
     job_ids = []
     with sessions.begin() as session:
         for i in range(count):
             model = Model(
                 id=uuid.uuid4(),
-                tenant="t",
+                tenant=tenant,
                 meta={},
                 status="queued",
                 file_name=f"{i}.xyz",
@@ -65,9 +78,7 @@ def add_jobs(sessions: sessionmaker[Session], count: int) -> list[uuid.UUID]:
             session.add(model)
             session.flush()
             session.add(Upload(model_id=model.id, content=b"1 2 3\n"))
-            job = Job(id=uuid.uuid4(), model_id=model.id, tenant="t", status="queued")
-            session.add(job)
-            job_ids.append(job.id)
+            job_ids.append(queue_job(session, tenant=tenant, model_id=model.id).id)
     return job_ids
 
 
@@ -250,3 +261,106 @@ def test_a_job_whose_worker_keeps_dying_fails_after_the_cap_and_the_next_job_run
         assert model.error["type"] == "urn:shapesearch:problem:worker-died"
     assert queue.complete(nxt, RESULT)
     assert queue.claim("survivor") is None  # the poison job never comes back
+
+
+# --- turns among tenants --------------------------------------------------------------------
+
+
+def claim_order(sessions: sessionmaker[Session], count: int | None = None) -> list[uuid.UUID]:
+    """The job ids in the order one worker claims them (each ended before the next),
+    ``count`` of them or until the queue is empty."""
+    queue, order = make_queue(sessions), []
+    while count is None or len(order) < count:
+        claim = queue.claim("w")
+        if claim is None:
+            break
+        order.append(claim.job_id)
+        assert queue.fail(claim, {"detail": "only the order is asked"})
+    return order
+
+
+def test_a_tenant_with_nothing_queued_waits_for_one_job_not_another_tenants_backlog(
+    sessions: sessionmaker[Session],
+) -> None:
+    """Claimed oldest first, the desk's upload came 21st, after the whole import."""
+    backlog = add_jobs(sessions, 20, tenant="bulk")
+    first_two = claim_order(sessions, 2)
+    (upload,) = add_jobs(sessions, 1, tenant="desk")  # the head has moved on: turn 2
+    order = claim_order(sessions)
+    assert first_two == backlog[:2]
+    assert order.index(upload) == 1  # after bulk's job of the same turn, queued earlier
+    assert [job for job in order if job != upload] == backlog[2:]  # bulk's order is kept
+
+
+def test_backlogged_tenants_are_served_in_turn(sessions: sessionmaker[Session]) -> None:
+    bulk = add_jobs(sessions, 12, tenant="bulk")
+    other = add_jobs(sessions, 6, tenant="other")  # queued after all of bulk's
+    order = claim_order(sessions)
+    assert order[:12] == [job for pair in zip(bulk[:6], other, strict=True) for job in pair]
+    assert order[12:] == bulk[6:]
+
+
+def test_a_retried_job_keeps_its_turn(sessions: sessionmaker[Session]) -> None:
+    first, *rest = add_jobs(sessions, 3, tenant="bulk")
+    queue = make_queue(sessions)
+    claim = queue.claim("w")
+    assert claim is not None and claim.job_id == first
+    assert queue.release(claim)  # a worker shutting down hands it back
+    (late,) = add_jobs(sessions, 1, tenant="desk")
+    assert claim_order(sessions) == [first, late, *rest]
+
+
+def test_a_job_waiting_out_a_back_off_does_not_hold_the_head_back(
+    sessions: sessionmaker[Session],
+) -> None:
+    """A newcomer joins the round where it stands, not at the turn of a deferred job."""
+    (deferred,) = add_jobs(sessions, 1, tenant="slow")  # turn 0
+    backlog = add_jobs(sessions, 12, tenant="bulk")  # turns 0..11
+    queue = make_queue(sessions)
+    claim = queue.claim("w")
+    assert claim is not None and claim.job_id == deferred
+    assert queue.defer(claim, {"detail": "storage full"}, seconds=600)
+    done = claim_order(sessions, 6)  # bulk's turns 0..5: the round stands at turn 6
+    desk = add_jobs(sessions, 3, tenant="desk")
+    order = claim_order(sessions)
+    assert done == backlog[:6]
+    # Turns 6, 7, 8: one desk job after each of bulk's; from the deferred job's turn 0 all
+    # three would have gone first.
+    assert order[:6] == [job for pair in zip(backlog[6:9], desk, strict=True) for job in pair]
+    assert deferred not in order  # still waiting out its back-off
+
+
+def test_migration_0011_goes_up_and_down(database_url: str) -> None:
+    """Jobs queued before turns all get turn 0 and so keep their order: oldest first."""
+    engine = make_engine(database_url)
+    jobs_0010 = Table(  # the columns a job needs at revision 0010 (no turn)
+        "jobs", MetaData(), Column("id", Uuid), Column("model_id", Uuid),
+        Column("tenant", String), Column("kind", String), Column("status", String),
+        Column("attempts", Integer), Column("run_after", UTCDateTime),
+        Column("created_at", UTCDateTime), Column("updated_at", UTCDateTime),
+    )
+    now, ids = utcnow(), [uuid.uuid4() for _ in range(3)]
+    try:
+        upgrade(engine, "0010")
+        with engine.begin() as connection:
+            connection.execute(jobs_0010.insert(), [
+                {"id": job_id, "model_id": None, "tenant": tenant, "kind": "duplicates",
+                 "status": "queued", "attempts": 0, "run_after": now - timedelta(seconds=age),
+                 "created_at": now, "updated_at": now}
+                for job_id, tenant, age in zip(ids, ("a", "a", "b"), (30, 20, 10), strict=True)
+            ])
+        upgrade(engine)
+        sessions = make_session_factory(engine)
+        with sessions() as session:
+            assert set(session.scalars(select(Job.turn))) == {0}
+        assert claim_order(sessions) == ids
+        config = alembic_config()
+        with engine.connect() as connection:
+            config.attributes["connection"] = connection
+            command.downgrade(config, "0010")
+            connection.commit()
+        assert "turn" not in {c["name"] for c in inspect(engine).get_columns("jobs")}
+        upgrade(engine)
+        assert "turn" in {c["name"] for c in inspect(engine).get_columns("jobs")}
+    finally:
+        engine.dispose()

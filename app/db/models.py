@@ -162,7 +162,8 @@ class Upload(Base):
 class Job(Base):
     __tablename__ = "jobs"
     __table_args__ = (
-        Index("ix_jobs_claim", "status", "run_after"),
+        Index("ix_jobs_claim", "status", "turn", "run_after"),
+        Index("ix_jobs_tenant_turn", "tenant", "status", "turn"),
         Index("ix_jobs_tenant_created", "tenant", "created_at", "id"),
     )
 
@@ -183,6 +184,9 @@ class Job(Base):
     status: Mapped[str] = mapped_column(String(20), default="queued")
     attempts: Mapped[int] = mapped_column(Integer, default=0)
     run_after: Mapped[datetime] = mapped_column(default=utcnow)
+    # The job's turn among the tenants' queued jobs (app.jobs.turns): due jobs are claimed
+    # in turn order, so one tenant's backlog does not hold up another tenant's uploads.
+    turn: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
     leased_until: Mapped[datetime | None] = mapped_column()
     worker_id: Mapped[str | None] = mapped_column(String(200))
     last_error: Mapped[dict[str, Any] | None] = mapped_column(JSON)

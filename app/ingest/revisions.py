@@ -18,6 +18,7 @@ from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
 from app.db.models import Job, Model, ModelRevision, Upload
+from app.jobs.turns import queue_job
 from app.problems import problem
 
 __all__ = [
@@ -158,11 +159,7 @@ def create_model_rows(
         file_format=model.file_format,
         content=None,
     )
-    job = Job(id=uuid.uuid4(), model_id=model.id, tenant=model.tenant, status="queued",
-              attempts=0, kind="describe")
-    session.add(job)
-    session.flush()
-    return job
+    return queue_job(session, tenant=model.tenant, model_id=model.id, kind="describe")
 
 
 def enqueue_redescribe(
@@ -194,9 +191,7 @@ def enqueue_redescribe(
             ),
         )
     )
-    job = Job(id=uuid.uuid4(), model_id=model.id, tenant=model.tenant, status="queued",
-              attempts=0, kind="redescribe",
-              revision_id=None if revision is None else revision.id)
-    session.add(job)
-    session.flush()
-    return job
+    return queue_job(
+        session, tenant=model.tenant, model_id=model.id, kind="redescribe",
+        revision_id=None if revision is None else revision.id,
+    )

@@ -7,7 +7,8 @@ one of those is guarded by (job id, worker id, attempts, status running): a work
 lease expired and was taken over changes nothing.
 
 Claiming is one statement (``app.jobs.lease``), which also takes over jobs whose worker's
-lease expired.
+lease expired. Due jobs are claimed in turn order, so that tenants take turns
+(``app.jobs.turns``: every job is queued by ``queue_job`` there).
 
 A take-over counts as an attempt: the worker that held the job died (crashed, was
 OOM-killed) while describing it, perhaps *because* of it. Before claiming, the same
@@ -93,7 +94,7 @@ class JobQueue:
             self._fail_poison_jobs(session, now)
             row = claim_next(
                 session, Job, waiting="queued", held="running", worker_id=worker_id, now=now,
-                lease=self.lease,
+                lease=self.lease, order=(Job.turn,),
                 returning=(Job.id, Job.model_id, Job.attempts, Job.kind, Job.tenant, Job.params),
             )
             if row is None:

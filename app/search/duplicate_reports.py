@@ -29,6 +29,7 @@ from sqlalchemy.orm import Session
 
 from app.db.models import DuplicateGroup, DuplicateReport, IndexEvent, Job, Model
 from app.jobs.queue import DUPLICATES
+from app.jobs.turns import queue_job
 from app.search.duplicates import ComputedReport, DuplicatesQuery
 
 __all__ = [
@@ -88,10 +89,7 @@ def enqueue_report(session: Session, tenant: str, query: DuplicatesQuery) -> Job
             job = session.get(Job, job_id)
             if job is not None:
                 return job
-    job = Job(tenant=tenant, model_id=None, kind=DUPLICATES, params=params)
-    session.add(job)
-    session.flush()
-    return job
+    return queue_job(session, tenant=tenant, model_id=None, kind=DUPLICATES, params=params)
 
 
 def store_report(
