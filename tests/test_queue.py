@@ -359,8 +359,10 @@ def test_migration_0011_goes_up_and_down(database_url: str) -> None:
             config.attributes["connection"] = connection
             command.downgrade(config, "0010")
             connection.commit()
-        assert "turn" not in {c["name"] for c in inspect(engine).get_columns("jobs")}
+        for table in ("jobs", "webhook_deliveries"):
+            assert "turn" not in {c["name"] for c in inspect(engine).get_columns(table)}
         upgrade(engine)
-        assert "turn" in {c["name"] for c in inspect(engine).get_columns("jobs")}
+        for table in ("jobs", "webhook_deliveries"):
+            assert "turn" in {c["name"] for c in inspect(engine).get_columns(table)}
     finally:
         engine.dispose()

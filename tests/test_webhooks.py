@@ -14,12 +14,14 @@ from conftest import PARTS, fake_describe, make_settings, upload, wait_for_statu
 from fastapi.testclient import TestClient
 from plm_helpers import ClientFactory, Receiver, started_clients
 from prometheus_client import REGISTRY
+from sqlalchemy.orm import Session, sessionmaker
 from standardwebhooks.webhooks import Webhook as Verifier
 
 from app.api.main import create_app
+from app.db.models import Model, Webhook
 from app.db.session import make_engine, make_session_factory
 from app.jobs.queue import JobQueue
-from app.webhooks import Deliverer, TargetRefused, check_target, pinned
+from app.webhooks import Deliverer, TargetRefused, check_target, pinned, record_model_event
 from core.errors import InvalidShapeError
 
 CUBE = PARTS / "20mm-xyz-cube.stl"
@@ -149,6 +151,43 @@ def test_an_event_outlives_the_worker_that_completed_the_job(
         (request,) = receiver.wait_for(1)
         event = json.loads(request[2])
         assert event["type"] == "model.ready" and event["data"]["model"]["id"] == model["id"]
+
+
+def test_an_endpoint_with_a_backlog_delays_another_endpoints_event_by_one_attempt(
+    sessions: sessionmaker[Session],
+) -> None:
+    """Claimed oldest first, the other endpoint's event waited for the whole backlog: with an
+    endpoint that hangs for its timeout, that was a timeout per event of the backlog."""
+    with sessions.begin() as session:
+        models = {}
+        for tenant in ("bulk", "desk"):
+            model = Model(tenant=tenant, meta={}, status="ready", file_name="a.stl",
+                          file_size=1, file_sha256="0" * 64, file_format="stl")
+            session.add_all([model, Webhook(tenant=tenant, url=f"https://{tenant}.example/",
+                                            events=["model.ready"], secret="whsec_x")])
+            session.flush()
+            models[tenant] = model.id
+        for _ in range(6):
+            record_model_event(session, models["bulk"], "model.ready")
+    deliverer = Deliverer(sessions, worker_id="w", allow_private=False, timeout=10,
+                          max_attempts=3, backoff_base=60, backoff_cap=60, lease_seconds=60)
+
+    def endpoint_of_next_claim() -> str:
+        claimed = deliverer.claim()  # held under its lease: the next claim takes another
+        assert claimed is not None
+        return claimed.url
+
+    try:
+        in_flight = [endpoint_of_next_claim() for _ in range(2)]
+        with sessions.begin() as session:
+            record_model_event(session, models["desk"], "model.ready")
+        order = [endpoint_of_next_claim() for _ in range(5)]
+        assert deliverer.claim() is None
+    finally:
+        deliverer.close()
+    assert in_flight == ["https://bulk.example/"] * 2
+    assert order == ["https://bulk.example/", "https://desk.example/"] + [
+        "https://bulk.example/"] * 3
 
 
 def test_unsafe_targets_are_refused_and_redirects_not_followed(

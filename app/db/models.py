@@ -267,7 +267,10 @@ class WebhookDelivery(Base):
     and claimed by a deliverer under a lease like a job."""
 
     __tablename__ = "webhook_deliveries"
-    __table_args__ = (Index("ix_webhook_deliveries_claim", "status", "run_after"),)
+    __table_args__ = (
+        Index("ix_webhook_deliveries_claim", "status", "turn", "run_after"),
+        Index("ix_webhook_deliveries_endpoint_turn", "webhook_id", "status", "turn"),
+    )
 
     # Also the Standard Webhooks message id (``webhook-id``): retries reuse it.
     id: Mapped[uuid.UUID] = mapped_column(Uuid, primary_key=True, default=uuid.uuid4)
@@ -280,6 +283,8 @@ class WebhookDelivery(Base):
     status: Mapped[str] = mapped_column(String(20), default="pending")
     attempts: Mapped[int] = mapped_column(Integer, default=0)
     run_after: Mapped[datetime] = mapped_column(default=utcnow)
+    # The delivery's turn among the endpoints' pending deliveries (app.jobs.turns).
+    turn: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
     leased_until: Mapped[datetime | None] = mapped_column()
     worker_id: Mapped[str | None] = mapped_column(String(200))
     created_at: Mapped[datetime] = mapped_column(default=utcnow)

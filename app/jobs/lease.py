@@ -12,8 +12,8 @@ one statement:
                 FOR UPDATE SKIP LOCKED)                              -- PostgreSQL only
     RETURNING ...
 
-``<order>`` is the table's own order before age: jobs take turns among tenants
-(``app.jobs.turns``); webhook deliveries have none and go oldest first.
+``<order>`` is the table's own order before age: jobs take turns among tenants and webhook
+deliveries among endpoints (``app.jobs.turns``).
 
 On PostgreSQL ``SKIP LOCKED`` lets concurrent workers pass over each other's candidate rows;
 SQLite has a single writer, so the statement is atomic as it stands. A failed attempt waits

@@ -82,11 +82,13 @@ class Deliverer:
         self.client.close()
 
     def claim(self) -> _Claimed | None:
-        """Take the next due delivery, or one whose deliverer's lease expired."""
+        """Take the next due delivery in turn order (endpoints take turns), or one whose
+        deliverer's lease expired."""
         with self.sessions.begin() as session:
             row = claim_next(
                 session, WebhookDelivery, waiting="pending", held="sending",
                 worker_id=self.worker_id, now=utcnow(), lease=self.lease,
+                order=(WebhookDelivery.turn,),
                 returning=(WebhookDelivery.id, WebhookDelivery.attempts,
                            WebhookDelivery.webhook_id, WebhookDelivery.payload),
             )

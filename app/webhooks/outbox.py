@@ -10,6 +10,7 @@ from sqlalchemy import insert, select
 from sqlalchemy.orm import Session
 
 from app.db.models import Job, Model, Webhook, WebhookDelivery, utcnow
+from app.jobs.turns import next_turn
 
 __all__ = ["EVENT_TYPES", "record_model_event"]
 
@@ -66,6 +67,10 @@ def record_model_event(
                 "id": uuid.uuid4(), "webhook_id": hook_id, "event_type": event_type,
                 "payload": payload, "status": "pending", "attempts": 0, "run_after": now,
                 "created_at": now, "updated_at": now,
+                # Endpoints take turns: one that hangs with a backlog delays another
+                # endpoint's event by at most one attempt (app.jobs.turns).
+                "turn": next_turn(session, WebhookDelivery.webhook_id, hook_id,
+                                  waiting="pending"),
             }
             for hook_id in endpoints
         ],

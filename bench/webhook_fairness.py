@@ -1,0 +1,148 @@
+"""How long one endpoint's event waits while another endpoint hangs with a backlog.
+
+Two tenants on a new SQLite database, each with a webhook endpoint on 127.0.0.1: ``bulk``'s
+endpoint hangs (it answers after ``--hang`` seconds, past the deliverer's ``--timeout``),
+``desk``'s answers at once. Each round queues ``--backlog`` events for ``bulk``, then one for
+``desk``, and runs one deliverer (as ``shapesearch serve`` and each worker process do) until
+``desk``'s event is delivered: the time from its event to its delivery, and how many of
+``bulk``'s attempts ran meanwhile. The baseline is ``desk``'s event on an idle outbox,
+measured in the same run. Prints medians over ``--rounds``.
+
+    nice -n 5 .venv/bin/python bench/webhook_fairness.py [--backlog 20] [--rounds 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session, sessionmaker
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))
+
+from plm_helpers import Receiver  # noqa: E402
+
+from app.db.migrate import upgrade  # noqa: E402
+from app.db.models import Model, Webhook, WebhookAttempt, WebhookDelivery  # noqa: E402
+from app.db.session import make_engine, make_session_factory  # noqa: E402
+from app.webhooks import Deliverer, record_model_event  # noqa: E402
+
+
+@contextmanager
+def hanging_endpoint(seconds: float) -> Iterator[str]:
+    """The URL of an endpoint on 127.0.0.1 that answers 200 after ``seconds``."""
+
+    class Handler(BaseHTTPRequestHandler):
+        def do_POST(self) -> None:  # noqa: N802 (http.server's naming)
+            time.sleep(seconds)
+            self.send_response(200)
+            self.send_header("content-length", "0")
+            self.end_headers()
+
+        def log_message(self, *args: Any) -> None:
+            pass
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        yield f"http://127.0.0.1:{server.server_address[1]}/hook"
+    finally:
+        server.shutdown()
+
+
+def outbox(folder: Path, urls: dict[str, str]) -> tuple[sessionmaker[Session], dict[str, Any]]:
+    """Sessions on a new database where each tenant of ``urls`` has a ready model and an
+    endpoint at its URL; and each tenant's model id."""
+    engine = make_engine(f"sqlite:///{folder / 'db.sqlite'}")
+    upgrade(engine)
+    sessions = make_session_factory(engine)
+    models = {}
+    with sessions.begin() as session:
+        for tenant, url in urls.items():
+            model = Model(tenant=tenant, meta={}, status="ready", file_name="part.stl",
+                          file_size=1, file_sha256="0" * 64, file_format="stl")
+            session.add_all([model, Webhook(tenant=tenant, url=url, events=["model.ready"],
+                                            secret="whsec_" + "A" * 32)])
+            session.flush()
+            models[tenant] = model.id
+    return sessions, models
+
+
+def delivered(sessions: sessionmaker[Session], tenant: str) -> bool:
+    """Whether ``tenant``'s one event has been delivered."""
+    with sessions() as session:
+        statuses = session.scalars(
+            select(WebhookDelivery.status).join(Webhook).where(Webhook.tenant == tenant)
+        ).all()
+    return statuses == ["delivered"]
+
+
+def attempts(sessions: sessionmaker[Session]) -> int:
+    with sessions() as session:
+        return int(session.scalar(select(func.count()).select_from(WebhookAttempt)) or 0)
+
+
+def desk_wait(
+    folder: Path, urls: dict[str, str], backlog: int, timeout: float
+) -> tuple[float, int]:
+    """Seconds from ``desk``'s event to its delivery behind ``backlog`` events of ``bulk``,
+    and the attempts made before it."""
+    sessions, models = outbox(folder, urls)
+    with sessions.begin() as session:
+        for _ in range(backlog):
+            record_model_event(session, models["bulk"], "model.ready")
+        record_model_event(session, models["desk"], "model.ready")
+    deliverer = Deliverer(sessions, worker_id="bench", allow_private=True, timeout=timeout,
+                          max_attempts=5, backoff_base=60, backoff_cap=60, lease_seconds=60)
+    started = time.perf_counter()
+    try:
+        while not delivered(sessions, "desk"):
+            deliverer.run_once()
+    finally:
+        deliverer.close()
+    return time.perf_counter() - started, attempts(sessions) - 1
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--backlog", type=int, default=20)
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--timeout", type=float, default=1.0)
+    parser.add_argument("--hang", type=float, default=3.0)
+    args = parser.parse_args()
+    idle, waits, attempts_before = [], [], []
+    with hanging_endpoint(args.hang) as hanging, Receiver() as receiver:
+        urls = {"bulk": hanging, "desk": receiver.url}
+        for _ in range(args.rounds):
+            with tempfile.TemporaryDirectory() as folder:
+                idle.append(desk_wait(Path(folder), urls, 0, args.timeout)[0])
+            with tempfile.TemporaryDirectory() as folder:
+                wait, made = desk_wait(Path(folder), urls, args.backlog, args.timeout)
+                waits.append(wait)
+                attempts_before.append(made)
+    idle_median, wait_median = statistics.median(idle), statistics.median(waits)
+    print(f"desk's event, idle outbox:      median {idle_median * 1000:8.1f} ms  "
+          f"({', '.join(f'{s * 1000:.1f}' for s in idle)})")
+    print(f"desk's event behind {args.backlog} events to an endpoint hanging past the "
+          f"{args.timeout:g} s timeout: median {wait_median * 1000:8.1f} ms  "
+          f"({', '.join(f'{s * 1000:.1f}' for s in waits)}), {wait_median / idle_median:.0f}x idle")
+    print(f"attempts to the hanging endpoint before desk's delivery: median "
+          f"{statistics.median(attempts_before):.0f} ({', '.join(map(str, attempts_before))})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
