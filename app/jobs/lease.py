@@ -8,11 +8,11 @@ one statement:
     WHERE id = (SELECT id FROM t
                 WHERE (status=:waiting AND run_after <= :now)
                    OR (status=:held AND leased_until < :now)
-                ORDER BY <order>, run_after LIMIT 1
+                ORDER BY turn, run_after LIMIT 1
                 FOR UPDATE SKIP LOCKED)                              -- PostgreSQL only
     RETURNING ...
 
-``<order>`` is the table's own order before age: jobs take turns among tenants and webhook
+Due rows go in turn order, then oldest first: jobs take turns among tenants and webhook
 deliveries among endpoints (``app.jobs.turns``).
 
 On PostgreSQL ``SKIP LOCKED`` lets concurrent workers pass over each other's candidate rows;
@@ -46,12 +46,11 @@ def claim_next(
     now: datetime,
     lease: timedelta,
     returning: tuple[Any, ...],
-    order: tuple[Any, ...] = (),
 ) -> Row[Any] | None:
     """Claim the next due row of ``table`` (an ORM class with ``id``, ``status``,
-    ``run_after``, ``worker_id``, ``attempts``, ``leased_until`` and ``updated_at``) for
-    ``worker_id``, the first by ``order`` then by ``run_after``; returns the ``returning``
-    columns of the claimed row, or None."""
+    ``turn``, ``run_after``, ``worker_id``, ``attempts``, ``leased_until`` and
+    ``updated_at``) for ``worker_id``, the first by turn then by ``run_after``; returns the
+    ``returning`` columns of the claimed row, or None."""
     due = (
         select(table.id)
         .where(
@@ -60,7 +59,7 @@ def claim_next(
                 and_(table.status == held, table.leased_until < now),
             )
         )
-        .order_by(*order, table.run_after)
+        .order_by(table.turn, table.run_after)
         .limit(1)
         .with_for_update(skip_locked=True)  # rendered on PostgreSQL, ignored by SQLite
         .scalar_subquery()

@@ -94,7 +94,7 @@ class JobQueue:
             self._fail_poison_jobs(session, now)
             row = claim_next(
                 session, Job, waiting="queued", held="running", worker_id=worker_id, now=now,
-                lease=self.lease, order=(Job.turn,),
+                lease=self.lease,
                 returning=(Job.id, Job.model_id, Job.attempts, Job.kind, Job.tenant, Job.params),
             )
             if row is None:

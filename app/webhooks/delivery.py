@@ -88,7 +88,6 @@ class Deliverer:
             row = claim_next(
                 session, WebhookDelivery, waiting="pending", held="sending",
                 worker_id=self.worker_id, now=utcnow(), lease=self.lease,
-                order=(WebhookDelivery.turn,),
                 returning=(WebhookDelivery.id, WebhookDelivery.attempts,
                            WebhookDelivery.webhook_id, WebhookDelivery.payload),
             )
