@@ -114,6 +114,7 @@ def test_a_folder_is_imported_then_a_second_run_uploads_nothing(
     assert sum(o == "skipped" for o in again.values()) == 18
     jobs = httpx.get(f"{service}/v1/jobs", params={"limit": 100}).json()["items"]
     assert len(jobs) == 18  # nothing was uploaded or described again
+    assert {job["background"] for job in jobs} == {True}  # a bulk load: it takes turns
 
 
 def test_a_zip_archive_with_stems_as_external_ids(

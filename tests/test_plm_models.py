@@ -15,6 +15,8 @@ from plm_helpers import ClientFactory, GatedDescriber, box_stl, started_clients
 
 from app.api import idempotency
 from app.db.models import utcnow
+from app.db.session import make_engine, make_session_factory
+from app.jobs.queue import JobQueue
 
 CUBE = PARTS / "20mm-xyz-cube.stl"
 
@@ -88,6 +90,32 @@ def test_jobs_are_listed_with_filter_and_cursor(client: TestClient) -> None:
     assert client.get("/v1/jobs", params={"cursor": "%%%"}).status_code == 422
 
 
+def test_uploads_sent_as_background_take_turns_with_the_tenants_other_uploads(
+    make_client: ClientFactory, database_url: str,
+) -> None:
+    """A bulk load of one tenant (background=true, as ``shapesearch import`` sends it) and
+    that tenant's other uploads take turns: the upload after the load is claimed second,
+    not after the whole load."""
+    client = make_client(embedded_worker=False)
+    load = [put(client, f"bulk-{i}", box_stl(1 + i / 10), background="true").json()["job"]["id"]
+            for i in range(4)]
+    load.append(upload(client, CUBE, background="true").json()["job"]["id"])
+    desk = upload(client, CUBE, filename="desk.stl").json()["job"]["id"]
+    jobs = {job["id"]: job["background"] for job in client.get("/v1/jobs").json()["items"]}
+    assert jobs == {**dict.fromkeys(load, True), desk: False}
+    engine = make_engine(database_url)
+    try:
+        queue = JobQueue(make_session_factory(engine), lease_seconds=30, max_attempts=3,
+                         backoff_base=1, backoff_cap=1)
+        order = []
+        while (claim := queue.claim("w")) is not None:
+            order.append(str(claim.job_id))
+            assert queue.fail(claim, {"detail": "only the order is asked"})
+    finally:
+        engine.dispose()
+    assert order == [load[0], desk, *load[1:]]  # oldest first, desk would have come last
+
+
 # --- idempotency ----------------------------------------------------------------------
 
 
@@ -104,6 +132,8 @@ def test_idempotency_key_replays_the_first_answer(client: TestClient) -> None:
     other = upload(client, CUBE, headers=key, external_id="p-1", name="Other name")
     assert other.status_code == 422
     assert other.json()["type"].endswith("idempotency-key-reused")
+    bulk = upload(client, CUBE, headers=key, external_id="p-1", name="Cube", background="true")
+    assert bulk.status_code == 422  # another request: part of a bulk load
     fresh = upload(client, CUBE, headers={"Idempotency-Key": "sync-43"}, name="Cube")
     assert fresh.status_code == 202 and fresh.json()["id"] != first.json()["id"]
 

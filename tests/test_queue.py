@@ -27,6 +27,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db.migrate import alembic_config, upgrade
 from app.db.models import Job, Model, Upload, UTCDateTime, utcnow
 from app.db.session import make_engine, make_session_factory
+from app.ingest.redescribe import enqueue_models
 from app.jobs.lease import backoff_seconds
 from app.jobs.queue import Claim, JobQueue
 from app.jobs.turns import queue_job
@@ -330,8 +331,28 @@ def test_a_job_waiting_out_a_back_off_does_not_hold_the_head_back(
     assert deferred not in order  # still waiting out its back-off
 
 
-def test_migration_0011_goes_up_and_down(database_url: str) -> None:
-    """Jobs queued before turns all get turn 0 and so keep their order: oldest first."""
+def test_a_catalogue_redescribe_takes_turns_with_the_tenants_own_uploads(
+    sessions: sessionmaker[Session],
+) -> None:
+    """With turns among tenants only, the upload came 21st: after the tenant's whole
+    catalogue, which the operator had queued for re-describing before it."""
+    add_jobs(sessions, 20, tenant="desk")
+    claim_order(sessions)  # the first describes end (how, does not matter here)
+    catalogue = enqueue_models(sessions, from_version=None, everything=True, current="next")
+    first_two = claim_order(sessions, 2)
+    (upload,) = add_jobs(sessions, 1, tenant="desk")
+    order = claim_order(sessions)
+    assert len(catalogue) == 20 and first_two == catalogue[:2]
+    assert order.index(upload) == 1  # after the re-describe job of the same turn
+    assert [job for job in order if job != upload] == catalogue[2:]  # in the catalogue's order
+    with sessions() as session:
+        assert session.get(Job, upload).background is False  # type: ignore[union-attr]
+        assert session.get(Job, catalogue[0]).background is True  # type: ignore[union-attr]
+
+
+def test_migrations_0011_and_0012_go_up_and_down(database_url: str) -> None:
+    """Jobs queued before turns all get turn 0 and so keep their order, oldest first; they
+    are requests, not background jobs."""
     engine = make_engine(database_url)
     jobs_0010 = Table(  # the columns a job needs at revision 0010 (no turn)
         "jobs", MetaData(), Column("id", Uuid), Column("model_id", Uuid),
@@ -353,6 +374,7 @@ def test_migration_0011_goes_up_and_down(database_url: str) -> None:
         sessions = make_session_factory(engine)
         with sessions() as session:
             assert set(session.scalars(select(Job.turn))) == {0}
+            assert set(session.scalars(select(Job.background))) == {False}
         assert claim_order(sessions) == ids
         config = alembic_config()
         with engine.connect() as connection:
@@ -361,8 +383,10 @@ def test_migration_0011_goes_up_and_down(database_url: str) -> None:
             connection.commit()
         for table in ("jobs", "webhook_deliveries"):
             assert "turn" not in {c["name"] for c in inspect(engine).get_columns(table)}
+        assert "background" not in {c["name"] for c in inspect(engine).get_columns("jobs")}
         upgrade(engine)
         for table in ("jobs", "webhook_deliveries"):
             assert "turn" in {c["name"] for c in inspect(engine).get_columns(table)}
+        assert "background" in {c["name"] for c in inspect(engine).get_columns("jobs")}
     finally:
         engine.dispose()

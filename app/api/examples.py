@@ -151,8 +151,8 @@ _NEW_FILE = {
     "sha256": "e3b7a41c9d2f8065b1c4d7e0a9f3b6c8d2e5f1a4b7c0d3e6f9a2b5c8d1e4f7a0",
     "format": "stl",
 }
-_JOB_DONE = {"id": _JOB, "kind": "describe", "model_id": _ID, "status": "done", "attempts": 1,
-             "last_error": None, "leased_until": None,
+_JOB_DONE = {"id": _JOB, "kind": "describe", "model_id": _ID, "status": "done",
+             "background": False, "attempts": 1, "last_error": None, "leased_until": None,
              "created_at": "2026-11-22T04:24:35.955773Z",
              "updated_at": "2026-11-22T04:24:38.120417Z"}
 _JOB_QUEUED = {**_JOB_DONE, "id": _JOB2, "kind": "redescribe", "status": "queued",

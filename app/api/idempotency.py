@@ -30,12 +30,16 @@ def request_sha256(
     name: str | None,
     meta: dict[str, Any],
     units: str | None = None,
+    background: bool = False,
 ) -> str:
     """The digest that says whether two requests ask for the same thing (``units`` counts
-    only when given, so that digests stored before it existed still match)."""
+    only when given and ``background`` only when true, so that digests stored before they
+    existed still match)."""
     fields: list[Any] = [file_sha256, external_id, name, meta]
     if units is not None:
         fields.append(units)
+    if background:
+        fields.append({"background": True})
     canonical = json.dumps(fields, sort_keys=True)
     return hashlib.sha256(canonical.encode()).hexdigest()
 

@@ -196,6 +196,9 @@ class JobResource(BaseModel):
     model_id: uuid.UUID | None = Field(description="The model described; null for a "
                                        "duplicates job.")
     status: Literal["queued", "running", "done", "failed"]
+    background: bool = Field(description="Part of a bulk load (an upload sent with "
+                             "background=true) or of a catalogue's re-describe: it takes "
+                             "turns with the tenant's other jobs instead of holding them up.")
     attempts: int
     last_error: ModelError | None
     leased_until: datetime | None
@@ -277,6 +280,7 @@ def job_resource(job: Job) -> JobResource:
         kind=job.kind,  # type: ignore[arg-type]
         model_id=job.model_id,
         status=job.status,  # type: ignore[arg-type]
+        background=job.background,
         attempts=job.attempts,
         last_error=ModelError(**job.last_error) if job.last_error else None,
         leased_until=job.leased_until,

@@ -25,7 +25,9 @@ import logging
 import threading
 import time
 from dataclasses import dataclass
-from typing import Any, BinaryIO
+from typing import Annotated, Any, BinaryIO
+
+from fastapi import Form
 
 from app.api.limits import too_large_problem
 from app.api.problems import Problem
@@ -45,8 +47,8 @@ from core.io import (
 )
 
 __all__ = [
-    "UPLOAD_FILE_HELP", "CheckedUpload", "UploadReader", "invalid_shape_problem",
-    "out_of_memory_problem",
+    "UPLOAD_FILE_HELP", "BackgroundField", "CheckedUpload", "UploadReader",
+    "invalid_shape_problem", "out_of_memory_problem",
 ]
 
 #: The OpenAPI description of every shape upload field.
@@ -55,6 +57,15 @@ UPLOAD_FILE_HELP = (
     + ", ".join(SUPPORTED_FORMATS)
     + " (stp and igs too)."
 )
+
+#: The form field that marks an upload as part of a bulk load (``app.jobs.turns``).
+BackgroundField = Annotated[
+    bool,
+    Form(description="true for an upload that is part of a bulk load (`shapesearch import` "
+         "sends it): its job takes turns with the tenant's other uploads instead of "
+         "holding them up, as a catalogue's re-describe does. Scheduling only: the model "
+         "and its descriptor are the same."),
+]
 
 log = logging.getLogger("shapesearch.api")
 

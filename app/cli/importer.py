@@ -13,7 +13,9 @@ It is a client of the service, like any PLM connector:
        jittered exponential backoff, honouring Retry-After; other 4xx answers are refusals
        with the service's reason. A PUT by external id is safe to repeat: the same file
        again is a 200 (or the revision already pending), never a second model, so no
-       Idempotency-Key is needed (the service reads those on POST /v1/models only). A 507
+       Idempotency-Key is needed (the service reads those on POST /v1/models only). Every
+       PUT says background=true: the import's jobs take turns with the tenant's other
+       uploads instead of holding them up (``app.jobs.turns``). A 507
        (the service's storage is full) stops the sending: no later file could be stored,
        and each would be sent whole to be refused; those files are reported as not sent;
     4. with ``--wait``, follow every accepted model to ready or failed;
@@ -318,7 +320,10 @@ def _upload(
     client: httpx.Client, path: str, content: bytes, sha256: str, external_id: str,
     meta: dict[str, Any] | None, units: str | None = None,
 ) -> Outcome:
-    data = {"metadata": json.dumps(meta)} if meta else {}
+    # A bulk load: its jobs take turns with the tenant's other uploads (app.jobs.turns).
+    data = {"background": "true"}
+    if meta:
+        data["metadata"] = json.dumps(meta)
     if units is not None:
         data["units"] = units
     filename = PurePosixPath(path).name

@@ -37,6 +37,7 @@ from sqlalchemy import (
     TypeDecorator,
     UniqueConstraint,
     Uuid,
+    false,
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, deferred, mapped_column
 
@@ -163,7 +164,7 @@ class Job(Base):
     __tablename__ = "jobs"
     __table_args__ = (
         Index("ix_jobs_claim", "status", "turn", "run_after"),
-        Index("ix_jobs_tenant_turn", "tenant", "status", "turn"),
+        Index("ix_jobs_tenant_turn", "tenant", "background", "status", "turn"),
         Index("ix_jobs_tenant_created", "tenant", "created_at", "id"),
     )
 
@@ -187,6 +188,10 @@ class Job(Base):
     # The job's turn among the tenants' queued jobs (app.jobs.turns): due jobs are claimed
     # in turn order, so one tenant's backlog does not hold up another tenant's uploads.
     turn: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
+    # Part of a bulk load: an upload sent with background=true (``shapesearch import``) or
+    # the operator's re-describe of a whole catalogue. A tenant's background jobs take turns
+    # apart from its other jobs, so its bulk loads do not hold up its uploads (revision 0012).
+    background: Mapped[bool] = mapped_column(Boolean, default=False, server_default=false())
     leased_until: Mapped[datetime | None] = mapped_column()
     worker_id: Mapped[str | None] = mapped_column(String(200))
     last_error: Mapped[dict[str, Any] | None] = mapped_column(JSON)

@@ -32,7 +32,8 @@ def enqueue_models(
     current: str,
 ) -> list[uuid.UUID]:
     """Queue a job per chosen model; returns the job ids. Default choice: every model not
-    failed whose descriptor_version differs from ``current``."""
+    failed whose descriptor_version differs from ``current``. The jobs are background jobs:
+    each tenant's uploads keep taking turns with them (``app.jobs.turns``)."""
     where: list[ColumnElement[bool]]
     if everything:
         where = [Model.id.is_not(None)]
@@ -47,6 +48,6 @@ def enqueue_models(
     with sessions.begin() as session:
         locked = lock_models(session, *where)
         for model in session.scalars(select(Model).where(Model.id.in_(locked))):
-            job_ids.append(enqueue_redescribe(session, model).id)
+            job_ids.append(enqueue_redescribe(session, model, background=True).id)
     return job_ids
 

@@ -141,12 +141,11 @@ def latest_jobs(session: Session, model_ids: Iterable[uuid.UUID]) -> dict[uuid.U
 
 
 def create_model_rows(
-    session: Session,
-    model: Model,
-    content: bytes,
+    session: Session, model: Model, content: bytes, *, background: bool = False
 ) -> Job:
     """Add a new model with its upload, revision 1 and its describe job (one transaction:
-    no accepted upload without a job)."""
+    no accepted upload without a job); ``background``: the upload is part of a bulk load
+    (``app.jobs.turns``)."""
     session.add(model)
     session.flush()
     session.add(Upload(model_id=model.id, content=content))
@@ -159,16 +158,21 @@ def create_model_rows(
         file_format=model.file_format,
         content=None,
     )
-    return queue_job(session, tenant=model.tenant, model_id=model.id, kind="describe")
+    return queue_job(
+        session, tenant=model.tenant, background=background, model_id=model.id,
+        kind="describe",
+    )
 
 
 def enqueue_redescribe(
-    session: Session, model: Model, revision: ModelRevision | None = None
+    session: Session, model: Model, revision: ModelRevision | None = None, *,
+    background: bool = False,
 ) -> Job:
     """A job that describes the model again: its current file, or ``revision``'s.
 
     Queued jobs of the model that have not started are failed as superseded, so that an
-    older file cannot overwrite a newer one.
+    older file cannot overwrite a newer one. ``background``: part of a bulk load or of a
+    whole catalogue's re-describe (``app.jobs.turns``).
     """
     superseded = session.scalars(
         select(Job.revision_id).where(
@@ -192,6 +196,6 @@ def enqueue_redescribe(
         )
     )
     return queue_job(
-        session, tenant=model.tenant, model_id=model.id, kind="redescribe",
-        revision_id=None if revision is None else revision.id,
+        session, tenant=model.tenant, background=background, model_id=model.id,
+        kind="redescribe", revision_id=None if revision is None else revision.id,
     )

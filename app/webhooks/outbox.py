@@ -69,8 +69,8 @@ def record_model_event(
                 "created_at": now, "updated_at": now,
                 # Endpoints take turns: one that hangs with a backlog delays another
                 # endpoint's event by at most one attempt (app.jobs.turns).
-                "turn": next_turn(session, WebhookDelivery.webhook_id, hook_id,
-                                  waiting="pending"),
+                "turn": next_turn(session, WebhookDelivery,
+                                  [WebhookDelivery.webhook_id == hook_id], waiting="pending"),
             }
             for hook_id in endpoints
         ],

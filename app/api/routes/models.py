@@ -41,7 +41,7 @@ from app.api.search_params import (
     metadata_ranges,
     size_options,
 )
-from app.api.uploads import UPLOAD_FILE_HELP
+from app.api.uploads import UPLOAD_FILE_HELP, BackgroundField
 from app.auth.dependency import TenantDep
 from app.db.feed import record_event
 from app.db.models import Model, utcnow
@@ -87,6 +87,7 @@ def upload_model(
         str | None, Form(description=METADATA_HELP, json_schema_extra=JSON_OBJECT_FIELD)
     ] = None,
     units: UnitsField = None,
+    background: BackgroundField = False,
     idempotency_key: Annotated[
         str | None,
         Header(
@@ -102,7 +103,7 @@ def upload_model(
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata)
     upload = services.uploads.read(file.file, file.filename)
-    request_digest = request_sha256(upload.sha256, external_id, name, meta, units)
+    request_digest = request_sha256(upload.sha256, external_id, name, meta, units, background)
     if idempotency_key is not None:
         replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest,
                                   services.settings.idempotency_ttl_seconds)
@@ -124,7 +125,7 @@ def upload_model(
     try:
         # The model, its bytes and its job commit together: no accepted upload without a job.
         with services.sessions.begin() as session:
-            job = create_model_rows(session, model, upload.content)
+            job = create_model_rows(session, model, upload.content, background=background)
             resource = model_resource(model, job)
             if idempotency_key is not None:
                 remember(session, tenant, idempotency_key, request_digest, 202, resource,

@@ -33,7 +33,7 @@ from app.api.lookups import load_model, parse_model_id
 from app.api.problems import Problem, problem_responses
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
 from app.api.search_params import UnitsField
-from app.api.uploads import UPLOAD_FILE_HELP, CheckedUpload
+from app.api.uploads import UPLOAD_FILE_HELP, BackgroundField, CheckedUpload
 from app.auth.dependency import TenantDep
 from app.db.models import Job, Model, ModelRevision, Upload, utcnow
 from app.ingest.revisions import (
@@ -135,6 +135,7 @@ def upsert_model(
              json_schema_extra=JSON_OBJECT_FIELD),
     ] = None,
     units: UnitsField = None,
+    background: BackgroundField = False,
 ) -> ModelResource:
     limits = InputLimits.from_settings(services.settings)
     if not external_id:
@@ -158,7 +159,9 @@ def upsert_model(
                         file_size=len(upload.content), file_sha256=upload.sha256,
                         file_format=upload.format, units=units,
                     )
-                    job = create_model_rows(session, model, upload.content)
+                    job = create_model_rows(
+                        session, model, upload.content, background=background
+                    )
                     response.status_code = 201
                     response.headers["Location"] = f"/v1/models/{model.id}"
                     return model_resource(model, job)
@@ -169,7 +172,7 @@ def upsert_model(
                 if units is not None:
                     model.units = units
                 model.updated_at = utcnow()
-                pending = _describe_if_new(session, model, upload)
+                pending = _describe_if_new(session, model, upload, background=background)
                 response.status_code = 200 if pending is None else 202
                 session.flush()
                 return model_resource(
@@ -180,7 +183,9 @@ def upsert_model(
     raise Problem("conflict", "The model changed concurrently; retry.")
 
 
-def _describe_if_new(session: Session, model: Model, upload: CheckedUpload) -> Job | None:
+def _describe_if_new(
+    session: Session, model: Model, upload: CheckedUpload, *, background: bool
+) -> Job | None:
     """A job for ``upload`` unless it is the model's current (or already pending) file."""
     sha256 = upload.sha256
     if sha256 == model.file_sha256:
@@ -202,7 +207,7 @@ def _describe_if_new(session: Session, model: Model, upload: CheckedUpload) -> J
         file_format=upload.format,
         content=upload.content,
     )
-    return enqueue_redescribe(session, model, revision)
+    return enqueue_redescribe(session, model, revision, background=background)
 
 
 @router.get(

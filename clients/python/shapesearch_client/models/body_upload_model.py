@@ -33,6 +33,9 @@ class BodyUploadModel:
         Attributes:
             file (File): Mesh, point cloud, scanner or CAD file; its name's extension tells the format: stl, obj, off, ply,
                 glb, xyz, txt, csv, pts, pcd, npy, e57, las, laz, step, iges (stp and igs too).
+            background (bool | Unset): true for an upload that is part of a bulk load (`shapesearch import` sends it): its
+                job takes turns with the tenant's other uploads instead of holding them up, as a catalogue's re-describe does.
+                Scheduling only: the model and its descriptor are the same. Default: False.
             external_id (str | Unset): Your id; unique per tenant.
             metadata (BodyUploadModelMetadata | Unset): A JSON object, nested at most SHAPESEARCH_MAX_METADATA_DEPTH levels
                 (default 8), at most SHAPESEARCH_MAX_METADATA_BYTES (default 16384) as compact JSON, its keys and strings
@@ -43,6 +46,7 @@ class BodyUploadModel:
      """
 
     file: File
+    background: bool | Unset = False
     external_id: str | Unset = UNSET
     metadata: BodyUploadModelMetadata | Unset = UNSET
     name: str | Unset = UNSET
@@ -57,6 +61,8 @@ class BodyUploadModel:
         from ..models.body_upload_model_metadata import BodyUploadModelMetadata # noqa: PLC0415
         file = self.file.to_tuple()
 
+
+        background = self.background
 
         external_id = self.external_id
 
@@ -77,6 +83,8 @@ class BodyUploadModel:
         field_dict.update({
             "file": file,
         })
+        if background is not UNSET:
+            field_dict["background"] = background
         if external_id is not UNSET:
             field_dict["external_id"] = external_id
         if metadata is not UNSET:
@@ -94,6 +102,11 @@ class BodyUploadModel:
         files: types.RequestFiles = []
 
         files.append(("file", self.file.to_tuple()))
+
+
+
+        if not isinstance(self.background, Unset):
+            files.append(("background", (None, str(self.background).encode(), "text/plain")))
 
 
 
@@ -137,6 +150,8 @@ class BodyUploadModel:
 
 
 
+        background = d.pop("background", UNSET)
+
         external_id = d.pop("external_id", UNSET)
 
         _metadata = d.pop("metadata", UNSET)
@@ -163,6 +178,7 @@ class BodyUploadModel:
 
         body_upload_model = cls(
             file=file,
+            background=background,
             external_id=external_id,
             metadata=metadata,
             name=name,

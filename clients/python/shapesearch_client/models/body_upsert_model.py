@@ -33,6 +33,9 @@ class BodyUpsertModel:
         Attributes:
             file (File): Mesh, point cloud, scanner or CAD file; its name's extension tells the format: stl, obj, off, ply,
                 glb, xyz, txt, csv, pts, pcd, npy, e57, las, laz, step, iges (stp and igs too).
+            background (bool | Unset): true for an upload that is part of a bulk load (`shapesearch import` sends it): its
+                job takes turns with the tenant's other uploads instead of holding them up, as a catalogue's re-describe does.
+                Scheduling only: the model and its descriptor are the same. Default: False.
             metadata (BodyUpsertModelMetadata | Unset): A JSON object, nested at most SHAPESEARCH_MAX_METADATA_DEPTH levels
                 (default 8), at most SHAPESEARCH_MAX_METADATA_BYTES (default 16384) as compact JSON, its keys and strings
                 without NUL at every level (else 422 validation-error pointing into it). Absent: the metadata stay as they are.
@@ -42,6 +45,7 @@ class BodyUpsertModel:
      """
 
     file: File
+    background: bool | Unset = False
     metadata: BodyUpsertModelMetadata | Unset = UNSET
     name: str | Unset = UNSET
     units: BodyUpsertModelUnits | Unset = UNSET
@@ -55,6 +59,8 @@ class BodyUpsertModel:
         from ..models.body_upsert_model_metadata import BodyUpsertModelMetadata # noqa: PLC0415
         file = self.file.to_tuple()
 
+
+        background = self.background
 
         metadata: dict[str, Any] | Unset = UNSET
         if not isinstance(self.metadata, Unset):
@@ -73,6 +79,8 @@ class BodyUpsertModel:
         field_dict.update({
             "file": file,
         })
+        if background is not UNSET:
+            field_dict["background"] = background
         if metadata is not UNSET:
             field_dict["metadata"] = metadata
         if name is not UNSET:
@@ -88,6 +96,11 @@ class BodyUpsertModel:
         files: types.RequestFiles = []
 
         files.append(("file", self.file.to_tuple()))
+
+
+
+        if not isinstance(self.background, Unset):
+            files.append(("background", (None, str(self.background).encode(), "text/plain")))
 
 
 
@@ -126,6 +139,8 @@ class BodyUpsertModel:
 
 
 
+        background = d.pop("background", UNSET)
+
         _metadata = d.pop("metadata", UNSET)
         metadata: BodyUpsertModelMetadata | Unset
         if isinstance(_metadata,  Unset):
@@ -150,6 +165,7 @@ class BodyUpsertModel:
 
         body_upsert_model = cls(
             file=file,
+            background=background,
             metadata=metadata,
             name=name,
             units=units,

@@ -30,6 +30,8 @@ class JobResource:
     """ 
         Attributes:
             attempts (int):
+            background (bool): Part of a bulk load (an upload sent with background=true) or of a catalogue's re-describe: it
+                takes turns with the tenant's other jobs instead of holding them up.
             created_at (datetime.datetime):
             id (UUID):
             kind (JobResourceKind): describe: a new model's file; redescribe: a model's stored or new file again;
@@ -42,6 +44,7 @@ class JobResource:
      """
 
     attempts: int
+    background: bool
     created_at: datetime.datetime
     id: UUID
     kind: JobResourceKind
@@ -59,6 +62,8 @@ class JobResource:
     def to_dict(self) -> dict[str, Any]:
         from ..models.model_error import ModelError # noqa: PLC0415
         attempts = self.attempts
+
+        background = self.background
 
         created_at = self.created_at.isoformat()
 
@@ -93,6 +98,7 @@ class JobResource:
         field_dict.update(self.additional_properties)
         field_dict.update({
             "attempts": attempts,
+            "background": background,
             "created_at": created_at,
             "id": id,
             "kind": kind,
@@ -112,6 +118,8 @@ class JobResource:
         from ..models.model_error import ModelError # noqa: PLC0415
         d = dict(src_dict)
         attempts = d.pop("attempts")
+
+        background = d.pop("background")
 
         created_at = datetime.datetime.fromisoformat(d.pop("created_at"))
 
@@ -194,6 +202,7 @@ class JobResource:
 
         job_resource = cls(
             attempts=attempts,
+            background=background,
             created_at=created_at,
             id=id,
             kind=kind,
