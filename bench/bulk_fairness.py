@@ -27,10 +27,9 @@ import tempfile
 import time
 import uuid
 from pathlib import Path
-from typing import Any
 
 import httpx
-from queue_fairness import cloud, keys, wait_ready
+from queue_fairness import keys, post, wait_ready
 from servers import running_server  # queue_fairness put tests/ on the path
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
@@ -38,19 +37,6 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db.models import Job
 from app.db.session import make_engine, make_session_factory
 from app.ingest.redescribe import enqueue_models
-
-
-def post(
-    client: httpx.Client, key: str, seed: int, *, background: bool = False
-) -> dict[str, Any]:
-    """POST one point cloud; the new model (with its ``job``)."""
-    response = client.post(
-        "/v1/models", headers={"Authorization": f"Bearer {key}"},
-        files={"file": (f"part-{seed}.xyz", cloud(seed))},
-        data={"background": "true"} if background else {},
-    )
-    response.raise_for_status()
-    return dict(response.json())
 
 
 def finished(sessions: sessionmaker[Session], job_ids: list[uuid.UUID]) -> int:
@@ -100,7 +86,7 @@ def main() -> int:
                                           current="")
                 else:
                     load = [uuid.UUID(post(client, key, 1_000 * (round_number + 1) + i,
-                                           background=True)["job"]["id"])
+                                           background="true")["job"]["id"])
                             for i in range(args.size)]
                 done_before = finished(sessions, load)
                 upload = post(client, key, 20_000 + round_number)["id"]

@@ -19,6 +19,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import httpx
 import numpy as np
@@ -54,13 +55,15 @@ def keys(database_url: str) -> dict[str, str]:
     return made
 
 
-def post(client: httpx.Client, key: str, seed: int) -> str:
+def post(client: httpx.Client, key: str, seed: int, **form: str) -> dict[str, Any]:
+    """POST the point cloud of ``seed`` with the form fields ``form``; the new model (with
+    its ``job``)."""
     response = client.post(
         "/v1/models", headers={"Authorization": f"Bearer {key}"},
-        files={"file": (f"part-{seed}.xyz", cloud(seed))},
+        files={"file": (f"part-{seed}.xyz", cloud(seed))}, data=form,
     )
     response.raise_for_status()
-    return str(response.json()["id"])
+    return dict(response.json())
 
 
 def wait_ready(client: httpx.Client, key: str, model_id: str) -> float:
@@ -103,14 +106,15 @@ def main() -> int:
         with running_server(Path(folder), worker=True) as (base, _pid), httpx.Client(
             base_url=base, timeout=60
         ) as client:
-            idle = [wait_ready(client, made["desk"], post(client, made["desk"], 10_000 + i))
+            idle = [wait_ready(client, made["desk"], post(client, made["desk"], 10_000 + i)["id"])
                     for i in range(args.rounds)]
             waits, overtaken = [], []
             for round_number in range(args.rounds):
                 first = round_number * args.backlog
-                bulk_ids = [post(client, made["bulk"], first + i) for i in range(args.backlog)]
+                bulk_ids = [post(client, made["bulk"], first + i)["id"]
+                            for i in range(args.backlog)]
                 done_before = jobs_done(client, made["bulk"])
-                desk_id = post(client, made["desk"], 20_000 + round_number)
+                desk_id = post(client, made["desk"], 20_000 + round_number)["id"]
                 waits.append(wait_ready(client, made["desk"], desk_id))
                 overtaken.append(jobs_done(client, made["bulk"]) - done_before)
                 for model_id in bulk_ids:
