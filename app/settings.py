@@ -144,8 +144,8 @@ class Settings(BaseSettings):
     describe_timeout_seconds_per_mb: float = Field(
         default=10.0,
         ge=0,
-        description="What each MB of a file adds to its limit (valid files needed at most "
-        "2.3 s a MB, bench/describe_by_size.py).",
+        description="What each MB of a file adds to its limit (valid mesh and cloud files "
+        "of 6 MB and more needed at most 1.1 s a MB, bench/describe_by_size.py).",
     )
 
     search_max_concurrent: int = Field(

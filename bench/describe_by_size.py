@@ -2,14 +2,15 @@
 describe's time limit (``SHAPESEARCH_DESCRIBE_TIMEOUT_SECONDS`` and its per-MB part).
 
 Makes valid files of growing size in code (binary STL, OBJ and PLY meshes of subdivided
-spheres; XYZ point clouds; STEP assemblies of many drilled, filleted blocks when the ``cad``
-extra is installed), describes each with the worker's production handler (in its sandbox,
-with scan views, as a job does), and prints the seconds and the seconds per MB of each,
-then the largest seconds per MB of every format. A limit must stay above these on the
-slowest machine it runs on (these machines differ about 3x).
+spheres, or with ``--shape cylinder`` of cylinders with ever more sides, as a turned part
+exported at a fine tolerance is; XYZ point clouds; STEP assemblies of many drilled,
+filleted blocks when the ``cad`` extra is installed), describes each with the worker's
+production handler (in its sandbox, with scan views, as a job does), and prints the seconds
+and the seconds per MB of each, then the largest seconds per MB of every format. A limit
+must stay above these on the slowest machine it runs on (these machines differ about 3x).
 
     .venv/bin/python bench/describe_by_size.py [--sizes-mb 1 4 16 64]
-        [--formats stl obj ply xyz step]
+        [--formats stl obj ply xyz step] [--shape sphere|cylinder] [--service-limits]
 """
 
 from __future__ import annotations
@@ -35,8 +36,17 @@ def sphere_mesh(target_mb: float, text: bool) -> trimesh.Trimesh:
     return trimesh.creation.icosphere(subdivisions=level)
 
 
-def mesh_file(fmt: str, target_mb: float) -> bytes:
-    mesh = sphere_mesh(target_mb, text=fmt == "obj")
+def cylinder_mesh(target_mb: float, text: bool) -> trimesh.Trimesh:
+    """A cylinder (radius 3, height 10) whose file is about ``target_mb``: four faces a
+    side, its vertices on two circles (the hull's worst case: every one is cocircular)."""
+    bytes_per_face = 60.0 if text else 50.0
+    sides = max(8, int(target_mb * 1e6 / bytes_per_face / 4))
+    return trimesh.creation.cylinder(3.0, 10.0, sections=sides)
+
+
+def mesh_file(fmt: str, target_mb: float, shape: str = "sphere") -> bytes:
+    maker = cylinder_mesh if shape == "cylinder" else sphere_mesh
+    mesh = maker(target_mb, text=fmt == "obj")
     exported = mesh.export(file_type=fmt)
     return exported.encode() if isinstance(exported, str) else bytes(exported)
 
@@ -93,28 +103,34 @@ def step_file(target_mb: float) -> bytes:
             return handle.read()
 
 
-def make(fmt: str, target_mb: float) -> bytes:
+def make(fmt: str, target_mb: float, shape: str) -> bytes:
     if fmt == "xyz":
         return xyz_file(target_mb)
     if fmt == "step":
         return step_file(target_mb)
-    return mesh_file(fmt, target_mb)
+    return mesh_file(fmt, target_mb, shape)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes-mb", type=float, nargs="+", default=[1, 4, 16, 64])
     parser.add_argument("--formats", nargs="+", default=["stl", "obj", "ply", "xyz", "step"])
+    parser.add_argument("--shape", choices=["sphere", "cylinder"], default="sphere",
+                        help="what the meshes (STL, OBJ, PLY) are")
+    parser.add_argument("--service-limits", action="store_true",
+                        help="keep the service's time and memory limits: what a job would do")
     args = parser.parse_args()
-    # The production handler with room to finish: what a valid file needs, not the limit.
-    settings = Settings(describe_timeout_seconds=3600, describe_timeout_base_seconds=3600,
-                        describe_memory_bytes=8 * 1024**3)
+    # The production handler with room to finish (what a valid file needs, not the limit),
+    # or with the service's default limits (a refusal then is what a job would report).
+    roomy = Settings(describe_timeout_seconds=3600, describe_timeout_base_seconds=3600,
+                     describe_memory_bytes=8 * 1024**3)
+    settings = Settings() if args.service_limits else roomy
     handle = describe_handler(settings)
     print(f"load {os.getloadavg()[0]:.1f}")
     slopes: dict[str, float] = {}
     for fmt in args.formats:
         for target in args.sizes_mb:
-            content = make(fmt, target)
+            content = make(fmt, target, args.shape)
             megabytes = len(content) / 1e6
             started = time.perf_counter()
             try:

@@ -23,7 +23,7 @@ from fastapi.testclient import TestClient
 
 from app.api.main import create_app
 from core.pipeline import describe
-from core.size import ShapeSize
+from core.size import ShapeSize, _unique_rows, box_extents, closed_volume
 
 PART = PARTS / "featuretype.STL"  # 5 x 2.5 x 1.375, distinct extents, watertight
 
@@ -67,6 +67,58 @@ def test_an_open_mesh_has_no_volume() -> None:
     open_box = trimesh.Trimesh(box.vertices, box.faces[:-2])  # one face missing
     size = ShapeSize.of_mesh(np.asarray(open_box.vertices), np.asarray(open_box.faces))
     assert size.volume is None
+
+
+def test_a_flipped_or_repeated_triangle_leaves_no_volume() -> None:
+    box = trimesh.creation.box((10.0, 40.0, 20.0))
+    vertices, faces = np.asarray(box.vertices), np.asarray(box.faces)
+    flipped = faces.copy()
+    flipped[0] = flipped[0, ::-1]  # closed, but not consistently wound
+    repeated = np.vstack([faces, faces[:1]])
+    assert closed_volume(vertices, faces) == pytest.approx(8000.0)
+    assert closed_volume(vertices, flipped) is None
+    assert closed_volume(vertices, repeated) is None
+
+
+def test_unique_rows_agree_with_numpys_unique() -> None:
+    rows = np.random.default_rng(2).integers(-3, 3, size=(5000, 3))
+    first, inverse = _unique_rows(rows)
+    _, expected_first, expected_inverse = np.unique(
+        rows, axis=0, return_index=True, return_inverse=True
+    )
+    np.testing.assert_array_equal(first, expected_first)
+    np.testing.assert_array_equal(inverse, expected_inverse.ravel())
+
+
+def test_a_small_hull_gets_trimeshs_box_unchanged() -> None:
+    # Sizes stored before the hull's subset existed stay exactly as they were: with 2562
+    # hull vertices (at most 3000) trimesh still sees every point, in their order (given
+    # only the hull's vertices it picks another face per bin of directions here).
+    rng = np.random.default_rng(0)
+    ellipsoid = trimesh.creation.icosphere(subdivisions=4).apply_scale((1.0, 1.5, 4.0))
+    ellipsoid.apply_transform(
+        trimesh.transformations.random_rotation_matrix(np.array([0.2, 0.4, 0.6]))
+    )
+    surface = np.asarray(ellipsoid.vertices)
+    inside = 0.5 * surface[rng.permutation(len(surface))[:1000]]
+    points = np.vstack([inside, surface])[rng.permutation(len(surface) + 1000)]
+    to_box, _ = trimesh.bounds.oriented_bounds(points)
+    local = trimesh.transform_points(points, to_box)
+    assert box_extents(points) == tuple(np.sort(np.ptp(local, axis=0))[::-1])
+
+
+def test_a_finely_tessellated_turned_cylinder_keeps_its_analytic_size() -> None:
+    # 8192 sides: 16384 hull vertices, so the box's axes come from a seeded subset of
+    # them (every point is still measured); the whole hull took over a minute here.
+    radius, height = 3.0, 10.0
+    cylinder = trimesh.creation.cylinder(radius, height, sections=8192)
+    turn = trimesh.transformations.random_rotation_matrix(np.array([0.3, 0.7, 0.1]))
+    cylinder.apply_transform(turn)
+    vertices, faces = np.asarray(cylinder.vertices), np.asarray(cylinder.faces)
+    size = ShapeSize.of_mesh(vertices, faces)
+    assert size.extents == pytest.approx([height, 2 * radius, 2 * radius], rel=1e-5)
+    assert size.volume == pytest.approx(np.pi * radius**2 * height, rel=1e-5)
+    assert ShapeSize.of_mesh(vertices, faces) == size  # the subset is seeded
 
 
 def test_size_is_rotation_invariant_sorted_and_scales_with_the_part() -> None:
