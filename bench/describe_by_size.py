@@ -6,7 +6,9 @@ spheres, or with ``--shape cylinder`` of cylinders with ever more sides, as a tu
 exported at a fine tolerance is; XYZ point clouds; STEP assemblies of many drilled,
 filleted blocks when the ``cad`` extra is installed), describes each with the worker's
 production handler (in its sandbox, with scan views, as a job does), and prints the seconds
-and the seconds per MB of each, then the largest seconds per MB of every format. A limit
+and the seconds per MB of each, then the largest seconds per MB of every format. Files the
+API quick-checks (up to 16 MiB) also get that check's seconds, in-process (its sandbox's
+start aside): the data behind ``SHAPESEARCH_UPLOAD_CHECK_TIMEOUT_SECONDS``. A limit
 must stay above these on the slowest machine it runs on (these machines differ about 3x).
 
     .venv/bin/python bench/describe_by_size.py [--sizes-mb 1 4 16 64]
@@ -23,6 +25,8 @@ import time
 import numpy as np
 import trimesh
 
+from app.api.uploads import FULL_CHECK_MAX_BYTES
+from app.ingest.describing import quick_check
 from app.jobs.worker import describe_handler
 from app.settings import Settings
 
@@ -111,6 +115,20 @@ def make(fmt: str, target_mb: float, shape: str) -> bytes:
     return mesh_file(fmt, target_mb, shape)
 
 
+def check_seconds(settings: Settings, content: bytes, fmt: str) -> str:
+    """The upload's quick check of ``content``, timed in this process ("-" when the API
+    leaves a file this large unchecked)."""
+    if len(content) > FULL_CHECK_MAX_BYTES:
+        return "    -  "
+    started = time.perf_counter()
+    try:
+        quick_check(content, f"part.{fmt}", settings.upload_check_points, settings.min_points,
+                    settings.sample_seed)
+    except Exception as error:  # a refusal is a finding here too
+        return f"refused ({type(error).__name__})"
+    return f"{time.perf_counter() - started:5.2f} s"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes-mb", type=float, nargs="+", default=[1, 4, 16, 64])
@@ -141,7 +159,7 @@ def main() -> None:
             seconds = time.perf_counter() - started
             slopes[fmt] = max(slopes.get(fmt, 0.0), seconds / megabytes)
             print(f"{fmt:5s} {megabytes:7.2f} MB  {seconds:7.2f} s  {seconds / megabytes:6.2f} s/MB"
-                  f"  {outcome}", flush=True)
+                  f"  check {check_seconds(settings, content, fmt)}  {outcome}", flush=True)
     print("largest seconds per MB: " + ", ".join(f"{f} {s:.2f}" for f, s in slopes.items()))
 
 

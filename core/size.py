@@ -115,8 +115,9 @@ def _merged(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The first index of each distinct row of ``rows : (n, d) int``, in sorted row order,
-    and each row's place among them: ``np.unique(rows, axis=0, return_index=True,
-    return_inverse=True)`` without its structured-array sort, several times slower."""
+    and each row's place among them: what ``np.unique(rows, axis=0, return_index=True,
+    return_inverse=True)`` returns, by one lexicographic sort (numpy sorts the rows as
+    structured values, several times slower on a large mesh)."""
     order = np.lexsort(rows.T[::-1])  # stable: equal rows keep their order
     ordered = rows[order]
     starts = np.ones(len(rows), dtype=bool)

@@ -289,6 +289,19 @@ def test_503_not_422_when_the_quick_check_runs_out_of_memory(
     assert upload(client, CUBE).status_code == 202
 
 
+def test_the_quick_check_leaves_the_size_to_the_describe(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Measuring a large, round mesh is most of its load, and a size is never a reason to
+    # refuse a file: the check only parses and samples (a measure that ran out of memory
+    # here would answer 503).
+    def out_of_memory(*args: Any) -> None:
+        raise MemoryError
+
+    monkeypatch.setattr("core.size.ShapeSize.of_mesh", out_of_memory)
+    assert upload(client, CUBE).status_code == 202
+
+
 # Over IN_PROCESS_CHECK_MAX_BYTES (256 KiB), so its quick check runs in a sandboxed child:
 # every coordinate row holds a NaN, which that check refuses with 422.
 NAN_CLOUD = b"nan 1 2\n" * 40_000

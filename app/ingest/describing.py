@@ -103,8 +103,12 @@ def ingest_columns(
 
 
 def quick_check(content: bytes, name: str, points: int, min_points: int, seed: int) -> None:
-    """Parse the file and sample ``points`` points; raises ``InvalidShapeError``."""
-    load_points(content, filename=name, max_points=points, min_points=min_points, seed=seed)
+    """Parse the file and sample ``points`` points; raises ``InvalidShapeError``. The
+    size is left to the describe (a size is never a reason to refuse a file)."""
+    load_points(
+        content, filename=name, max_points=points, min_points=min_points, seed=seed,
+        measure_size=False,
+    )
 
 
 def model_columns(description: Description, hks_times: Sequence[float]) -> dict[str, Any]:

@@ -175,6 +175,7 @@ def load_points(
     seed: int = 0,
     remove_outliers: bool = False,
     outlier_ratio: float = OUTLIER_RATIO,
+    measure_size: bool = True,
 ) -> LoadedShape:
     """Load a point cloud or mesh file as checked points.
 
@@ -196,6 +197,10 @@ def load_points(
         surface by construction and are never filtered.
     outlier_ratio : float
         Outlier cut, in median neighbour spacings (``validate_points``).
+    measure_size : bool
+        Measure a mesh's size (``core.size.ShapeSize``); without it ``size`` is None. A
+        check that only parses and samples skips it: on a large, round mesh it costs most of
+        the load.
 
     Returns
     -------
@@ -230,7 +235,7 @@ def load_points(
     if len(geometry.faces):
         points = _mesh_points(geometry, max_points=max_points, min_points=min_points, seed=seed)
         return LoadedShape(points=points, format=fmt, kind="mesh", n_input=n_input,
-                           size=_mesh_size(geometry))
+                           size=_mesh_size(geometry) if measure_size else None)
     points = validate_points(
         geometry.vertices,
         max_points=max_points,
