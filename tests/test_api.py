@@ -269,14 +269,16 @@ def test_422_for_content_refused_at_upload(client: TestClient) -> None:
     assert client.get("/v1/models").json()["items"] == []
 
 
+def out_of_memory(*args: Any) -> None:
+    """A stand-in for a step that finds this process short of memory."""
+    raise MemoryError
+
+
 def test_503_not_422_when_the_quick_check_runs_out_of_memory(
     client: TestClient, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # A small file is parsed in the API's own process: a MemoryError there is the service's
     # shortage, not the file's fault, so the client is told to retry, not that it is broken.
-    def out_of_memory(*args: Any) -> None:
-        raise MemoryError
-
     monkeypatch.setattr("app.api.uploads.quick_check", out_of_memory)
     body = assert_problem(upload(client, CUBE), 503)
     assert body["type"].endswith(":busy") and "retry" in body["detail"].lower()
@@ -295,9 +297,6 @@ def test_the_quick_check_leaves_the_size_to_the_describe(
     # Measuring a large, round mesh is most of its load, and a size is never a reason to
     # refuse a file: the check only parses and samples (a measure that ran out of memory
     # here would answer 503).
-    def out_of_memory(*args: Any) -> None:
-        raise MemoryError
-
     monkeypatch.setattr("core.size.ShapeSize.of_mesh", out_of_memory)
     assert upload(client, CUBE).status_code == 202
 

@@ -109,7 +109,7 @@ def test_a_small_hull_gets_trimeshs_box_unchanged() -> None:
 
 def test_a_finely_tessellated_turned_cylinder_keeps_its_analytic_size() -> None:
     # 8192 sides: 16384 hull vertices, so the box's axes come from a seeded subset of
-    # them (every point is still measured); the whole hull took over a minute here.
+    # them (every point is still measured); before, a 16384-sided one took 134 s here.
     radius, height = 3.0, 10.0
     cylinder = trimesh.creation.cylinder(radius, height, sections=8192)
     turn = trimesh.transformations.random_rotation_matrix(np.array([0.3, 0.7, 0.1]))
