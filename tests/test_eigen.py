@@ -173,3 +173,20 @@ def test_a_shift_on_an_eigenvalue_is_refused_not_miscounted(torus):
     # L is singular (constants): at s = 0 neither LDL^T nor pivoting LU solves accurately.
     with pytest.raises(SolverError, match="factorisation"):
         factorise_shifted(*torus, 0.0)
+
+
+def test_the_mass_operator_is_the_sparse_product_bit_for_bit(torus):
+    """ARPACK gets a diagonal M as one elementwise product (core.eigen._solver): the same
+    numbers as the sparse product, so every descriptor stays bit for bit what it was."""
+    from core.eigen._solver import _mass_operator
+
+    _, mass = torus
+    vector = np.random.default_rng(3).standard_normal(mass.shape[0])
+    operator = _mass_operator(mass)
+    assert not sp.issparse(operator)
+    assert np.array_equal(operator.matvec(vector), mass @ vector)
+    assert np.array_equal(operator.matvec(vector[:, None]).ravel(), mass @ vector)
+    # A mass with off-diagonal terms (a consistent, not lumped, mass) is used as given.
+    coupled = mass + sp.diags(np.full(mass.shape[0] - 1, 1e-6), 1)
+    coupled = (coupled + coupled.T).tocsr()
+    assert _mass_operator(coupled) is coupled

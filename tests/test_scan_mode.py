@@ -102,6 +102,25 @@ def test_views_are_described_as_scans_of_the_loaded_points() -> None:
     assert np.linalg.norm(alone.scan_descriptor - alone.descriptor) > 1e-3
 
 
+def test_a_views_size_is_not_measured(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A view keeps only its scan descriptor: the oriented box of its points (a fifth of
+    a view's time on a torus) is measured once, for the model, not once per view."""
+    import core.size
+
+    measured: list[int] = []
+    of_points = core.size.ShapeSize.of_points
+
+    def counting(points: np.ndarray, area: float) -> core.size.ShapeSize:
+        measured.append(len(points))
+        return of_points(points, area)
+
+    monkeypatch.setattr(core.size.ShapeSize, "of_points", staticmethod(counting))
+    whole = describe_points(torus_points(1500), EngineSettings(max_points=1500), views=3)
+    assert whole.views.shape[0] == 3
+    assert len(measured) == 1 and whole.size is not None
+    assert measured[0] == len(whole.points)  # the model's own points
+
+
 def test_boundary_weights_are_a_switch_off_by_default() -> None:
     settings = EngineSettings(max_points=1500, outlier_filter=False)
     assert not settings.views.boundary_weights

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
-from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, eigsh
+from scipy.sparse.linalg import ArpackError, ArpackNoConvergence, LinearOperator, eigsh
 
 from core.eigen._banded import (
     SHIFT_FRACTION,
@@ -126,6 +126,22 @@ def _orthogonal_to(vectors: np.ndarray, known: np.ndarray, mass: sp.spmatrix) ->
     return _m_normalised(vectors, mass)
 
 
+def _mass_operator(mass: sp.spmatrix) -> LinearOperator | sp.spmatrix:
+    """M as ARPACK applies it: a diagonal ``mass`` as one elementwise product.
+
+    ARPACK asks for ``M x`` about 350 times per band; scipy's sparse product spends some
+    15 microseconds of Python around each 3 of work, a tenth of a describe. The product is
+    the same number either way (one term per row). A mass that is not diagonal is used as
+    given.
+    """
+    diagonal = np.asarray(mass.diagonal(), dtype=np.float64)
+    if mass.nnz != np.count_nonzero(diagonal):
+        return mass
+    return LinearOperator(
+        mass.shape, matvec=lambda vector: diagonal * vector.ravel(), dtype=np.float64
+    )
+
+
 def _lanczos(
     stiffness: sp.spmatrix,
     mass: sp.spmatrix,
@@ -142,7 +158,7 @@ def _lanczos(
         values, vectors = eigsh(
             stiffness,
             k=count,
-            M=mass,
+            M=_mass_operator(mass),
             sigma=factor.shift,
             which="LM",
             OPinv=factor.inverse_operator(),
