@@ -323,7 +323,10 @@ class Settings(BaseSettings):
         default=300.0, ge=0, description="Cap of the retry delay."
     )
     poll_interval: float = Field(
-        default=1.0, gt=0, description="Seconds an idle worker waits before looking for jobs."
+        default=1.0,
+        gt=0,
+        description="Seconds between an idle worker's looks for jobs nothing woke it for (a "
+        "job queued in its process, or announced by PostgreSQL's NOTIFY, wakes it at once).",
     )
     shutdown_grace_seconds: float = Field(
         default=30.0,

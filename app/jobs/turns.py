@@ -41,6 +41,7 @@ from sqlalchemy import ColumnElement, func, select
 from sqlalchemy.orm import Session
 
 from app.db.models import Job, utcnow
+from app.jobs.doorbell import announce_job
 
 __all__ = ["next_turn", "queue_job"]
 
@@ -67,7 +68,8 @@ def next_turn(
 def queue_job(
     session: Session, *, tenant: str, background: bool = False, **columns: Any
 ) -> Job:
-    """A new queued job of ``tenant`` with its turn, added to ``session`` and flushed.
+    """A new queued job of ``tenant`` with its turn, added to ``session`` and flushed;
+    the session's commit wakes idle workers (``app.jobs.doorbell``).
 
     ``background``: part of a bulk load (its own turns, see above); ``columns``: the other
     ``Job`` columns.
@@ -77,4 +79,5 @@ def queue_job(
               turn=next_turn(session, Job, owner, waiting="queued"), **columns)
     session.add(job)
     session.flush()
+    announce_job(session)
     return job

@@ -10,6 +10,10 @@ A job's kind says what it is: ``describe`` and ``redescribe`` describe an upload
                  and with a metrics port their describe, cutoff, queue and webhook metrics
                  on one HTTP endpoint (the N processes summed)
 
+An idle worker waits on its process's doorbell (``app.jobs.doorbell``): a job queued in this
+process, or announced by PostgreSQL's ``NOTIFY``, wakes it at once; otherwise it looks again
+after ``poll_interval``.
+
 A worker never dies on its input: every exception of a job ends that job (failed or
 retried) and is logged; a database outage is waited out (``Outage``: logged when it starts,
 once a minute while it lasts and when it ends). Full storage (``app.storage``) is nobody's input:
@@ -45,6 +49,7 @@ from app.ingest.describing import (
     pin_blas_threads,
 )
 from app.ingest.sandbox import describe_sandbox
+from app.jobs.doorbell import DOORBELL, Doorbell, Listener
 from app.jobs.queue import DUPLICATES, Claim, JobQueue
 from app.observability.logs import Outage, configure_logging, first_line, job_context
 from app.observability.metrics import (
@@ -162,6 +167,7 @@ class Worker:
         stop: threading.Event,
         on_done: Callable[[], None] | None = None,
         reports: ReportHandler | None = None,
+        doorbell: Doorbell = DOORBELL,
     ) -> None:
         self.queue = queue
         self.handler = handler
@@ -170,12 +176,15 @@ class Worker:
         self.poll_interval = poll_interval
         self.stop = stop
         self.on_done = on_done
+        self.doorbell = doorbell
         self.current: Claim | None = None
 
     def run(self) -> None:
         log.info("worker %s started", self.worker_id)
         outage = Outage(log, f"worker {self.worker_id}: queue")
         while not self.stop.is_set():
+            # Cleared before the look: a ring during it is kept for the wait below.
+            self.doorbell.clear()
             try:
                 found = self.run_once()
                 outage.end()
@@ -183,7 +192,7 @@ class Worker:
                 outage.report(error)
                 found = False
             if not found:
-                self.stop.wait(self.poll_interval)
+                self.doorbell.wait(self.poll_interval)
         log.info("worker %s stopped", self.worker_id)
 
     def run_once(self) -> bool:
@@ -325,7 +334,8 @@ class _Heartbeat:
 
 
 class WorkerPool:
-    """``count`` worker threads over one queue."""
+    """``count`` worker threads over one queue, woken by ``doorbell`` (on PostgreSQL rung
+    by a ``Listener`` of the queue's database too)."""
 
     def __init__(
         self,
@@ -336,9 +346,12 @@ class WorkerPool:
         poll_interval: float,
         on_done: Callable[[], None] | None = None,
         reports: ReportHandler | None = None,
+        doorbell: Doorbell = DOORBELL,
     ) -> None:
         self.queue = queue
         self.stop_event = threading.Event()
+        self.doorbell = doorbell
+        self.listener = Listener(queue.sessions.kw["bind"], doorbell, stop=self.stop_event)
         self.workers = [
             Worker(
                 queue,
@@ -348,6 +361,7 @@ class WorkerPool:
                 stop=self.stop_event,
                 on_done=on_done,
                 reports=reports,
+                doorbell=doorbell,
             )
             for index in range(count)
         ]
@@ -357,6 +371,7 @@ class WorkerPool:
         ]
 
     def start(self) -> None:
+        self.listener.start()
         for thread in self.threads:
             thread.start()
 
@@ -364,6 +379,7 @@ class WorkerPool:
         """Stop claiming; let running jobs finish within ``grace`` seconds (or until
         ``abort``), then release whatever is still running to other workers."""
         self.stop_event.set()
+        self.doorbell.ring()  # idle workers see the stop now, not after their poll
         deadline = time.monotonic() + grace
         for thread in self.threads:
             while thread.is_alive() and time.monotonic() < deadline:
@@ -374,6 +390,7 @@ class WorkerPool:
             claim = worker.current
             if claim is not None and self.queue.release(claim):
                 log.info("job %s released on shutdown", claim.job_id)
+        self.listener.stop()
 
 
 def run_workers(concurrency: int | None = None, metrics_port: int | None = None) -> int:

@@ -1,0 +1,109 @@
+"""Benchmark: how long an upload takes to be ready on an idle service, against its describe.
+
+Starts the service on a temporary data directory and a free port, then uploads every STL
+part of ``tests/fixtures/parts`` (9) one at a time, ``--rounds`` times, each time waiting (polling
+``GET /v1/models/{id}`` every 10 ms) until it is ready. Per upload it keeps the time from
+sending the file to seeing ``ready``, and the describe's own seconds (the model's
+``timings.total``, measured inside the worker in the same run: the baseline). It prints the
+medians, and the median of the per-upload ratio ready / describe: what a user waits beyond
+the work itself (the queue's wake-up, the sandbox, the database).
+
+Deployments:
+
+- default: ``shapesearch serve`` with no settings (SQLite, the worker in-process);
+- ``--separate-worker``: ``shapesearch serve --no-worker`` and one ``shapesearch worker``
+  process on the same database (set ``SHAPESEARCH_DATABASE_URL`` to PostgreSQL for the
+  scale-out layout; on SQLite the worker has no notification and polls).
+
+Usage::
+
+    .venv/bin/python bench/upload_to_ready.py [--rounds 2]
+    SHAPESEARCH_DATABASE_URL=postgresql+psycopg://postgres@127.0.0.1:5432/bench \\
+        .venv/bin/python bench/upload_to_ready.py --separate-worker
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import httpx
+from search_latency import free_port, healthy, wait_until  # bench/ is the script's path
+
+PARTS = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "parts"
+
+
+def upload_until_ready(client: httpx.Client, path: Path) -> tuple[float, float]:
+    """Seconds from sending ``path`` to its model being ready, and its describe's seconds."""
+    started = time.perf_counter()
+    response = client.post("/v1/models", files={"file": (path.name, path.read_bytes())})
+    response.raise_for_status()
+    model_id = response.json()["id"]
+    while True:
+        model = client.get(f"/v1/models/{model_id}").json()
+        if model["status"] in ("ready", "failed"):
+            break
+        time.sleep(0.01)
+    ready = time.perf_counter() - started
+    if model["status"] != "ready":
+        raise RuntimeError(f"{path.name} failed: {model['error']}")
+    return ready, float(model["timings"]["total"])
+
+
+def start(separate_worker: bool, port: int) -> list[subprocess.Popen[bytes]]:
+    env = {**os.environ, "SHAPESEARCH_PORT": str(port), "SHAPESEARCH_LOG_LEVEL": "warning"}
+    env.setdefault("SHAPESEARCH_DATA_DIR", tempfile.mkdtemp())
+    command = str(Path(sys.executable).parent / "shapesearch")
+    commands = [[command, "serve"]]
+    if separate_worker:
+        commands = [[command, "serve", "--no-worker"], [command, "worker", "--concurrency", "1"]]
+    return [
+        subprocess.Popen(arguments, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        for arguments in commands
+    ]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--separate-worker", action="store_true")
+    args = parser.parse_args()
+    port = free_port()
+    base = f"http://127.0.0.1:{port}"
+    processes = start(args.separate_worker, port)
+    rows: list[tuple[str, float, float]] = []
+    try:
+        wait_until(lambda: healthy(base), 60)
+        with httpx.Client(base_url=base, timeout=60) as client:
+            upload_until_ready(client, PARTS / "angle_block.STL")  # warm: forkserver, imports
+            for _ in range(args.rounds):
+                for path in sorted(PARTS.glob("*.[sS][tT][lL]")):
+                    rows.append((path.name, *upload_until_ready(client, path)))
+    finally:
+        for process in processes:
+            process.terminate()
+            process.wait(30)
+    layout = "serve --no-worker + 1 worker process" if args.separate_worker else "serve"
+    database = "PostgreSQL" if "postgresql" in os.environ.get(
+        "SHAPESEARCH_DATABASE_URL", "") else "SQLite"
+    print(f"{layout}, {database}; {len(rows)} uploads one at a time; {os.cpu_count()} cores, "
+          f"load average {os.getloadavg()[0]:.1f}")
+    for name, ready, describe in rows:
+        print(f"  {name:28s} ready {ready:6.3f} s  describe {describe:6.3f} s")
+    ready_median = statistics.median(row[1] for row in rows)
+    describe_median = statistics.median(row[2] for row in rows)
+    ratio = statistics.median(row[1] / row[2] for row in rows)
+    print(f"median upload -> ready {ready_median:.3f} s, describe {describe_median:.3f} s, "
+          f"beyond the describe {ready_median - describe_median:.3f} s; "
+          f"ready / describe median {ratio:.2f}x")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
