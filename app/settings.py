@@ -340,7 +340,8 @@ class Settings(BaseSettings):
         default=1.0,
         gt=0,
         description="Seconds between polls of the change feed that keeps the search index "
-        "of an API process in step with the database.",
+        "of an API process in step with the database (a change committed in the process, or "
+        "announced by PostgreSQL's NOTIFY, is synced at once).",
     )
     index_exact_max: int = Field(
         default=5_000,

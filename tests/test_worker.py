@@ -14,12 +14,8 @@ from sqlalchemy.orm import Session, sessionmaker
 from test_queue import RESULT, add_jobs, make_queue
 from test_sandbox import segfault
 
-import app.jobs.doorbell as doorbell_module
 from app.db.models import Job, Model
-from app.db.session import open_sessions
 from app.ingest.sandbox import Sandbox
-from app.jobs.doorbell import Doorbell
-from app.jobs.turns import queue_job
 from app.jobs.worker import Worker, WorkerPool
 from core.errors import InvalidShapeError, SolverError
 
@@ -188,85 +184,3 @@ def test_workers_default_to_one_describe_per_core(monkeypatch: pytest.MonkeyPatc
     assert Settings(workers=0).worker_count == 0  # serve without an embedded worker
     monkeypatch.setenv("SHAPESEARCH_WORKERS", "3")
     assert Settings().worker_count == 3
-
-
-class _WatchedDoorbell(Doorbell):
-    """A doorbell that tells when a worker has started waiting on it (is idle)."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.idle = threading.Event()
-
-    def wait(self, timeout: float) -> bool:
-        self.idle.set()
-        return super().wait(timeout)
-
-
-def _idle_pool(
-    sessions: sessionmaker[Session], doorbell: Doorbell, handled: threading.Event
-) -> WorkerPool:
-    def quick(content: bytes, filename: str) -> dict[str, Any]:
-        handled.set()
-        return RESULT
-
-    # Polling once a minute: only the doorbell can make a job start within seconds.
-    return WorkerPool(make_queue(sessions), quick, count=1, poll_interval=60, doorbell=doorbell)
-
-
-def test_a_queued_job_wakes_an_idle_worker_at_once(
-    sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch
-) -> None:
-    doorbell = _WatchedDoorbell()
-    monkeypatch.setattr(doorbell_module, "DOORBELL", doorbell)  # what commits ring
-    handled = threading.Event()
-    pool = _idle_pool(sessions, doorbell, handled)
-    pool.start()
-    try:
-        assert doorbell.idle.wait(10)  # it looked, found nothing and waits
-        add_jobs(sessions, 1)
-        assert handled.wait(10)
-    finally:
-        started = time.monotonic()
-        pool.stop(grace=30)
-    assert time.monotonic() - started < 5  # an idle worker sees the stop at once too
-    assert not pool.threads[0].is_alive()
-
-
-def test_a_rolled_back_job_rings_nothing(sessions: sessionmaker[Session]) -> None:
-    doorbell_module.DOORBELL.clear()
-    with sessions() as session:
-        model = Model(id=uuid.uuid4(), tenant="t", meta={}, status="queued", file_name="a.xyz",
-                      file_size=1, file_sha256="0" * 64, file_format="xyz")
-        session.add(model)
-        session.flush()
-        queue_job(session, tenant="t", model_id=model.id)
-        session.rollback()
-        session.add(Model(id=uuid.uuid4(), tenant="t", meta={}, status="ready",
-                          file_name="b.xyz", file_size=1, file_sha256="0" * 64,
-                          file_format="xyz"))
-        session.commit()  # a later commit that queues nothing
-    assert not doorbell_module.DOORBELL.wait(0)
-    add_jobs(sessions, 1)
-    assert doorbell_module.DOORBELL.wait(0)
-
-
-def test_a_job_queued_by_another_process_wakes_a_worker_through_postgres(
-    new_database_url: Any,
-) -> None:
-    """A worker process's own bell is rung only by its ``Listener`` when the queueing
-    commit happened elsewhere: here the test's commits ring the process-wide bell, not the
-    pool's, which stands for another process's."""
-    sessions = open_sessions(new_database_url("postgresql"))
-    doorbell = _WatchedDoorbell()
-    handled = threading.Event()
-    pool = _idle_pool(sessions, doorbell, handled)
-    pool.start()
-    try:
-        assert doorbell.idle.wait(10)
-        assert pool.listener.thread is not None
-        time.sleep(0.5)  # the listener's LISTEN is in place (it rings once when it is)
-        add_jobs(sessions, 1)
-        assert handled.wait(10)
-    finally:
-        pool.stop(grace=30)
-    assert not pool.listener.thread.is_alive()

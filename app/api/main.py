@@ -28,6 +28,7 @@ from app.api.response_cache import ResponseCache
 from app.api.routes import ROUTERS
 from app.api.search_describer import SearchAdmission, SearchDescriber
 from app.api.uploads import UploadReader
+from app.db.doorbells import FEED, JOBS, WEBHOOKS, Listener
 from app.db.session import make_session_factory, migrated_engine, read_only
 from app.ingest.describing import pin_blas_threads
 from app.jobs.worker import (
@@ -65,12 +66,18 @@ def _sync(index: ShapeIndex) -> None:
 
 
 def _follow_feed(index: ShapeIndex, interval: float, stop: threading.Event) -> None:
-    """Sync every ``interval`` seconds; once a sync finds nothing new and the index wants
-    its hub-discount neighbourhoods (after start-up, or after a bulk change forgot them),
-    compute them in the background (``ShapeIndex.keep_neighbourhoods``)."""
+    """Sync when the feed's doorbell rings (a model became ready or went, in this process
+    or, on PostgreSQL, in another) and at least every ``interval`` seconds; once a sync
+    finds nothing new and the index wants its hub-discount neighbourhoods (after start-up,
+    or after a bulk change forgot them), compute them in the background
+    (``ShapeIndex.keep_neighbourhoods``)."""
     keeper: threading.Thread | None = None
     outage = Outage(log, "index sync: the change feed")
-    while not stop.wait(interval):
+    while not stop.is_set():
+        FEED.wait(interval)
+        if stop.is_set():
+            break
+        FEED.clear()  # before the sync: a ring during it is kept for the next wait
         changes = index.changes
         try:
             _sync(index)
@@ -152,13 +159,18 @@ def create_app(
             )
             pool.start()
             deliveries = start_delivery_thread(settings, sessions)  # webhooks, next to jobs
+        # What other processes write wakes this one's waiters at once (PostgreSQL).
+        listener = Listener(engine, [FEED] if pool is None else [FEED, JOBS, WEBHOOKS])
+        listener.start()
         try:
             yield
         finally:
             if pool is not None:
                 pool.stop(settings.shutdown_grace_seconds)
                 deliveries.stop()
+            listener.stop()
             stop.set()
+            FEED.ring()  # the follower sees the stop now
             follower.join()
             app.state.services.queries.shutdown()
             app.state.services.reader.dispose()

@@ -40,8 +40,8 @@ from typing import Any
 from sqlalchemy import ColumnElement, func, select
 from sqlalchemy.orm import Session
 
+from app.db.doorbells import JOBS, announce
 from app.db.models import Job, utcnow
-from app.jobs.doorbell import announce_job
 
 __all__ = ["next_turn", "queue_job"]
 
@@ -69,7 +69,7 @@ def queue_job(
     session: Session, *, tenant: str, background: bool = False, **columns: Any
 ) -> Job:
     """A new queued job of ``tenant`` with its turn, added to ``session`` and flushed;
-    the session's commit wakes idle workers (``app.jobs.doorbell``).
+    the session's commit wakes idle workers (``app.db.doorbells``).
 
     ``background``: part of a bulk load (its own turns, see above); ``columns``: the other
     ``Job`` columns.
@@ -79,5 +79,5 @@ def queue_job(
               turn=next_turn(session, Job, owner, waiting="queued"), **columns)
     session.add(job)
     session.flush()
-    announce_job(session)
+    announce(session, JOBS)
     return job

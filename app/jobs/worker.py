@@ -10,9 +10,9 @@ A job's kind says what it is: ``describe`` and ``redescribe`` describe an upload
                  and with a metrics port their describe, cutoff, queue and webhook metrics
                  on one HTTP endpoint (the N processes summed)
 
-An idle worker waits on its process's doorbell (``app.jobs.doorbell``): a job queued in this
-process, or announced by PostgreSQL's ``NOTIFY``, wakes it at once; otherwise it looks again
-after ``poll_interval``.
+An idle worker waits on its process's jobs doorbell (``app.db.doorbells``): a job queued in
+this process, or announced by PostgreSQL's ``NOTIFY`` to the process's ``Listener``, wakes it
+at once; otherwise it looks again after ``poll_interval``.
 
 A worker never dies on its input: every exception of a job ends that job (failed or
 retried) and is logged; a database outage is waited out (``Outage``: logged when it starts,
@@ -41,6 +41,7 @@ from prometheus_client import start_http_server
 from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.orm import Session
 
+from app.db.doorbells import JOBS, WEBHOOKS, Doorbell, Listener
 from app.db.session import migrated_engine, open_sessions
 from app.ingest.describing import (
     CutoffPredictorCache,
@@ -49,7 +50,6 @@ from app.ingest.describing import (
     pin_blas_threads,
 )
 from app.ingest.sandbox import describe_sandbox
-from app.jobs.doorbell import DOORBELL, Doorbell, Listener
 from app.jobs.queue import DUPLICATES, Claim, JobQueue
 from app.observability.logs import Outage, configure_logging, first_line, job_context
 from app.observability.metrics import (
@@ -167,7 +167,7 @@ class Worker:
         stop: threading.Event,
         on_done: Callable[[], None] | None = None,
         reports: ReportHandler | None = None,
-        doorbell: Doorbell = DOORBELL,
+        doorbell: Doorbell = JOBS,
     ) -> None:
         self.queue = queue
         self.handler = handler
@@ -200,6 +200,10 @@ class Worker:
         claim = self.queue.claim(self.worker_id)
         if claim is None:
             return False
+        # One ring may announce many jobs (an import's batch), and a waking worker's clear
+        # can take the ring from one whose look had just missed them: ring again, so that
+        # every idle worker looks once more instead of waiting out its poll.
+        self.doorbell.ring()
         self.current = claim
         try:
             with job_context(claim.job_id):  # the job id on every log line of the job
@@ -334,8 +338,7 @@ class _Heartbeat:
 
 
 class WorkerPool:
-    """``count`` worker threads over one queue, woken by ``doorbell`` (on PostgreSQL rung
-    by a ``Listener`` of the queue's database too)."""
+    """``count`` worker threads over one queue, woken by ``doorbell``."""
 
     def __init__(
         self,
@@ -346,12 +349,11 @@ class WorkerPool:
         poll_interval: float,
         on_done: Callable[[], None] | None = None,
         reports: ReportHandler | None = None,
-        doorbell: Doorbell = DOORBELL,
+        doorbell: Doorbell = JOBS,
     ) -> None:
         self.queue = queue
         self.stop_event = threading.Event()
         self.doorbell = doorbell
-        self.listener = Listener(queue.sessions.kw["bind"], doorbell, stop=self.stop_event)
         self.workers = [
             Worker(
                 queue,
@@ -371,7 +373,6 @@ class WorkerPool:
         ]
 
     def start(self) -> None:
-        self.listener.start()
         for thread in self.threads:
             thread.start()
 
@@ -390,7 +391,6 @@ class WorkerPool:
             claim = worker.current
             if claim is not None and self.queue.release(claim):
                 log.info("job %s released on shutdown", claim.job_id)
-        self.listener.stop()
 
 
 def run_workers(concurrency: int | None = None, metrics_port: int | None = None) -> int:
@@ -467,6 +467,9 @@ def _worker_process(threads: int, metrics_port: int | None = None) -> int:
 def _work(settings: Settings, threads: int) -> int:
     """Handle jobs and deliver webhooks until signalled."""
     sessions = open_sessions(settings.resolved_database_url)
+    # Jobs and webhook deliveries queued by other processes wake this one (PostgreSQL).
+    listener = Listener(sessions.kw["bind"], [JOBS, WEBHOOKS])
+    listener.start()
     pool = WorkerPool(
         make_queue(settings, sessions),
         describe_handler(settings, sessions),
@@ -491,4 +494,5 @@ def _work(settings: Settings, threads: int) -> int:
         pass
     pool.stop(settings.shutdown_grace_seconds, abort)
     deliveries.stop()
+    listener.stop()
     return 0

@@ -21,6 +21,7 @@ from sqlalchemy import update
 from sqlalchemy.orm import Session, sessionmaker
 from standardwebhooks.webhooks import Webhook as Signer
 
+from app.db.doorbells import WEBHOOKS, Doorbell
 from app.db.models import Webhook, WebhookAttempt, WebhookDelivery, utcnow
 from app.db.session import rows_changed
 from app.jobs.lease import backoff_seconds, claim_next
@@ -177,11 +178,16 @@ _OUTCOMES = {"delivered": "delivered", "pending": "retry", "failed": "failed"}
 
 
 class DeliveryThread:
-    """Runs a ``Deliverer`` until stopped; a database outage is waited out."""
+    """Runs a ``Deliverer`` until stopped; a database outage is waited out. Idle, it waits
+    ``poll_interval`` seconds or until ``doorbell`` rings (a delivery was queued).
+    """
 
-    def __init__(self, deliverer: Deliverer, poll_interval: float) -> None:
+    def __init__(
+        self, deliverer: Deliverer, poll_interval: float, doorbell: Doorbell = WEBHOOKS
+    ) -> None:
         self.deliverer = deliverer
         self.poll_interval = poll_interval
+        self.doorbell = doorbell
         self.stop_event = threading.Event()
         self.thread = threading.Thread(target=self._run, name="webhooks", daemon=True)
 
@@ -190,12 +196,14 @@ class DeliveryThread:
 
     def stop(self) -> None:
         self.stop_event.set()
+        self.doorbell.ring()  # an idle thread sees the stop now
         self.thread.join()
         self.deliverer.close()
 
     def _run(self) -> None:
         outage = Outage(log, "webhook deliveries: the database")
         while not self.stop_event.is_set():
+            self.doorbell.clear()  # before the look: a ring during it is kept
             try:
                 found = self.deliverer.run_once()
                 outage.end()
@@ -203,7 +211,7 @@ class DeliveryThread:
                 outage.report(error)
                 found = False
             if not found:
-                self.stop_event.wait(self.poll_interval)
+                self.doorbell.wait(self.poll_interval)
 
 
 def start_delivery_thread(settings: Any, sessions: sessionmaker[Session]) -> DeliveryThread:

@@ -9,6 +9,7 @@ from typing import Any
 from sqlalchemy import insert, select
 from sqlalchemy.orm import Session
 
+from app.db.doorbells import WEBHOOKS, announce
 from app.db.models import Job, Model, Webhook, WebhookDelivery, utcnow
 from app.jobs.turns import next_turn
 
@@ -75,4 +76,5 @@ def record_model_event(
             for hook_id in endpoints
         ],
     )
+    announce(session, WEBHOOKS)  # the deliverers send it once the change commits
     return len(endpoints)
