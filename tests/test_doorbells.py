@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 from conftest import PARTS, fake_describe, upload
 from plm_helpers import Receiver, started_clients
+from sqlalchemy import text
 from sqlalchemy.orm import Session, sessionmaker
 from test_queue import RESULT, add_jobs, make_queue
 
@@ -189,3 +190,25 @@ def test_a_webhook_is_sent_as_soon_as_its_model_is_ready(database_url: str) -> N
         model = upload(api, PARTS / "angle_block.STL").json()
         (request,) = receiver.wait_for(1, timeout=10)
         assert model["id"].encode() in request[2]
+
+
+def test_a_listener_whose_connection_is_killed_listens_again(new_database_url: Any) -> None:
+    sessions = open_sessions(new_database_url("postgresql"))
+    bell = Doorbell(JOBS.channel)
+    listener = Listener(sessions.kw["bind"], [bell], retry_seconds=0.2)
+    listener.start()
+    try:
+        deadline = time.monotonic() + 10
+        while listener.backend_pid is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        killed = listener.backend_pid
+        with sessions() as session:
+            session.execute(text("SELECT pg_terminate_backend(:pid)"), {"pid": killed})
+        while listener.backend_pid == killed and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert listener.backend_pid not in (None, killed)  # a new connection listens
+        bell.clear()
+        add_jobs(sessions, 1)
+        assert bell.wait(5)
+    finally:
+        listener.stop()

@@ -31,6 +31,8 @@ from sqlalchemy import event, text
 from sqlalchemy.engine import Engine
 from sqlalchemy.orm import Session
 
+from app.observability.logs import Outage
+
 __all__ = ["FEED", "JOBS", "WEBHOOKS", "Doorbell", "Listener", "announce"]
 
 log = logging.getLogger("shapesearch.doorbells")
@@ -112,6 +114,7 @@ class Listener:
         self.retry_seconds = retry_seconds
         self.stop_event = threading.Event()
         self.thread: threading.Thread | None = None
+        self.backend_pid: int | None = None  # the server process of its connection
 
     def start(self) -> None:
         if self.engine.dialect.name != "postgresql" or not self.bells:
@@ -127,16 +130,19 @@ class Listener:
             self.thread.join(timeout=2.0)
 
     def _run(self) -> None:
+        outage = Outage(log, "doorbells: listening (the timers serve meanwhile)")
         while not self.stop_event.is_set():
             try:
                 with self._connect() as connection:
                     for channel in self.bells:
                         connection.execute(f"LISTEN {channel}")
+                    outage.end()
                     for bell in self.bells.values():
                         bell.ring()  # work announced while nobody listened
+                    self.backend_pid = connection.info.backend_pid
                     self._relay(connection)
             except psycopg.Error as error:
-                log.warning("doorbells: %s; polling until it reconnects", error)
+                outage.report(error)
                 self.stop_event.wait(self.retry_seconds)
 
     def _connect(self) -> psycopg.Connection[Any]:
