@@ -6,7 +6,8 @@ from ``CATALOGUE``. The API answers with ``problem(kind, detail)`` as ``applicat
 json`` (``app.api.problems``), and a failed job stores the very same record, so a client
 reads one shape whichever way an error reached it. Errors that only an HTTP status
 describes (an unknown route: 404, a wrong method: 405) use ``about:blank`` with the status's
-phrase as title.
+phrase as title; a body that cannot be parsed at all (a multipart form without its boundary,
+cut short) is ``malformed-body``.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ class Kind:
 
 CATALOGUE: dict[str, Kind] = {
     # Input refused at the door.
+    "malformed-body": Kind(400, "Malformed request body"),
     "validation-error": Kind(422, "Invalid request"),
     "too-large": Kind(413, "Too large"),
     "invalid-cursor": Kind(422, "Invalid cursor"),

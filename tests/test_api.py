@@ -363,6 +363,24 @@ def test_framework_errors_are_problem_json(client: TestClient) -> None:
     assert_problem(client.patch(f"/v1/models/{uuid.uuid4()}", content=b"{not json"), 422)
 
 
+@pytest.mark.parametrize(("content_type", "body"), [
+    ("multipart/form-data; boundary=xx", b"garbage"),  # no part at all
+    ("multipart/form-data", b"--xx\r\n"),  # no boundary parameter
+])
+def test_a_body_that_cannot_be_parsed_is_its_own_kind(
+    client: TestClient, content_type: str, body: bytes
+) -> None:
+    """Not about:blank: a client tells a broken multipart encoding from other 400s by
+    its type, as every other refusal (app/problems.py)."""
+    for path in ("/v1/models", "/v1/search"):
+        refused = assert_problem(
+            client.post(path, content=body, headers={"content-type": content_type}), 400
+        )
+        assert refused["type"] == "urn:shapesearch:problem:malformed-body"
+        assert refused["title"] == "Malformed request body"
+    assert client.get("/v1/models").json()["items"] == []  # nothing stored
+
+
 # --- tenants and keys -------------------------------------------------------------------
 
 

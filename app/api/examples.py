@@ -24,7 +24,7 @@ from app.api.problems import (
     storage_full_problem,
 )
 from app.api.uploads import out_of_memory_problem
-from app.problems import blank_problem, problem
+from app.problems import problem
 from core.cutoff import CutoffRecord
 from core.io import SUPPORTED_FORMATS
 
@@ -132,7 +132,7 @@ _OUT_OF_MEMORY = _raised(out_of_memory_problem())
 _STORAGE_FULL = _raised(storage_full_problem())
 _DATABASE_UNAVAILABLE = _raised(database_unavailable_problem())
 # FastAPI's refusal of a body it cannot parse (app/api/problems.py turns it into problem+json).
-_MALFORMED = blank_problem(400, "There was an error parsing the body")
+_MALFORMED = problem("malformed-body", "Invalid multipart data.")
 _UNKNOWN_FORMAT = _problem("unknown-format",
                            "could not tell the format of 'drawing.docx': upload one of "
                            f"{', '.join('.' + f for f in SUPPORTED_FORMATS)} (the file name's "

@@ -167,6 +167,9 @@ async def _on_problem(request: Request, exc: Exception) -> JSONResponse:
             errors=[{"pointer": "", "detail": "nested too deeply"}],
         ))
     detail = exc.detail if isinstance(exc.detail, str) else HTTPStatus(exc.status_code).phrase
+    if exc.status_code == 400:
+        # Starlette's and FastAPI's only 400: the multipart form could not be parsed.
+        return problem_response(problem("malformed-body", detail), headers=exc.headers)
     return problem_response(blank_problem(exc.status_code, detail), headers=exc.headers)
 
 
