@@ -243,13 +243,18 @@ def test_redescribe_makes_a_new_job_and_stats_count_versions(client: TestClient)
     assert response.status_code == 202, response.text
     job = response.json()
     assert job["model_id"] == model["id"] and job["id"] != model["job"]["id"]
+    assert job["background"] is False  # one re-describe: the tenant's own turn
     assert response.headers["location"] == f"/v1/jobs/{job['id']}"
     assert wait_for_job(client, job["id"])["status"] == "done"
     assert client.get(f"/v1/models/{model['id']}").json()["job"]["id"] == job["id"]
+    # One of many re-describes sent together takes the bulk load's turns (app.jobs.turns).
+    bulk = client.post(f"/v1/models/{model['id']}/redescribe", params={"background": "true"})
+    assert bulk.status_code == 202 and bulk.json()["background"] is True
+    assert wait_for_job(client, bulk.json()["id"])["background"] is True
     stats = client.get("/v1/stats").json()
     assert stats["models"] == 1 and stats["by_status"] == {"ready": 1}
     assert stats["by_descriptor_version"] == {"fake-1": 1}
-    assert stats["jobs_by_status"] == {"done": 2}
+    assert stats["jobs_by_status"] == {"done": 3}
     assert stats["current_descriptor_version"] != "fake-1"
     assert client.post("/v1/models/nope/redescribe").status_code == 404
 

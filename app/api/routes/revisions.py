@@ -14,7 +14,7 @@ import uuid
 from datetime import datetime
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, Depends, File, Form, Path, Response, UploadFile
+from fastapi import APIRouter, Depends, File, Form, Path, Query, Response, UploadFile
 from pydantic import BaseModel, Field
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
@@ -236,12 +236,20 @@ def list_revisions(model_id: str, tenant: TenantDep, session: SessionDep) -> Rev
     "searchable with its previous descriptor until the new one replaces it.",
 )
 def redescribe_model(
-    model_id: str, response: Response, tenant: TenantDep, services: ServicesDep
+    model_id: str,
+    response: Response,
+    tenant: TenantDep,
+    services: ServicesDep,
+    background: Annotated[bool, Query(
+        description="true for one of many re-describes sent together (a PLM system "
+        "re-describing a product line): its job takes turns with the tenant's uploads "
+        "instead of holding them up, as `shapesearch redescribe` does. Scheduling only."
+    )] = False,
 ) -> JobResource:
     with services.sessions.begin() as session:
         lock_models(session, Model.id == parse_model_id(model_id), Model.tenant == tenant)
         model = load_model(session, tenant, model_id)
-        job = enqueue_redescribe(session, model)
+        job = enqueue_redescribe(session, model, background=background)
         resource = job_resource(job)
     response.headers["Location"] = f"/v1/jobs/{resource.id}"
     return resource

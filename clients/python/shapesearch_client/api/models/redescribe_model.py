@@ -10,23 +10,33 @@ from ... import errors
 
 from ...models.job_resource import JobResource
 from ...models.problem import Problem
+from ...types import UNSET, Unset
 from typing import cast
 
 
 
 def _get_kwargs(
     model_id: str,
+    *,
+    background: bool | Unset = False,
 
 ) -> dict[str, Any]:
     
 
     
 
-    
+    params: dict[str, Any] = {}
+
+    params["background"] = background
+
+
+    params = {k: v for k, v in params.items() if v is not UNSET and v is not None}
+
 
     _kwargs: dict[str, Any] = {
         "method": "post",
         "url": "/v1/models/{model_id}/redescribe".format(model_id=quote(str(model_id), safe=""),),
+        "params": params,
     }
 
 
@@ -96,6 +106,7 @@ def sync_detailed(
     model_id: str,
     *,
     client: AuthenticatedClient,
+    background: bool | Unset = False,
 
 ) -> Response[JobResource | Problem]:
     """ Describe a model again from its stored original
@@ -105,6 +116,9 @@ def sync_detailed(
 
     Args:
         model_id (str):
+        background (bool | Unset): true for one of many re-describes sent together (a PLM system
+            re-describing a product line): its job takes turns with the tenant's uploads instead of
+            holding them up, as `shapesearch redescribe` does. Scheduling only. Default: False.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -117,6 +131,7 @@ def sync_detailed(
 
     kwargs = _get_kwargs(
         model_id=model_id,
+background=background,
 
     )
 
@@ -130,6 +145,7 @@ def sync(
     model_id: str,
     *,
     client: AuthenticatedClient,
+    background: bool | Unset = False,
 
 ) -> JobResource | Problem | None:
     """ Describe a model again from its stored original
@@ -139,6 +155,9 @@ def sync(
 
     Args:
         model_id (str):
+        background (bool | Unset): true for one of many re-describes sent together (a PLM system
+            re-describing a product line): its job takes turns with the tenant's uploads instead of
+            holding them up, as `shapesearch redescribe` does. Scheduling only. Default: False.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -152,6 +171,7 @@ def sync(
     return sync_detailed(
         model_id=model_id,
 client=client,
+background=background,
 
     ).parsed
 
@@ -159,6 +179,7 @@ async def asyncio_detailed(
     model_id: str,
     *,
     client: AuthenticatedClient,
+    background: bool | Unset = False,
 
 ) -> Response[JobResource | Problem]:
     """ Describe a model again from its stored original
@@ -168,6 +189,9 @@ async def asyncio_detailed(
 
     Args:
         model_id (str):
+        background (bool | Unset): true for one of many re-describes sent together (a PLM system
+            re-describing a product line): its job takes turns with the tenant's uploads instead of
+            holding them up, as `shapesearch redescribe` does. Scheduling only. Default: False.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -180,6 +204,7 @@ async def asyncio_detailed(
 
     kwargs = _get_kwargs(
         model_id=model_id,
+background=background,
 
     )
 
@@ -193,6 +218,7 @@ async def asyncio(
     model_id: str,
     *,
     client: AuthenticatedClient,
+    background: bool | Unset = False,
 
 ) -> JobResource | Problem | None:
     """ Describe a model again from its stored original
@@ -202,6 +228,9 @@ async def asyncio(
 
     Args:
         model_id (str):
+        background (bool | Unset): true for one of many re-describes sent together (a PLM system
+            re-describing a product line): its job takes turns with the tenant's uploads instead of
+            holding them up, as `shapesearch redescribe` does. Scheduling only. Default: False.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -215,5 +244,6 @@ async def asyncio(
     return (await asyncio_detailed(
         model_id=model_id,
 client=client,
+background=background,
 
     )).parsed
