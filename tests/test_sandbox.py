@@ -146,3 +146,17 @@ def test_blas_under_a_tight_limit_is_not_a_crash() -> None:
     a, b, out = np.ones((300, 300)), np.ones((300, 300)), np.empty((300, 300))
     tight = Sandbox(memory_bytes=256 * 1024 * 1024, timeout_seconds=30)
     assert tight.run(product_into, a, b, out) == 300.0
+
+
+def test_what_a_child_unpickles_is_imported_by_the_forkserver_already() -> None:
+    """A child imports afresh every module of what it unpickles that its forkserver has not
+    preloaded: ``_child``'s own module cost every child 63 ms (app.settings, pydantic) of an
+    empty call's 104 (bench/sandbox.py). The entry point and every function the service runs
+    in a sandbox must come from a preloaded module."""
+    from app.ingest import describing, sandbox
+
+    run_in_children = [
+        sandbox._child, describing.ingest_columns, describing.described_columns,
+        describing.quick_check,
+    ]
+    assert {function.__module__ for function in run_in_children} <= set(sandbox._PRELOAD)

@@ -56,10 +56,15 @@ __all__ = [
 
 T = TypeVar("T")
 
+# What a child unpickles must be imported already, or every child imports it again: this
+# module itself (``_child``; its import, app.settings with it, took 63 ms of a 104 ms empty
+# call, bench/sandbox.py) and the functions that run in it (``app.ingest.describing``).
 # OpenCascade too, where the cad extra is installed: its import takes about 0.5 s, which
 # every STEP or IGES check and describe would pay in its child (they are parsed in the
 # sandbox only, core.io.CRASHING_FORMATS). The forkserver skips a module that does not import.
-_PRELOAD = ["core.pipeline", "core.io", "app.ingest.describing", "OCP.STEPControl"]
+_PRELOAD = [
+    "core.pipeline", "core.io", "app.ingest.describing", "app.ingest.sandbox", "OCP.STEPControl",
+]
 _context = multiprocessing.get_context("forkserver")
 _context.set_forkserver_preload(_PRELOAD)
 
