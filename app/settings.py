@@ -463,6 +463,14 @@ class Settings(BaseSettings):
     webhook_timeout_seconds: float = Field(
         default=10.0, gt=0, description="Timeout of one webhook delivery attempt."
     )
+    webhook_lanes: int = Field(
+        default=4,
+        ge=1,
+        le=64,
+        description="Webhook deliveries each process (serve, worker) sends at once. An "
+        "endpoint gets one at a time, in order, so an endpoint that hangs holds one lane "
+        "for its timeout and the others serve every other endpoint.",
+    )
     webhook_max_attempts: int = Field(
         default=8, ge=1, description="Delivery attempts per event before it is marked failed."
     )

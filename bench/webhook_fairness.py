@@ -3,10 +3,15 @@
 Two tenants on a new SQLite database, each with a webhook endpoint on 127.0.0.1: ``bulk``'s
 endpoint hangs (it answers after ``--hang`` seconds, past the deliverer's ``--timeout``),
 ``desk``'s answers at once. Each round queues ``--backlog`` events for ``bulk``, then one for
-``desk``, and runs one deliverer (as ``shapesearch serve`` and each worker process do) until
-``desk``'s event is delivered: the time from its event to its delivery, and how many of
-``bulk``'s attempts ran meanwhile. The baseline is ``desk``'s event on an idle outbox,
-measured in the same run. Prints medians over ``--rounds``.
+``desk``, and runs the delivery lanes as ``shapesearch serve`` and each worker process do
+(``--lanes``, default ``SHAPESEARCH_WEBHOOK_LANES``) until ``desk``'s event is delivered: the
+time from its event to its delivery, and how many of ``bulk``'s attempts ended meanwhile.
+The baseline is ``desk``'s event on an idle outbox, measured in the same run. Prints medians
+over ``--rounds``.
+
+Then what the rule "one delivery in flight per endpoint" costs an idle lane: the time of a
+claim that finds nothing because the one endpoint with due deliveries (``--look-backlog``
+of them) has one in flight, against a claim on an empty outbox.
 
     nice -n 5 .venv/bin/python bench/webhook_fairness.py [--backlog 20] [--rounds 3]
 """
@@ -37,7 +42,8 @@ from plm_helpers import Receiver  # noqa: E402
 from app.db.migrate import upgrade  # noqa: E402
 from app.db.models import Model, Webhook, WebhookAttempt, WebhookDelivery  # noqa: E402
 from app.db.session import make_engine, make_session_factory  # noqa: E402
-from app.webhooks import Deliverer, record_model_event  # noqa: E402
+from app.settings import Settings  # noqa: E402
+from app.webhooks import Deliverer, DeliveryLanes, record_model_event  # noqa: E402
 
 
 @contextmanager
@@ -95,25 +101,52 @@ def attempts(sessions: sessionmaker[Session]) -> int:
         return int(session.scalar(select(func.count()).select_from(WebhookAttempt)) or 0)
 
 
+def bench_deliverer(sessions: sessionmaker[Session], timeout: float) -> Deliverer:
+    return Deliverer(sessions, worker_id="bench", allow_private=True, timeout=timeout,
+                     max_attempts=5, backoff_base=60, backoff_cap=60, lease_seconds=60)
+
+
 def desk_wait(
-    folder: Path, urls: dict[str, str], backlog: int, timeout: float
+    folder: Path, urls: dict[str, str], backlog: int, timeout: float, lanes: int
 ) -> tuple[float, int]:
     """Seconds from ``desk``'s event to its delivery behind ``backlog`` events of ``bulk``,
-    and the attempts made before it."""
+    and the attempts that ended before it."""
     sessions, models = outbox(folder, urls)
     with sessions.begin() as session:
         for _ in range(backlog):
             record_model_event(session, models["bulk"], "model.ready")
         record_model_event(session, models["desk"], "model.ready")
-    deliverer = Deliverer(sessions, worker_id="bench", allow_private=True, timeout=timeout,
-                          max_attempts=5, backoff_base=60, backoff_cap=60, lease_seconds=60)
+    running = DeliveryLanes(bench_deliverer(sessions, timeout), lanes=lanes, poll_interval=1.0)
     started = time.perf_counter()
+    running.start()
     try:
         while not delivered(sessions, "desk"):
-            deliverer.run_once()
+            time.sleep(0.002)
+        waited = time.perf_counter() - started
+        return waited, attempts(sessions) - 1
+    finally:
+        running.stop()
+
+
+def fruitless_look(folder: Path, urls: dict[str, str], backlog: int, repeat: int) -> float:
+    """Median seconds of a claim that finds nothing: ``bulk`` has ``backlog`` due events
+    and one of them in flight (0: an empty outbox)."""
+    sessions, models = outbox(folder, urls)
+    with sessions.begin() as session:
+        for _ in range(backlog):
+            record_model_event(session, models["bulk"], "model.ready")
+    deliverer = bench_deliverer(sessions, 1.0)
+    try:
+        if backlog:
+            assert deliverer.claim() is not None  # held: the others wait for it
+        times = []
+        for _ in range(repeat):
+            started = time.perf_counter()
+            assert deliverer.claim() is None
+            times.append(time.perf_counter() - started)
     finally:
         deliverer.close()
-    return time.perf_counter() - started, attempts(sessions) - 1
+    return statistics.median(times)
 
 
 def main() -> int:
@@ -122,15 +155,17 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--timeout", type=float, default=1.0)
     parser.add_argument("--hang", type=float, default=3.0)
+    parser.add_argument("--lanes", type=int, default=Settings().webhook_lanes)
+    parser.add_argument("--look-backlog", type=int, nargs="*", default=[1000, 10000])
     args = parser.parse_args()
     idle, waits, attempts_before = [], [], []
     with hanging_endpoint(args.hang) as hanging, Receiver() as receiver:
         urls = {"bulk": hanging, "desk": receiver.url}
         for _ in range(args.rounds):
             with tempfile.TemporaryDirectory() as folder:
-                idle.append(desk_wait(Path(folder), urls, 0, args.timeout)[0])
+                idle.append(desk_wait(Path(folder), urls, 0, args.timeout, args.lanes)[0])
             with tempfile.TemporaryDirectory() as folder:
-                wait, made = desk_wait(Path(folder), urls, args.backlog, args.timeout)
+                wait, made = desk_wait(Path(folder), urls, args.backlog, args.timeout, args.lanes)
                 waits.append(wait)
                 attempts_before.append(made)
     idle_median, wait_median = statistics.median(idle), statistics.median(waits)
@@ -139,8 +174,17 @@ def main() -> int:
     print(f"desk's event behind {args.backlog} events to an endpoint hanging past the "
           f"{args.timeout:g} s timeout: median {wait_median * 1000:8.1f} ms  "
           f"({', '.join(f'{s * 1000:.1f}' for s in waits)}), {wait_median / idle_median:.0f}x idle")
-    print(f"attempts to the hanging endpoint before desk's delivery: median "
-          f"{statistics.median(attempts_before):.0f} ({', '.join(map(str, attempts_before))})")
+    print(f"attempts to the hanging endpoint ended before desk's delivery ({args.lanes} "
+          f"lanes): median {statistics.median(attempts_before):.0f} "
+          f"({', '.join(map(str, attempts_before))})")
+    with tempfile.TemporaryDirectory() as folder:
+        empty = fruitless_look(Path(folder), urls, 0, 50)
+    print(f"an idle lane's look, empty outbox: median {empty * 1000:.2f} ms")
+    for backlog in args.look_backlog:
+        with tempfile.TemporaryDirectory() as folder:
+            look = fruitless_look(Path(folder), urls, backlog, 20)
+        print(f"an idle lane's look past {backlog} due events of an endpoint in flight: "
+              f"median {look * 1000:.2f} ms, {look / empty:.1f}x the empty outbox's")
     return 0
 
 

@@ -65,9 +65,15 @@ def started_clients(database_url: str) -> Iterator[ClientFactory]:
 
 class Receiver:
     """A webhook receiver on 127.0.0.1: answers with ``statuses`` in turn (then 200) and
-    records every request's headers and body."""
+    records every request's headers and body; with ``hold``, each request is recorded, then
+    answered only once ``hold`` is set (an endpoint that hangs until the test lets it go)."""
 
-    def __init__(self, statuses: list[int] | None = None, redirect_to: str | None = None) -> None:
+    def __init__(
+        self,
+        statuses: list[int] | None = None,
+        redirect_to: str | None = None,
+        hold: threading.Event | None = None,
+    ) -> None:
         self.statuses = list(statuses or [])
         self.redirect_to = redirect_to
         self.requests: list[Request] = []
@@ -80,6 +86,8 @@ class Receiver:
                 with receiver.lock:
                     receiver.requests.append((self.path, dict(self.headers.items()), body))
                     status = receiver.statuses.pop(0) if receiver.statuses else 200
+                if hold is not None:
+                    hold.wait(60)
                 if receiver.redirect_to is not None and self.path != receiver.redirect_to:
                     status = 307
                 self.send_response(status)

@@ -5,6 +5,7 @@ events survive a deliverer or worker that dies, and unsafe targets are refused."
 from __future__ import annotations
 
 import json
+import threading
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -14,14 +15,22 @@ from conftest import PARTS, fake_describe, make_settings, upload, wait_for_statu
 from fastapi.testclient import TestClient
 from plm_helpers import ClientFactory, Receiver, started_clients
 from prometheus_client import REGISTRY
+from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
 from standardwebhooks.webhooks import Webhook as Verifier
 
 from app.api.main import create_app
-from app.db.models import Model, Webhook
+from app.db.models import Model, Webhook, WebhookDelivery
 from app.db.session import make_engine, make_session_factory
 from app.jobs.queue import JobQueue
-from app.webhooks import Deliverer, TargetRefused, check_target, pinned, record_model_event
+from app.webhooks import (
+    Deliverer,
+    DeliveryLanes,
+    TargetRefused,
+    check_target,
+    pinned,
+    record_model_event,
+)
 from core.errors import InvalidShapeError
 
 CUBE = PARTS / "20mm-xyz-cube.stl"
@@ -153,41 +162,92 @@ def test_an_event_outlives_the_worker_that_completed_the_job(
         assert event["type"] == "model.ready" and event["data"]["model"]["id"] == model["id"]
 
 
-def test_an_endpoint_with_a_backlog_delays_another_endpoints_event_by_one_attempt(
+def two_endpoints(sessions: sessionmaker[Session], urls: dict[str, str]) -> dict[str, Any]:
+    """Each tenant of ``urls`` with a ready model and an endpoint at its URL; the models'
+    ids by tenant."""
+    models = {}
+    with sessions.begin() as session:
+        for tenant, url in urls.items():
+            model = Model(tenant=tenant, meta={}, status="ready", file_name="a.stl",
+                          file_size=1, file_sha256="0" * 64, file_format="stl")
+            session.add_all([model, Webhook(tenant=tenant, url=url, events=["model.ready"],
+                                            secret="whsec_" + "A" * 32)])
+            session.flush()
+            models[tenant] = model.id
+    return models
+
+
+def test_an_endpoint_has_one_delivery_in_flight_and_others_take_turns_with_its_backlog(
     sessions: sessionmaker[Session],
 ) -> None:
     """Claimed oldest first, the other endpoint's event waited for the whole backlog: with an
-    endpoint that hangs for its timeout, that was a timeout per event of the backlog."""
-    with sessions.begin() as session:
-        models = {}
-        for tenant in ("bulk", "desk"):
-            model = Model(tenant=tenant, meta={}, status="ready", file_name="a.stl",
-                          file_size=1, file_sha256="0" * 64, file_format="stl")
-            session.add_all([model, Webhook(tenant=tenant, url=f"https://{tenant}.example/",
-                                            events=["model.ready"], secret="whsec_x")])
-            session.flush()
-            models[tenant] = model.id
-        for _ in range(6):
-            record_model_event(session, models["bulk"], "model.ready")
-    deliverer = Deliverer(sessions, worker_id="w", allow_private=False, timeout=10,
-                          max_attempts=3, backoff_base=60, backoff_cap=60, lease_seconds=60)
-
-    def endpoint_of_next_claim() -> str:
-        claimed = deliverer.claim()  # held under its lease: the next claim takes another
-        assert claimed is not None
-        return claimed.url
-
-    try:
-        in_flight = [endpoint_of_next_claim() for _ in range(2)]
+    endpoint that hangs for its timeout, that was a timeout per event of the backlog. Now an
+    endpoint's backlog takes one turn a round, and one of its deliveries is out at a time."""
+    with Receiver() as bulk, Receiver() as desk:
+        urls = {"bulk": bulk.url, "desk": desk.url}
+        models = two_endpoints(sessions, urls)
         with sessions.begin() as session:
-            record_model_event(session, models["desk"], "model.ready")
-        order = [endpoint_of_next_claim() for _ in range(5)]
-        assert deliverer.claim() is None
-    finally:
-        deliverer.close()
-    assert in_flight == ["https://bulk.example/"] * 2
-    assert order == ["https://bulk.example/", "https://desk.example/"] + [
-        "https://bulk.example/"] * 3
+            for _ in range(4):
+                record_model_event(session, models["bulk"], "model.ready")
+        deliverer = Deliverer(sessions, worker_id="w", allow_private=True, timeout=10,
+                              max_attempts=3, backoff_base=60, backoff_cap=60,
+                              lease_seconds=60)
+        try:
+            first = deliverer.claim()  # held under its lease, as while it is being sent
+            assert first is not None and first.url == urls["bulk"]
+            assert deliverer.claim() is None  # bulk's next three wait for it
+            with sessions.begin() as session:
+                record_model_event(session, models["desk"], "model.ready")
+            beside = deliverer.claim()  # desk's event goes out beside bulk's
+            assert beside is not None and beside.url == urls["desk"]
+            deliverer.deliver(first)
+            order = []
+            while (claimed := deliverer.claim()) is not None:
+                order.append(claimed.url)
+                deliverer.deliver(claimed)
+            deliverer.deliver(beside)
+        finally:
+            deliverer.close()
+        assert order == [urls["bulk"]] * 3
+        assert len(bulk.requests) == 4 and len(desk.requests) == 1
+
+
+def test_an_endpoint_that_hangs_holds_one_lane_while_the_others_deliver(
+    sessions: sessionmaker[Session],
+) -> None:
+    """With one lane, each event of another endpoint waited out one of the hanging
+    endpoint's timeouts; now it is sent while the hanging endpoint still holds its first."""
+    let_go = threading.Event()
+    with Receiver(hold=let_go) as bulk, Receiver() as desk:
+        models = two_endpoints(sessions, {"bulk": bulk.url, "desk": desk.url})
+        with sessions.begin() as session:
+            for _ in range(3):
+                record_model_event(session, models["bulk"], "model.ready")
+        deliverer = Deliverer(sessions, worker_id="lanes", allow_private=True, timeout=60,
+                              max_attempts=3, backoff_base=60, backoff_cap=60,
+                              lease_seconds=120)
+        lanes = DeliveryLanes(deliverer, lanes=3, poll_interval=0.05)
+        lanes.start()
+        try:
+            (held,) = bulk.wait_for(1)
+            with sessions.begin() as session:
+                for _ in range(2):
+                    record_model_event(session, models["desk"], "model.ready")
+            assert len(desk.wait_for(2)) == 2
+            assert len(bulk.requests) == 1  # its other two wait for the one it holds
+            let_go.set()
+            delivered = bulk.wait_for(3)
+        finally:
+            let_go.set()
+            lanes.stop()
+    with sessions() as session:
+        queued = session.scalars(
+            select(WebhookDelivery.id).join(Webhook).where(Webhook.tenant == "bulk")
+            .order_by(WebhookDelivery.turn)
+        ).all()
+    sent = [headers["webhook-id"] for _path, headers, _body in delivered]
+    assert sent == [str(delivery) for delivery in queued]  # one at a time, in order
+    assert held == delivered[0]
 
 
 def test_unsafe_targets_are_refused_and_redirects_not_followed(

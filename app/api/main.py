@@ -49,7 +49,7 @@ from app.observability.metrics import (
 from app.search.index import ShapeIndex
 from app.settings import Settings, engine_settings
 from app.viewer import install_viewer
-from app.webhooks import start_delivery_thread
+from app.webhooks import start_delivery_lanes
 
 __all__ = ["create_app"]
 
@@ -158,7 +158,7 @@ def create_app(
                 reports=duplicates_handler(settings, sessions),
             )
             pool.start()
-            deliveries = start_delivery_thread(settings, sessions)  # webhooks, next to jobs
+            deliveries = start_delivery_lanes(settings, sessions)  # webhooks, next to jobs
         # What other processes write wakes this one's waiters at once (PostgreSQL).
         listener = Listener(engine, [FEED] if pool is None else [FEED, JOBS, WEBHOOKS])
         listener.start()

@@ -6,8 +6,9 @@ one statement:
 
     UPDATE t SET status=:held, worker_id=:w, attempts=attempts+1, leased_until=:now+lease
     WHERE id = (SELECT id FROM t
-                WHERE (status=:waiting AND run_after <= :now)
-                   OR (status=:held AND leased_until < :now)
+                WHERE ((status=:waiting AND run_after <= :now)
+                       OR (status=:held AND leased_until < :now))
+                  AND <eligible>                                     -- when given
                 ORDER BY turn, run_after LIMIT 1
                 FOR UPDATE SKIP LOCKED)                              -- PostgreSQL only
     RETURNING ...
@@ -17,7 +18,9 @@ deliveries among endpoints (``app.jobs.turns``).
 
 On PostgreSQL ``SKIP LOCKED`` lets concurrent workers pass over each other's candidate rows;
 SQLite has a single writer, so the statement is atomic as it stands. A failed attempt waits
-``backoff_seconds`` before the row is due again.
+``backoff_seconds`` before the row is due again. ``eligible`` narrows the candidates: the
+deliverers pass over an endpoint that already has a delivery in flight
+(``app.webhooks.delivery``).
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from __future__ import annotations
 from datetime import datetime, timedelta
 from typing import Any
 
-from sqlalchemy import Row, and_, or_, select, update
+from sqlalchemy import ColumnElement, Row, and_, or_, select, true, update
 from sqlalchemy.orm import Session
 
 __all__ = ["backoff_seconds", "claim_next"]
@@ -46,18 +49,21 @@ def claim_next(
     now: datetime,
     lease: timedelta,
     returning: tuple[Any, ...],
+    eligible: ColumnElement[bool] | None = None,
 ) -> Row[Any] | None:
     """Claim the next due row of ``table`` (an ORM class with ``id``, ``status``,
     ``turn``, ``run_after``, ``worker_id``, ``attempts``, ``leased_until`` and
     ``updated_at``) for ``worker_id``, the first by turn then by ``run_after``; returns the
-    ``returning`` columns of the claimed row, or None."""
+    ``returning`` columns of the claimed row, or None. ``eligible``: a further condition
+    on the candidate rows."""
     due = (
         select(table.id)
         .where(
             or_(
                 and_(table.status == waiting, table.run_after <= now),
                 and_(table.status == held, table.leased_until < now),
-            )
+            ),
+            true() if eligible is None else eligible,
         )
         .order_by(table.turn, table.run_after)
         .limit(1)

@@ -65,7 +65,7 @@ from app.search.duplicate_reports import store_report
 from app.search.duplicates import DuplicatesQuery, compute_report
 from app.settings import Settings, engine_settings
 from app.storage import storage_full
-from app.webhooks import start_delivery_thread
+from app.webhooks import start_delivery_lanes
 from core.errors import InvalidShapeError, SolverError
 
 __all__ = [
@@ -489,7 +489,7 @@ def _work(settings: Settings, threads: int) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     pool.start()
-    deliveries = start_delivery_thread(settings, sessions)
+    deliveries = start_delivery_lanes(settings, sessions)
     while not requested.wait(0.5):
         pass
     pool.stop(settings.shutdown_grace_seconds, abort)

@@ -10,8 +10,9 @@
     endpoint_secrets  new_secret, valid_secret (``whsec_`` + base64)
     delivery          Deliverer claims due deliveries under a lease (``app.jobs.lease``),
                       POSTs them signed per Standard Webhooks, logs every attempt, retries
-                      with capped exponential backoff: at least once; DeliveryThread runs it
-                      next to the job workers
+                      with capped exponential backoff: at least once, one delivery in
+                      flight per endpoint; DeliveryLanes runs it in a few threads next to
+                      the job workers
 
 The body is ``{"type", "timestamp", "data": {"model": ..., "job": ...}}``; the headers are
 ``webhook-id`` (the delivery id, the same on every retry so receivers can deduplicate),
@@ -19,20 +20,20 @@ The body is ``{"type", "timestamp", "data": {"model": ..., "job": ...}}``; the h
 ``id.timestamp.body`` with the endpoint's secret), made by the ``standardwebhooks`` package.
 """
 
-from app.webhooks.delivery import Deliverer, DeliveryThread, start_delivery_thread
+from app.webhooks.delivery import Deliverer, DeliveryLanes, start_delivery_lanes
 from app.webhooks.endpoint_secrets import new_secret, valid_secret
 from app.webhooks.outbox import EVENT_TYPES, record_model_event
 from app.webhooks.targets import TargetRefused, check_target, pinned
 
 __all__ = [
     "EVENT_TYPES",
-    "DeliveryThread",
     "Deliverer",
+    "DeliveryLanes",
     "TargetRefused",
     "check_target",
     "new_secret",
     "pinned",
     "record_model_event",
-    "start_delivery_thread",
+    "start_delivery_lanes",
     "valid_secret",
 ]

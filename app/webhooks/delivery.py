@@ -1,7 +1,18 @@
 """Delivering webhooks: a ``Deliverer`` claims due deliveries under a lease (like jobs,
 ``app.jobs.lease``), POSTs them signed per Standard Webhooks, logs every attempt and retries
 with capped exponential backoff; a deliverer that dies mid-way loses its lease and another
-one delivers: at least once. ``DeliveryThread`` runs one next to the job workers."""
+one delivers: at least once. ``DeliveryLanes`` runs one in a few threads next to the job
+workers.
+
+An endpoint has one delivery in flight at a time: a claim passes over endpoints with a
+delivery being sent under a live lease. So an endpoint receives its events one after
+another, in order unless one is retried, and an endpoint that hangs holds one lane for its
+timeout while the other lanes serve every other endpoint. With one lane, an endpoint hanging
+with a backlog made each other endpoint's event wait out one timeout
+(``bench/webhook_fairness.py``). The lanes of a process claim one at a time, so the rule is
+exact within a process; two processes claiming for one endpoint in the same instant may
+both send (PostgreSQL reads the other's claim only once it commits).
+"""
 
 from __future__ import annotations
 
@@ -17,8 +28,8 @@ from datetime import timedelta
 from typing import Any
 
 import httpx
-from sqlalchemy import update
-from sqlalchemy.orm import Session, sessionmaker
+from sqlalchemy import ColumnElement, exists, update
+from sqlalchemy.orm import Session, aliased, sessionmaker
 from standardwebhooks.webhooks import Webhook as Signer
 
 from app.db.doorbells import WEBHOOKS, Doorbell
@@ -29,7 +40,7 @@ from app.observability.logs import Outage
 from app.observability.metrics import WEBHOOK_ATTEMPTS
 from app.webhooks.targets import TargetRefused, check_target, pinned
 
-__all__ = ["Deliverer", "DeliveryThread", "start_delivery_thread"]
+__all__ = ["Deliverer", "DeliveryLanes", "start_delivery_lanes"]
 
 log = logging.getLogger("shapesearch.webhooks")
 
@@ -76,21 +87,27 @@ class Deliverer:
         self.backoff_base = backoff_base
         self.backoff_cap = backoff_cap
         self.lease = timedelta(seconds=max(lease_seconds, timeout * 2))
-        # Redirects are never followed: a 3xx is a failed attempt.
+        # Redirects are never followed: a 3xx is a failed attempt. The client is shared by
+        # the lanes (httpx clients are thread-safe).
         self.client = httpx.Client(timeout=timeout, follow_redirects=False, trust_env=False)
+        # Lanes claim one at a time: a claim must see the one before it committed, or two
+        # lanes could take two deliveries of one endpoint.
+        self._claiming = threading.Lock()
 
     def close(self) -> None:
         self.client.close()
 
     def claim(self) -> _Claimed | None:
         """Take the next due delivery in turn order (endpoints take turns), or one whose
-        deliverer's lease expired."""
-        with self.sessions.begin() as session:
+        deliverer's lease expired, of an endpoint with no other delivery in flight."""
+        now = utcnow()
+        with self._claiming, self.sessions.begin() as session:
             row = claim_next(
                 session, WebhookDelivery, waiting="pending", held="sending",
-                worker_id=self.worker_id, now=utcnow(), lease=self.lease,
+                worker_id=self.worker_id, now=now, lease=self.lease,
                 returning=(WebhookDelivery.id, WebhookDelivery.attempts,
                            WebhookDelivery.webhook_id, WebhookDelivery.payload),
+                eligible=_endpoint_idle(now),
             )
             if row is None:
                 return None
@@ -160,44 +177,76 @@ class Deliverer:
         WEBHOOK_ATTEMPTS.labels(outcome=_OUTCOMES[values["status"]]).inc()
         return True
 
-    def run_once(self) -> bool:
-        """Deliver one due event; False if there was none."""
-        claimed = self.claim()
-        if claimed is None:
-            return False
+    def deliver(self, claimed: _Claimed) -> None:
+        """Send a claimed delivery and settle it."""
         outcome = self.send(claimed)
         if not self.finish(claimed, outcome):
             log.warning("delivery %s: lease lost, attempt not recorded", claimed.id)
         elif not outcome.ok:
             log.info("delivery %s attempt %d: %s", claimed.id, claimed.attempts, outcome.error)
+
+    def run_once(self) -> bool:
+        """Deliver one due event; False if there was none."""
+        claimed = self.claim()
+        if claimed is None:
+            return False
+        self.deliver(claimed)
         return True
+
+
+def _endpoint_idle(now: Any) -> ColumnElement[bool]:
+    """A candidate delivery's endpoint has no delivery being sent under a live lease (an
+    index seek on ``ix_webhook_deliveries_endpoint_turn`` per candidate)."""
+    in_flight = aliased(WebhookDelivery)
+    return ~exists().where(
+        in_flight.webhook_id == WebhookDelivery.webhook_id,
+        in_flight.status == "sending",
+        in_flight.leased_until >= now,
+    )
 
 
 # Metric label of each settled state of a delivery.
 _OUTCOMES = {"delivered": "delivered", "pending": "retry", "failed": "failed"}
 
 
-class DeliveryThread:
-    """Runs a ``Deliverer`` until stopped; a database outage is waited out. Idle, it waits
-    ``poll_interval`` seconds or until ``doorbell`` rings (a delivery was queued).
+class DeliveryLanes:
+    """Runs a ``Deliverer`` in ``lanes`` threads until stopped; a database outage is waited
+    out. An idle lane waits ``poll_interval`` seconds or until ``doorbell`` rings (a delivery
+    was queued), which wakes every idle lane.
+
+    A lane that claims does not ring again for its peers (the job workers do): a look that
+    finds nothing passes over every due delivery of the endpoints in flight, so it costs in
+    proportion to their backlog. A ring that one lane's clear takes from another costs that
+    lane at most ``poll_interval``; the busy lanes look again as soon as they finish.
     """
 
     def __init__(
-        self, deliverer: Deliverer, poll_interval: float, doorbell: Doorbell = WEBHOOKS
+        self,
+        deliverer: Deliverer,
+        *,
+        lanes: int,
+        poll_interval: float,
+        doorbell: Doorbell = WEBHOOKS,
     ) -> None:
         self.deliverer = deliverer
         self.poll_interval = poll_interval
         self.doorbell = doorbell
         self.stop_event = threading.Event()
-        self.thread = threading.Thread(target=self._run, name="webhooks", daemon=True)
+        self.threads = [
+            threading.Thread(target=self._run, name=f"webhooks-{lane}", daemon=True)
+            for lane in range(lanes)
+        ]
 
     def start(self) -> None:
-        self.thread.start()
+        for thread in self.threads:
+            thread.start()
 
     def stop(self) -> None:
+        """Stop claiming; wait for the deliveries being sent (each within its timeout)."""
         self.stop_event.set()
-        self.doorbell.ring()  # an idle thread sees the stop now
-        self.thread.join()
+        self.doorbell.ring()  # idle lanes see the stop now
+        for thread in self.threads:
+            thread.join()
         self.deliverer.close()
 
     def _run(self) -> None:
@@ -214,8 +263,8 @@ class DeliveryThread:
                 self.doorbell.wait(self.poll_interval)
 
 
-def start_delivery_thread(settings: Any, sessions: sessionmaker[Session]) -> DeliveryThread:
-    """A started ``DeliveryThread`` configured from the service ``settings``."""
+def start_delivery_lanes(settings: Any, sessions: sessionmaker[Session]) -> DeliveryLanes:
+    """Started ``DeliveryLanes`` configured from the service ``settings``."""
     deliverer = Deliverer(
         sessions,
         worker_id=f"{socket.gethostname()}:webhooks:{secrets.token_hex(3)}",
@@ -226,6 +275,8 @@ def start_delivery_thread(settings: Any, sessions: sessionmaker[Session]) -> Del
         backoff_cap=settings.webhook_backoff_max_seconds,
         lease_seconds=settings.lease_seconds,
     )
-    thread = DeliveryThread(deliverer, settings.poll_interval)
-    thread.start()
-    return thread
+    lanes = DeliveryLanes(
+        deliverer, lanes=settings.webhook_lanes, poll_interval=settings.poll_interval
+    )
+    lanes.start()
+    return lanes
