@@ -104,7 +104,11 @@ def _merged(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nda
     if not is_used.any():
         return vertices[:0], faces[:0]
     vertices, faces = vertices[is_used], (np.cumsum(is_used) - 1)[faces]
-    scale = float(np.ptp(vertices, axis=0).max()) or 1.0
+    # From the part's own corner, so that the keys stay within [0, _MERGE_STEPS] however
+    # far the file places the part from its origin (a part 1e10 of its size away gave keys
+    # past int64 and merged everything), and the volume below sums small tetrahedra.
+    vertices = vertices - vertices.min(axis=0)
+    scale = float(vertices.max()) or 1.0
     keys = np.round(vertices / scale * _MERGE_STEPS).astype(np.int64)
     first, inverse = _unique_rows(keys)
     faces = inverse[faces]
@@ -132,7 +136,9 @@ def closed_volume(vertices: np.ndarray, faces: np.ndarray) -> float | None:
 
     Watertight and consistently wound: every directed edge appears exactly once and its
     reverse exactly once. The volume is then the divergence-theorem sum of signed
-    tetrahedra.
+    tetrahedra, taken from the vertices' centroid: from a far origin each tetrahedron is
+    huge and their sum cancels to rounding noise (a 6000 mm^3 box 1e9 mm away measured
+    8e10 mm^3).
     """
     if len(faces) < 4:
         return None
@@ -145,7 +151,8 @@ def closed_volume(vertices: np.ndarray, faces: np.ndarray) -> float | None:
         return None
     if not np.array_equal(forward, np.sort((heads * count + tails).ravel())):
         return None
-    a, b, c = (vertices[faces[:, i]] for i in range(3))
+    centred = vertices - vertices.mean(axis=0)
+    a, b, c = (centred[faces[:, i]] for i in range(3))
     volume = abs(float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0))
     return volume if volume > 0 else None
 

@@ -62,6 +62,20 @@ def test_a_cylinder_has_its_analytic_area_and_volume() -> None:
     assert size.extents == pytest.approx([height, 2 * radius, 2 * radius], rel=1e-3)
 
 
+@pytest.mark.parametrize("offset", [1e9, 1e12])
+def test_a_part_far_from_its_files_origin_keeps_its_size(offset: float) -> None:
+    # Site coordinates: a part placed 1e9 of its size away. The signed tetrahedra from the
+    # file's origin cancelled to noise (8e10 for this 8000 box) and the merge keys passed
+    # int64 (no triangle left); from the part's own corner both are exact.
+    box = trimesh.creation.box((10.0, 40.0, 20.0))
+    far = np.asarray(box.vertices) + np.array([offset, -0.5 * offset, 0.25 * offset])
+    size = ShapeSize.of_mesh(far, np.asarray(box.faces))
+    assert size.extents == pytest.approx([40.0, 20.0, 10.0], rel=1e-6)
+    assert size.area == pytest.approx(2800.0, rel=1e-6)
+    assert size.volume == pytest.approx(8000.0, rel=1e-6)
+    assert closed_volume(far, np.asarray(box.faces)) == pytest.approx(8000.0, rel=1e-6)
+
+
 def test_an_open_mesh_has_no_volume() -> None:
     box = trimesh.creation.box((10.0, 40.0, 20.0))
     open_box = trimesh.Trimesh(box.vertices, box.faces[:-2])  # one face missing
