@@ -326,7 +326,8 @@ class Settings(BaseSettings):
         default=1.0,
         gt=0,
         description="Seconds between an idle worker's looks for jobs nothing woke it for (a "
-        "job queued in its process, or announced by PostgreSQL's NOTIFY, wakes it at once).",
+        "job queued in its process, or announced by another process (PostgreSQL's NOTIFY, a "
+        "Unix socket beside a SQLite file), wakes it at once).",
     )
     shutdown_grace_seconds: float = Field(
         default=30.0,
@@ -341,7 +342,8 @@ class Settings(BaseSettings):
         gt=0,
         description="Seconds between polls of the change feed that keeps the search index "
         "of an API process in step with the database (a change committed in the process, or "
-        "announced by PostgreSQL's NOTIFY, is synced at once).",
+        "announced by another process (PostgreSQL's NOTIFY, a Unix socket beside a SQLite "
+        "file), is synced at once).",
     )
     index_exact_max: int = Field(
         default=5_000,

@@ -15,7 +15,7 @@ Deployments:
 - default: ``shapesearch serve`` with no settings (SQLite, the worker in-process);
 - ``--separate-worker``: ``shapesearch serve --no-worker`` and one ``shapesearch worker``
   process on the same database (set ``SHAPESEARCH_DATABASE_URL`` to PostgreSQL for the
-  scale-out layout; on SQLite the worker has no notification and polls).
+  scale-out layout; on SQLite the processes ring each other by Unix sockets).
 
 Usage::
 

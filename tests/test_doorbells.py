@@ -11,6 +11,7 @@ from __future__ import annotations
 import threading
 import time
 import uuid
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -21,7 +22,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from test_queue import RESULT, add_jobs, make_queue
 
 import app.jobs.turns
-from app.db.doorbells import FEED, JOBS, Doorbell, Listener
+from app.db.doorbells import FEED, JOBS, Doorbell, Listener, _Neighbours
 from app.db.feed import record_event
 from app.db.models import Model
 from app.db.session import make_engine, make_session_factory, open_sessions
@@ -119,12 +120,13 @@ def test_a_rolled_back_change_rings_nothing(sessions: sessionmaker[Session]) -> 
     assert JOBS.wait(0) and not FEED.wait(0)
 
 
-def test_a_job_queued_by_another_process_wakes_a_worker_through_postgres(
-    new_database_url: Any,
+def test_a_job_queued_by_another_process_wakes_a_worker_through_its_listener(
+    new_database_url: Any, backend: str
 ) -> None:
-    """The pool's bell is rung only by its listener: the test's own commits ring this
-    process's bell, which stands for another process's."""
-    sessions = open_sessions(new_database_url("postgresql"))
+    """The pool's bell is rung only by its listener (PostgreSQL's LISTEN, or on SQLite a
+    Unix socket): the test's own commits ring this process's bell, which stands for another
+    process's."""
+    sessions = open_sessions(new_database_url(backend))
     doorbell = _WatchedDoorbell(JOBS.channel)
     listener = Listener(sessions.kw["bind"], [doorbell])
     handled = threading.Event()
@@ -133,8 +135,8 @@ def test_a_job_queued_by_another_process_wakes_a_worker_through_postgres(
     pool.start()
     try:
         assert doorbell.idle.wait(10)
-        time.sleep(0.5)  # the listener's LISTEN is in place
-        with sessions() as session:  # rolled back: NOTIFY is not delivered
+        time.sleep(0.5)  # the listener's LISTEN (or socket) is in place
+        with sessions() as session:  # rolled back: nothing is sent
             model = _model()
             session.add(model)
             session.flush()
@@ -190,6 +192,33 @@ def test_a_webhook_is_sent_as_soon_as_its_model_is_ready(database_url: str) -> N
         model = upload(api, PARTS / "angle_block.STL").json()
         (request,) = receiver.wait_for(1, timeout=10)
         assert model["id"].encode() in request[2]
+
+
+def test_a_socket_left_by_a_process_that_died_is_removed(new_database_url: Any) -> None:
+    """On SQLite the rings go by Unix sockets in a folder of the database's: a process that
+    died leaves its socket file, which refuses the next ring and is removed; the living
+    listener still hears it."""
+    sessions = open_sessions(new_database_url("sqlite"))
+    engine = sessions.kw["bind"]
+    neighbours = _Neighbours.of(engine.url)
+    assert neighbours is not None
+    dead = neighbours.bind()
+    left = Path(dead.getsockname())
+    dead.close()  # its process is gone; the file stays
+    bell = Doorbell(JOBS.channel)
+    listener = Listener(engine, [bell])
+    listener.start()
+    try:
+        assert bell.wait(10)  # its socket is bound: it rings once for work queued before
+        assert left.exists()
+        bell.clear()
+        add_jobs(sessions, 1)
+        assert bell.wait(5)
+        assert not left.exists()
+    finally:
+        listener.stop()
+    assert listener.thread is not None and not listener.thread.is_alive()
+    assert list(neighbours.folder.iterdir()) == []  # the listener took its socket away
 
 
 def test_a_listener_whose_connection_is_killed_listens_again(new_database_url: Any) -> None:

@@ -12,23 +12,36 @@ on an idle service waited out most of a second before its describe began
   that was rolled back;
 * on PostgreSQL the same transaction sends ``NOTIFY <bell.channel>``, which the server
   delivers only if it commits, and a ``Listener`` in every other process rings its own bell
-  of that channel.
+  of that channel;
+* on a SQLite file, processes of one machine share it (``serve`` with several API
+  processes, or ``serve --no-worker`` beside ``shapesearch worker``): each process's
+  ``Listener`` binds a Unix datagram socket in a folder of its own for that file
+  (``_Neighbours``), and the commit's hook, after ringing here, sends the channel's name to
+  every socket there.
 
 Timers stay the fallback: a ring that is lost (a listener reconnecting, a job whose back-off
-ends, a separate process on SQLite) costs at most one interval, never work. A waiter clears
-the bell *before* it looks for work, so a ring during the look is kept for its next wait.
+ends, a platform without Unix sockets) costs at most one interval, never work. A waiter
+clears the bell *before* it looks for work, so a ring during the look is kept for its next
+wait.
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import logging
+import os
+import secrets
+import socket
+import tempfile
 import threading
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import psycopg
 from sqlalchemy import event, text
-from sqlalchemy.engine import Engine
+from sqlalchemy.engine import URL, Engine
 from sqlalchemy.orm import Session
 
 from app.observability.logs import Outage
@@ -38,6 +51,7 @@ __all__ = ["FEED", "JOBS", "WEBHOOKS", "Doorbell", "Listener", "announce"]
 log = logging.getLogger("shapesearch.doorbells")
 
 _ANNOUNCED = "shapesearch.announced"  # session.info key: the bells its commit rings
+_NEIGHBOURS = "shapesearch.neighbours"  # session.info key: the SQLite file's _Neighbours
 
 
 class Doorbell:
@@ -81,29 +95,110 @@ def announce(session: Session, bell: Doorbell) -> None:
     if bell in announced:
         return
     announced.add(bell)
-    if session.get_bind().dialect.name == "postgresql":
+    bind = session.get_bind()
+    if bind.dialect.name == "postgresql":
         session.execute(text(f"NOTIFY {bell.channel}"))
+    elif (neighbours := _Neighbours.of(bind.engine.url)) is not None:
+        session.info[_NEIGHBOURS] = neighbours
 
 
 @event.listens_for(Session, "after_commit")
 def _ring_after_commit(session: Session) -> None:
-    for bell in session.info.pop(_ANNOUNCED, ()):
+    bells = session.info.pop(_ANNOUNCED, ())
+    for bell in bells:
         bell.ring()
+    neighbours = session.info.pop(_NEIGHBOURS, None)
+    if neighbours is not None:
+        neighbours.ring([bell.channel for bell in bells])
 
 
 @event.listens_for(Session, "after_rollback")
 def _forget_after_rollback(session: Session) -> None:
     session.info.pop(_ANNOUNCED, None)
+    session.info.pop(_NEIGHBOURS, None)
+
+
+class _Neighbours:
+    """The processes of this machine on one SQLite file, reached by Unix datagram sockets.
+
+    Each process's ``Listener`` binds a socket in ``folder`` (in the temporary directory,
+    named by a hash of the file's path: a socket's path must stay under about 100 bytes, and
+    a data directory's may not), and ``ring`` sends a channel's name to every other socket
+    there, its own included (as PostgreSQL delivers a ``NOTIFY`` to every listener: a
+    second ring of a bell just rung costs at most one look). A socket whose process is gone
+    refuses the datagram and is removed. The folder is the user's own (0700): one left by
+    another user is not used, and the timers serve.
+    """
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+
+    @staticmethod
+    @functools.cache
+    def of(url: URL) -> _Neighbours | None:
+        """The neighbours on the SQLite file of ``url``; None for another database, an
+        in-memory one, or a platform without Unix sockets."""
+        database = url.database or ""
+        if url.get_backend_name() != "sqlite" or not hasattr(socket, "AF_UNIX"):
+            return None
+        if database in ("", ":memory:") or database.startswith("file:"):
+            return None
+        key = hashlib.sha256(str(Path(database).resolve()).encode()).hexdigest()[:16]
+        return _Neighbours(Path(tempfile.gettempdir()) / f"shapesearch-bells-{key}")
+
+    def bind(self) -> socket.socket:
+        """A new socket of this process in the folder (made if missing); OSError if the
+        folder is not this user's own."""
+        self.folder.mkdir(mode=0o700, exist_ok=True)
+        if self.folder.stat().st_uid != os.getuid():
+            raise PermissionError(f"{self.folder} belongs to another user")
+        path = str(self.folder / f"{os.getpid()}-{secrets.token_hex(4)}")
+        listening = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        try:
+            listening.bind(path)
+        except OSError:
+            listening.close()
+            raise
+        return listening
+
+    @staticmethod
+    def unbind(listening: socket.socket) -> None:
+        path = listening.getsockname()
+        listening.close()
+        Path(path).unlink(missing_ok=True)
+
+    def ring(self, channels: Sequence[str]) -> None:
+        """Send each of ``channels`` to every listening socket; never raises."""
+        try:
+            peers = [str(path) for path in self.folder.iterdir()]
+        except OSError:  # no folder: nobody listens
+            return
+        with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sender:
+            sender.setblocking(False)
+            for peer in peers:
+                self._send(sender, peer, channels)
+
+    @staticmethod
+    def _send(sender: socket.socket, peer: str, channels: Sequence[str]) -> None:
+        for channel in channels:
+            try:
+                sender.sendto(channel.encode(), peer)
+            except (ConnectionRefusedError, FileNotFoundError):
+                Path(peer).unlink(missing_ok=True)  # its process is gone
+                return
+            except OSError:  # its queue is full: it has rings to read already
+                return
 
 
 class Listener:
-    """A thread that rings each of ``bells`` on a ``NOTIFY`` of its channel (PostgreSQL
-    only: ``start`` does nothing on another database).
+    """A thread that rings each of ``bells`` when another process announces its channel:
+    a ``NOTIFY`` on PostgreSQL, a datagram on a SQLite file (``start`` does nothing on
+    another database or platform).
 
-    It holds one connection of its own, outside the engine's pool, and reconnects after
-    ``retry_seconds`` when the server goes away (meanwhile the timers serve). A channel
-    belongs to the database, not to a schema: deployments that share a database wake each
-    other's waiters for nothing, which costs each of them one look.
+    On PostgreSQL it holds one connection of its own, outside the engine's pool, and
+    reconnects after ``retry_seconds`` when the server goes away (meanwhile the timers
+    serve). A channel belongs to the database, not to a schema: deployments that share a
+    database wake each other's waiters for nothing, which costs each of them one look.
     """
 
     def __init__(
@@ -117,9 +212,15 @@ class Listener:
         self.backend_pid: int | None = None  # the server process of its connection
 
     def start(self) -> None:
-        if self.engine.dialect.name != "postgresql" or not self.bells:
+        if not self.bells:
             return
-        self.thread = threading.Thread(target=self._run, name="doorbells", daemon=True)
+        if self.engine.dialect.name == "postgresql":
+            run = self._run
+        elif (neighbours := _Neighbours.of(self.engine.url)) is not None:
+            run = functools.partial(self._run_neighbours, neighbours)
+        else:
+            return
+        self.thread = threading.Thread(target=run, name="doorbells", daemon=True)
         self.thread.start()
 
     def stop(self) -> None:
@@ -149,6 +250,27 @@ class Listener:
         url = self.engine.url.set(drivername="postgresql")
         conninfo = url.render_as_string(hide_password=False)
         return psycopg.connect(conninfo, autocommit=True, connect_timeout=10)
+
+    def _run_neighbours(self, neighbours: _Neighbours) -> None:
+        try:
+            listening = neighbours.bind()
+        except OSError as error:
+            log.warning("doorbells: no socket in %s (%s); the timers serve",
+                        neighbours.folder, error)
+            return
+        try:
+            listening.settimeout(0.25)  # to notice ``stop``
+            for bell in self.bells.values():
+                bell.ring()  # work announced before this socket was there
+            while not self.stop_event.is_set():
+                try:
+                    channel = listening.recv(256).decode(errors="replace")
+                except TimeoutError:
+                    continue
+                if (rung := self.bells.get(channel)) is not None:
+                    rung.ring()
+        finally:
+            neighbours.unbind(listening)
 
     def _relay(self, connection: psycopg.Connection[Any]) -> None:
         # Wake up four times a second to notice ``stop`` (whoever stops it waits for this

@@ -11,8 +11,9 @@ A job's kind says what it is: ``describe`` and ``redescribe`` describe an upload
                  on one HTTP endpoint (the N processes summed)
 
 An idle worker waits on its process's jobs doorbell (``app.db.doorbells``): a job queued in
-this process, or announced by PostgreSQL's ``NOTIFY`` to the process's ``Listener``, wakes it
-at once; otherwise it looks again after ``poll_interval``.
+this process, or announced by another one to the process's ``Listener`` (PostgreSQL's
+``NOTIFY``, a Unix socket on a SQLite file), wakes it at once; otherwise it looks again after
+``poll_interval``.
 
 A worker never dies on its input: every exception of a job ends that job (failed or
 retried) and is logged; a database outage is waited out (``Outage``: logged when it starts,
