@@ -162,9 +162,11 @@ def test_an_event_outlives_the_worker_that_completed_the_job(
         assert event["type"] == "model.ready" and event["data"]["model"]["id"] == model["id"]
 
 
-def two_endpoints(sessions: sessionmaker[Session], urls: dict[str, str]) -> dict[str, Any]:
-    """Each tenant of ``urls`` with a ready model and an endpoint at its URL; the models'
-    ids by tenant."""
+def two_endpoints(
+    sessions: sessionmaker[Session], urls: dict[str, str], backlog: int
+) -> dict[str, Any]:
+    """Each tenant of ``urls`` with a ready model and an endpoint at its URL, and
+    ``backlog`` events queued for ``bulk``; the models' ids by tenant."""
     models = {}
     with sessions.begin() as session:
         for tenant, url in urls.items():
@@ -174,7 +176,16 @@ def two_endpoints(sessions: sessionmaker[Session], urls: dict[str, str]) -> dict
                                             secret="whsec_" + "A" * 32)])
             session.flush()
             models[tenant] = model.id
+        for _ in range(backlog):
+            record_model_event(session, models["bulk"], "model.ready")
     return models
+
+
+def local_deliverer(sessions: sessionmaker[Session], timeout: float) -> Deliverer:
+    """A deliverer to endpoints on 127.0.0.1 that retries nothing during a test."""
+    return Deliverer(sessions, worker_id="test", allow_private=True, timeout=timeout,
+                     max_attempts=3, backoff_base=60, backoff_cap=60,
+                     lease_seconds=2 * timeout)
 
 
 def test_an_endpoint_has_one_delivery_in_flight_and_others_take_turns_with_its_backlog(
@@ -185,13 +196,8 @@ def test_an_endpoint_has_one_delivery_in_flight_and_others_take_turns_with_its_b
     endpoint's backlog takes one turn a round, and one of its deliveries is out at a time."""
     with Receiver() as bulk, Receiver() as desk:
         urls = {"bulk": bulk.url, "desk": desk.url}
-        models = two_endpoints(sessions, urls)
-        with sessions.begin() as session:
-            for _ in range(4):
-                record_model_event(session, models["bulk"], "model.ready")
-        deliverer = Deliverer(sessions, worker_id="w", allow_private=True, timeout=10,
-                              max_attempts=3, backoff_base=60, backoff_cap=60,
-                              lease_seconds=60)
+        models = two_endpoints(sessions, urls, backlog=4)
+        deliverer = local_deliverer(sessions, timeout=30)
         try:
             first = deliverer.claim()  # held under its lease, as while it is being sent
             assert first is not None and first.url == urls["bulk"]
@@ -219,14 +225,9 @@ def test_an_endpoint_that_hangs_holds_one_lane_while_the_others_deliver(
     endpoint's timeouts; now it is sent while the hanging endpoint still holds its first."""
     let_go = threading.Event()
     with Receiver(hold=let_go) as bulk, Receiver() as desk:
-        models = two_endpoints(sessions, {"bulk": bulk.url, "desk": desk.url})
-        with sessions.begin() as session:
-            for _ in range(3):
-                record_model_event(session, models["bulk"], "model.ready")
-        deliverer = Deliverer(sessions, worker_id="lanes", allow_private=True, timeout=60,
-                              max_attempts=3, backoff_base=60, backoff_cap=60,
-                              lease_seconds=120)
-        lanes = DeliveryLanes(deliverer, lanes=3, poll_interval=0.05)
+        models = two_endpoints(sessions, {"bulk": bulk.url, "desk": desk.url}, backlog=3)
+        lanes = DeliveryLanes(local_deliverer(sessions, timeout=60), lanes=3,
+                              poll_interval=0.05)
         lanes.start()
         try:
             (held,) = bulk.wait_for(1)
