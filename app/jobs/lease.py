@@ -6,9 +6,8 @@ one statement:
 
     UPDATE t SET status=:held, worker_id=:w, attempts=attempts+1, leased_until=:now+lease
     WHERE id = (SELECT id FROM t
-                WHERE ((status=:waiting AND run_after <= :now)
-                       OR (status=:held AND leased_until < :now))
-                  AND <eligible>                                     -- when given
+                WHERE (status=:waiting AND run_after <= :now)
+                   OR (status=:held AND leased_until < :now)
                 ORDER BY turn, run_after LIMIT 1
                 FOR UPDATE SKIP LOCKED)                              -- PostgreSQL only
     RETURNING ...
@@ -18,9 +17,9 @@ deliveries among endpoints (``app.jobs.turns``).
 
 On PostgreSQL ``SKIP LOCKED`` lets concurrent workers pass over each other's candidate rows;
 SQLite has a single writer, so the statement is atomic as it stands. A failed attempt waits
-``backoff_seconds`` before the row is due again. ``eligible`` narrows the candidates: the
-deliverers pass over an endpoint that already has a delivery in flight
-(``app.webhooks.delivery``).
+``backoff_seconds`` before the row is due again. A caller may choose the candidates its own
+way (``due``): the deliverers take only the next delivery of each endpoint with none in
+flight (``app.webhooks.delivery``).
 """
 
 from __future__ import annotations
@@ -28,7 +27,7 @@ from __future__ import annotations
 from datetime import datetime, timedelta
 from typing import Any
 
-from sqlalchemy import ColumnElement, Row, and_, or_, select, true, update
+from sqlalchemy import Row, Select, and_, or_, select, update
 from sqlalchemy.orm import Session
 
 __all__ = ["backoff_seconds", "claim_next"]
@@ -49,30 +48,36 @@ def claim_next(
     now: datetime,
     lease: timedelta,
     returning: tuple[Any, ...],
-    eligible: ColumnElement[bool] | None = None,
+    due: Select[Any] | None = None,
 ) -> Row[Any] | None:
     """Claim the next due row of ``table`` (an ORM class with ``id``, ``status``,
     ``turn``, ``run_after``, ``worker_id``, ``attempts``, ``leased_until`` and
     ``updated_at``) for ``worker_id``, the first by turn then by ``run_after``; returns the
-    ``returning`` columns of the claimed row, or None. ``eligible``: a further condition
-    on the candidate rows."""
-    due = (
-        select(table.id)
-        .where(
-            or_(
-                and_(table.status == waiting, table.run_after <= now),
-                and_(table.status == held, table.leased_until < now),
-            ),
-            true() if eligible is None else eligible,
+    ``returning`` columns of the claimed row, or None.
+
+    ``due``: the candidates' ids in the order to claim them, instead of every due row. Its
+    own conditions must say that a row is due: on PostgreSQL they are checked again on a
+    row that another claim changed meanwhile.
+    """
+    if due is None:
+        due = (
+            select(table.id)
+            .where(
+                or_(
+                    and_(table.status == waiting, table.run_after <= now),
+                    and_(table.status == held, table.leased_until < now),
+                )
+            )
+            .order_by(table.turn, table.run_after)
         )
-        .order_by(table.turn, table.run_after)
-        .limit(1)
-        .with_for_update(skip_locked=True)  # rendered on PostgreSQL, ignored by SQLite
+    first = (
+        due.limit(1)
+        .with_for_update(skip_locked=True, of=table)  # rendered on PostgreSQL only
         .scalar_subquery()
     )
     return session.execute(
         update(table)
-        .where(table.id == due)
+        .where(table.id == first)
         .values(
             status=held,
             worker_id=worker_id,

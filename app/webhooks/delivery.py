@@ -24,11 +24,21 @@ import threading
 import time
 import uuid
 from dataclasses import dataclass
-from datetime import timedelta
+from datetime import datetime, timedelta
 from typing import Any
 
 import httpx
-from sqlalchemy import ColumnElement, exists, update
+from sqlalchemy import (
+    BindParameter,
+    ColumnElement,
+    Select,
+    and_,
+    bindparam,
+    exists,
+    or_,
+    select,
+    update,
+)
 from sqlalchemy.orm import Session, aliased, sessionmaker
 from standardwebhooks.webhooks import Webhook as Signer
 
@@ -102,12 +112,15 @@ class Deliverer:
         deliverer's lease expired, of an endpoint with no other delivery in flight."""
         now = utcnow()
         with self._claiming, self.sessions.begin() as session:
+            claimable = _claimable(session, now)
+            if not claimable:
+                return None
             row = claim_next(
                 session, WebhookDelivery, waiting="pending", held="sending",
                 worker_id=self.worker_id, now=now, lease=self.lease,
+                due=_due_among(claimable, now),
                 returning=(WebhookDelivery.id, WebhookDelivery.attempts,
                            WebhookDelivery.webhook_id, WebhookDelivery.payload),
-                eligible=_endpoint_idle(now),
             )
             if row is None:
                 return None
@@ -194,14 +207,79 @@ class Deliverer:
         return True
 
 
-def _endpoint_idle(now: Any) -> ColumnElement[bool]:
-    """A candidate delivery's endpoint has no delivery being sent under a live lease (an
-    index seek on ``ix_webhook_deliveries_endpoint_turn`` per candidate)."""
-    in_flight = aliased(WebhookDelivery)
-    return ~exists().where(
-        in_flight.webhook_id == WebhookDelivery.webhook_id,
-        in_flight.status == "sending",
-        in_flight.leased_until >= now,
+def _claimable_queries() -> tuple[Select[Any], Select[Any]]:
+    """The two reads of ``_claimable``, built once (building them anew cost more than
+    running them) with the time as the parameter ``now``."""
+    now: BindParameter[datetime] = bindparam("now")
+    candidate = aliased(WebhookDelivery, name="candidate")
+    in_flight = aliased(WebhookDelivery, name="in_flight")
+
+    def no_other_in_flight(endpoint: Any) -> ColumnElement[bool]:
+        busy = exists().where(
+            in_flight.webhook_id == endpoint,
+            in_flight.status == "sending",
+            in_flight.leased_until >= now,
+        )
+        return ~busy.correlate_except(in_flight)
+
+    lapsed = select(candidate.id).where(
+        candidate.status == "sending",
+        candidate.leased_until < now,
+        no_other_in_flight(candidate.webhook_id),
+    )
+    # Ordered by turn alone, so that the endpoint's index serves the order too (turns
+    # of one endpoint differ but for the rare tie of two replicas queueing at once).
+    next_due = (
+        select(candidate.id)
+        .where(
+            candidate.webhook_id == Webhook.id,
+            candidate.status == "pending",
+            candidate.run_after <= now,
+        )
+        .order_by(candidate.turn)
+        .limit(1)
+        .correlate(Webhook)
+        .scalar_subquery()
+    )
+    heads = select(next_due).select_from(Webhook).where(no_other_in_flight(Webhook.id))
+    return lapsed, heads
+
+
+_LAPSED, _NEXT_OF_IDLE_ENDPOINTS = _claimable_queries()
+
+
+def _claimable(session: Session, now: datetime) -> list[uuid.UUID]:
+    """The deliveries a claim may take: each endpoint's next due delivery, for endpoints
+    with no delivery being sent under a live lease, and deliveries whose deliverer's lease
+    ran out (it died mid-way), of endpoints with none other in flight.
+
+    Read per endpoint (an index seek each on ``ix_webhook_deliveries_endpoint_turn``), not
+    per due delivery: a look that passed over every due delivery of the endpoints in flight
+    cost in proportion to their backlog (18-25 ms past 10,000 on SQLite, where an empty
+    outbox costs 4 ms), and every idle lane looks at every ring. The ids come back as a list
+    so that the claim itself is a primary-key lookup (SQLite would otherwise walk the
+    claim index in turn order and test each row against the subquery).
+    """
+    found = [
+        *session.scalars(_LAPSED, {"now": now}),
+        *session.scalars(_NEXT_OF_IDLE_ENDPOINTS, {"now": now}),
+    ]
+    return [delivery for delivery in found if delivery is not None]
+
+
+def _due_among(claimable: list[uuid.UUID], now: datetime) -> Select[Any]:
+    """``claimable`` in turn order, each still due (PostgreSQL checks this again on a row
+    that another claim took meanwhile, and ``SKIP LOCKED`` passes over one being taken)."""
+    return (
+        select(WebhookDelivery.id)
+        .where(
+            WebhookDelivery.id.in_(claimable),
+            or_(
+                and_(WebhookDelivery.status == "pending", WebhookDelivery.run_after <= now),
+                and_(WebhookDelivery.status == "sending", WebhookDelivery.leased_until < now),
+            ),
+        )
+        .order_by(WebhookDelivery.turn, WebhookDelivery.run_after)
     )
 
 
