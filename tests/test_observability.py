@@ -11,17 +11,20 @@ import re
 import threading
 import time
 from collections.abc import Iterator
+from datetime import timedelta
 from pathlib import Path
 
 import pytest
 from conftest import PARTS, fake_describe, make_settings, wait_for_status
 from fastapi.testclient import TestClient
+from prometheus_client import generate_latest
 from prometheus_client.parser import text_string_to_metric_families
-from sqlalchemy import create_engine
+from sqlalchemy import create_engine, select, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.api.main import create_app
 from app.auth.keys import create_key
+from app.db.models import Model, Webhook, WebhookDelivery, utcnow
 from app.db.session import make_session_factory
 from app.jobs.queue import JobQueue
 from app.jobs.worker import Worker
@@ -32,6 +35,7 @@ from app.observability.metrics import (
     metrics_registry,
     observe_index,
 )
+from app.webhooks import Deliverer, record_model_event
 
 ROOT = Path(__file__).parents[1]
 CUBE = (PARTS / "20mm-xyz-cube.stl").read_bytes()
@@ -180,6 +184,51 @@ def test_the_grafana_dashboard_asks_for_metrics_that_exist(
     exported = {family.name for family in registry.collect()}
     assert asked and asked <= exported, asked - exported
     assert len(dashboard["panels"]) == len({panel["id"] for panel in dashboard["panels"]})
+
+
+def test_the_webhook_outbox_is_exported_by_status_with_its_oldest_age(
+    sessions: sessionmaker[Session],
+) -> None:
+    """A backlog behind an endpoint that is down shows as pending deliveries and as the age
+    of the oldest one, on every process's scrape (read from the database)."""
+    an_hour_ago = utcnow() - timedelta(hours=1)
+    with sessions.begin() as session:
+        model = Model(tenant="t", meta={}, status="ready", file_name="a.stl", file_size=1,
+                      file_sha256="0" * 64, file_format="stl")
+        session.add_all([model, Webhook(tenant="t", url="https://plm.example/hook",
+                                        events=["model.ready"], secret="whsec_x")])
+        session.flush()
+        for _ in range(4):
+            record_model_event(session, model.id, "model.ready")
+        session.execute(update(WebhookDelivery).values(created_at=an_hour_ago))
+    deliverer = Deliverer(sessions, worker_id="m", allow_private=False, timeout=5,
+                          max_attempts=3, backoff_base=60, backoff_cap=60, lease_seconds=60)
+    try:
+        assert deliverer.claim() is not None  # one is being sent
+    finally:
+        deliverer.close()
+
+    def exported() -> dict[tuple[str, tuple[tuple[str, str], ...]], float]:
+        return samples(generate_latest(metrics_registry(QueueCollector(sessions))).decode())
+
+    def by_status(scraped: dict[tuple[str, tuple[tuple[str, str], ...]], float]) -> list[float]:
+        return [scraped[("shapesearch_webhook_deliveries", (("status", status),))]
+                for status in ("pending", "sending", "delivered", "failed")]
+
+    first = exported()
+    assert by_status(first) == [3, 1, 0, 0]
+    assert first[("shapesearch_webhook_oldest_undelivered_age_seconds", ())] >= 3600
+    with sessions.begin() as session:  # settled: two delivered, one failed for good
+        ids = session.scalars(select(WebhookDelivery.id).order_by(WebhookDelivery.turn)).all()
+        session.execute(update(WebhookDelivery).where(WebhookDelivery.id.in_(ids[:2]))
+                        .values(status="delivered"))
+        session.execute(update(WebhookDelivery).where(WebhookDelivery.id == ids[2])
+                        .values(status="failed"))
+        session.execute(update(WebhookDelivery).where(WebhookDelivery.id == ids[3])
+                        .values(created_at=utcnow()))
+    second = exported()
+    assert by_status(second) == [1, 0, 2, 1]
+    assert second[("shapesearch_webhook_oldest_undelivered_age_seconds", ())] < 3600
 
 
 def test_an_outage_is_logged_when_it_starts_once_a_minute_and_when_it_ends(

@@ -20,6 +20,11 @@ State metrics, read from the database when scraped (``QueueCollector``, ``IndexC
     shapesearch_jobs{status}                                     jobs by status
     shapesearch_queue_depth                                      jobs queued
     shapesearch_queue_oldest_age_seconds                         age of the oldest queued job
+    shapesearch_webhook_deliveries{status}                       webhook deliveries by status:
+                                                                 pending / sending /
+                                                                 delivered / failed
+    shapesearch_webhook_oldest_undelivered_age_seconds           age of the oldest event still
+                                                                 pending or being sent
     shapesearch_index_partition_models{tenant,descriptor_version}  ready models per partition
 
 Describe metrics are observed where the describe runs: an API process for searches and its
@@ -47,6 +52,7 @@ import tempfile
 import time
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
+from datetime import datetime
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -67,7 +73,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from app.db.models import Job, Model, utcnow
+from app.db.models import Job, Model, WebhookDelivery, utcnow
 from core.cutoff import CutoffRecord
 
 __all__ = [
@@ -188,9 +194,9 @@ class HttpMetrics:
 
 
 class QueueCollector(Collector):
-    """Jobs by status and the queue, read from the database at scrape time: the same for every
-    process that reads them, so the API and each ``shapesearch worker`` export them alike
-    (a dashboard takes ``max``)."""
+    """Jobs by status and the queue, and the webhook outbox likewise, read from the database
+    at scrape time: the same for every process that reads them, so the API and each
+    ``shapesearch worker`` export them alike (a dashboard takes ``max``)."""
 
     def __init__(self, sessions: sessionmaker[Session]) -> None:
         self.sessions = sessions
@@ -203,15 +209,41 @@ class QueueCollector(Collector):
             oldest = session.scalar(
                 select(func.min(Job.created_at)).where(Job.status == "queued")
             )
+            deliveries: dict[str, int] = dict(
+                session.execute(
+                    select(WebhookDelivery.status, func.count()).group_by(WebhookDelivery.status)
+                ).all()
+            )
+            oldest_undelivered = session.scalar(
+                select(func.min(WebhookDelivery.created_at)).where(
+                    WebhookDelivery.status.in_(("pending", "sending"))
+                )
+            )
         by_status = GaugeMetricFamily("shapesearch_jobs", "Jobs by status.", labels=["status"])
         for status in ("queued", "running", "done", "failed"):
             by_status.add_metric([status], jobs.get(status, 0))
         yield by_status
         yield GaugeMetricFamily("shapesearch_queue_depth", "Jobs queued.", jobs.get("queued", 0))
-        age = 0.0 if oldest is None else max(0.0, (utcnow() - oldest).total_seconds())
         yield GaugeMetricFamily(
-            "shapesearch_queue_oldest_age_seconds", "Age of the oldest queued job.", age
+            "shapesearch_queue_oldest_age_seconds", "Age of the oldest queued job.", _age(oldest)
         )
+        outbox = GaugeMetricFamily(
+            "shapesearch_webhook_deliveries", "Webhook deliveries by status.", labels=["status"]
+        )
+        for status in ("pending", "sending", "delivered", "failed"):
+            outbox.add_metric([status], deliveries.get(status, 0))
+        yield outbox
+        yield GaugeMetricFamily(
+            "shapesearch_webhook_oldest_undelivered_age_seconds",
+            "Age of the oldest webhook event still pending or being sent (an endpoint that is "
+            "down holds its events for their retries).",
+            _age(oldest_undelivered),
+        )
+
+
+def _age(since: datetime | None) -> float:
+    """Seconds since ``since``; 0 for none."""
+    return 0.0 if since is None else max(0.0, (utcnow() - since).total_seconds())
 
 
 class IndexCollector(Collector):
