@@ -20,6 +20,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from standardwebhooks.webhooks import Webhook as Verifier
 
 from app.api.main import create_app
+from app.db.doorbells import WEBHOOKS, Doorbell
 from app.db.models import Model, Webhook, WebhookDelivery
 from app.db.session import make_engine, make_session_factory
 from app.jobs.queue import JobQueue
@@ -249,6 +250,36 @@ def test_an_endpoint_that_hangs_holds_one_lane_while_the_others_deliver(
     sent = [headers["webhook-id"] for _path, headers, _body in delivered]
     assert sent == [str(delivery) for delivery in queued]  # one at a time, in order
     assert held == delivered[0]
+
+
+def test_idle_lanes_look_for_work_as_often_as_one_lane(sessions: sessionmaker[Session]) -> None:
+    """Each idle lane used to look on its own timer: four lanes, four times the polling of
+    the database. Now a lane's timeout looks only if no lane has looked for a whole
+    interval (a ring still wakes every idle lane: test_doorbells.py)."""
+    looks: list[float] = []
+
+    class Counting(Deliverer):
+        def claim(self) -> Any:
+            looks.append(time.monotonic())
+            return super().claim()
+
+    interval = 0.1
+    deliverer = Counting(sessions, worker_id="idle", allow_private=True, timeout=5,
+                         max_attempts=3, backoff_base=60, backoff_cap=60, lease_seconds=10)
+    lanes = DeliveryLanes(deliverer, lanes=4, poll_interval=interval,
+                          doorbell=Doorbell(WEBHOOKS.channel))
+    lanes.start()
+    try:
+        time.sleep(0.3)  # the first looks are behind us
+        started, before = time.monotonic(), len(looks)
+        time.sleep(2.0)
+        idle_looks = len(looks) - before
+        elapsed = time.monotonic() - started
+    finally:
+        lanes.stop()
+    # One lane's polling is elapsed / interval looks (fewer on a slow machine); four lanes
+    # each on its own timer made four times that.
+    assert 0 < idle_looks <= 1.5 * elapsed / interval
 
 
 def test_unsafe_targets_are_refused_and_redirects_not_followed(

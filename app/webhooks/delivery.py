@@ -289,13 +289,14 @@ _OUTCOMES = {"delivered": "delivered", "pending": "retry", "failed": "failed"}
 
 class DeliveryLanes:
     """Runs a ``Deliverer`` in ``lanes`` threads until stopped; a database outage is waited
-    out. An idle lane waits ``poll_interval`` seconds or until ``doorbell`` rings (a delivery
-    was queued), which wakes every idle lane.
+    out.
 
-    A lane that claims does not ring again for its peers (the job workers do): a look that
-    finds nothing passes over every due delivery of the endpoints in flight, so it costs in
-    proportion to their backlog. A ring that one lane's clear takes from another costs that
-    lane at most ``poll_interval``; the busy lanes look again as soon as they finish.
+    An idle lane waits until ``doorbell`` rings (a delivery was queued), which wakes every
+    idle lane, or for ``poll_interval`` seconds (a retry falls due without a ring); on a
+    timeout it looks only if no lane of the process has looked for that long, so idle lanes
+    poll the database as often as one (four lanes polled four times as often). A lane that
+    claims rings again, as the job workers do: one ring may announce many deliveries, and a
+    peer's clear may have taken it from a lane whose look had just missed them.
     """
 
     def __init__(
@@ -310,6 +311,7 @@ class DeliveryLanes:
         self.poll_interval = poll_interval
         self.doorbell = doorbell
         self.stop_event = threading.Event()
+        self._last_look = time.monotonic()
         self.threads = [
             threading.Thread(target=self._run, name=f"webhooks-{lane}", daemon=True)
             for lane in range(lanes)
@@ -331,14 +333,28 @@ class DeliveryLanes:
         outage = Outage(log, "webhook deliveries: the database")
         while not self.stop_event.is_set():
             self.doorbell.clear()  # before the look: a ring during it is kept
-            try:
-                found = self.deliverer.run_once()
-                outage.end()
-            except Exception as error:
-                outage.report(error)
-                found = False
-            if not found:
-                self.doorbell.wait(self.poll_interval)
+            if self._look(outage):
+                continue
+            while not self.stop_event.is_set():
+                if self.doorbell.wait(self.poll_interval):
+                    break
+                if time.monotonic() - self._last_look >= self.poll_interval:
+                    break  # nobody looked for a whole interval: this lane does
+
+    def _look(self, outage: Outage) -> bool:
+        """Deliver one due event; False if there was none (or the database is away)."""
+        self._last_look = time.monotonic()
+        try:
+            claimed = self.deliverer.claim()
+            outage.end()
+            if claimed is None:
+                return False
+            self.doorbell.ring()  # more may be due: an idle peer looks too
+            self.deliverer.deliver(claimed)
+        except Exception as error:
+            outage.report(error)
+            return False
+        return True
 
 
 def start_delivery_lanes(settings: Any, sessions: sessionmaker[Session]) -> DeliveryLanes:
