@@ -275,6 +275,8 @@ class WebhookDelivery(Base):
     __table_args__ = (
         Index("ix_webhook_deliveries_claim", "status", "turn", "run_after"),
         Index("ix_webhook_deliveries_endpoint_turn", "webhook_id", "status", "turn"),
+        # An endpoint's deliveries newest first (GET /v1/webhooks/{id}/deliveries).
+        Index("ix_webhook_deliveries_endpoint_created", "webhook_id", "created_at"),
     )
 
     # Also the Standard Webhooks message id (``webhook-id``): retries reuse it.
