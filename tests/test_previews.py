@@ -11,7 +11,10 @@ from conftest import PARTS, SMALL_ENGINE, fake_describe, make_settings, upload, 
 from fastapi.testclient import TestClient
 from shapes import sphere_points, torus_points
 
+import app.api.routes.stats
 from app.api.main import create_app
+from app.db.models import Model
+from app.db.session import make_engine, make_session_factory
 from app.ingest.describing import model_columns
 from app.ingest.previews import PREVIEW_POINTS, decode_preview, encode_preview, subsample
 from app.settings import Settings, engine_settings
@@ -155,7 +158,8 @@ def test_cutoff_stats_list_every_ready_model_and_the_solver_call_histogram(
     client: TestClient,
 ) -> None:
     empty = client.get("/v1/stats/cutoff").json()
-    assert empty == {"fixed_n": 300, "models": [], "solver_calls": []}
+    assert empty == {"fixed_n": 300, "ready_models": 0, "mean_n": None, "models": [],
+                     "solver_calls": []}
     files = [CUBE, ANGLE, PARTS / "cylinder.stl"]
     ids = {}
     for path in files:
@@ -178,3 +182,34 @@ def test_cutoff_stats_list_every_ready_model_and_the_solver_call_histogram(
     ]
     n_points = [point["n_points"] for point in stats["models"]]
     assert n_points == sorted(n_points)
+    assert stats["ready_models"] == 3 and stats["mean_n"] == 10
+
+
+def test_cutoff_stats_plot_every_kth_model_of_a_large_catalogue_and_count_them_all(
+    database_url: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """At most PLOTTED_MAX models are plotted, evenly spaced by point count; the count, the
+    mean n and the histogram cover every ready model, old cutoff records included."""
+    monkeypatch.setattr(app.api.routes.stats, "PLOTTED_MAX", 4)
+    settings = make_settings(database_url)
+    with TestClient(create_app(settings, embedded_worker=False)) as client:
+        sessions = make_session_factory(make_engine(database_url))
+        with sessions.begin() as session:
+            for number in range(10):  # point counts 1000, 1100, ... 1900 in shuffled order
+                place = (number * 7) % 10
+                record = {"mode": "adaptive", "n": 100 + place, "solver_calls": 2}
+                if place == 9:  # written before the record's present form
+                    record = {"n": 109, "params": {"mode": "adaptive", "solver_calls": 3}}
+                session.add(Model(tenant="default", meta={}, status="ready", file_name="a.stl",
+                                  file_size=1, file_sha256="0" * 64, file_format="stl",
+                                  n_points=1000 + 100 * place, cutoff=record))
+            session.add(Model(tenant="default", meta={}, status="queued", file_name="b.stl",
+                              file_size=1, file_sha256="0" * 64, file_format="stl"))
+        stats = client.get("/v1/stats/cutoff").json()
+    assert [point["n_points"] for point in stats["models"]] == [1000, 1300, 1600, 1900]
+    assert [point["cutoff"]["n"] for point in stats["models"]] == [100, 103, 106, 109]
+    assert stats["models"][-1]["cutoff"]["solver_calls"] == 3
+    assert stats["ready_models"] == 10
+    assert stats["mean_n"] == pytest.approx(104.5)
+    assert stats["solver_calls"] == [{"solver_calls": 2, "models": 9},
+                                     {"solver_calls": 3, "models": 1}]

@@ -281,6 +281,8 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
         "responses": {
             200: {
                 "fixed_n": 300,
+                "ready_models": 2,
+                "mean_n": 179.5,
                 "models": [
                     {"id": _ID2, "external_id": "PN-1002", "name": "Feature block",
                      "n_points": 3120,

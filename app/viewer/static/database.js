@@ -18,9 +18,11 @@ export function databasePage(page, signal) {
 
   async function refresh() {
     const stats = await getJson("/v1/stats/cutoff");
-    const ns = stats.models.map((m) => m.cutoff.n);
-    const mean = ns.length ? ns.reduce((a, b) => a + b, 0) / ns.length : 0;
-    summary.textContent = `${stats.models.length} ready models; mean adaptive n ${mean.toFixed(1)} against the fixed ${stats.fixed_n}.`;
+    // The plot holds at most a few thousand of the models (every k-th by point count);
+    // the count and the mean are over all of them.
+    const plotted = stats.models.length < stats.ready_models ? ` (${stats.models.length} plotted)` : "";
+    const mean = stats.mean_n === null ? 0 : stats.mean_n;
+    summary.textContent = `${stats.ready_models} ready models${plotted}; mean adaptive n ${mean.toFixed(1)} against the fixed ${stats.fixed_n}.`;
     plotXY(scatter, [{ points: stats.models.map((m) => [m.n_points, m.cutoff.n]) }],
       { xLabel: "points", yLabel: "cutoff n", reference: { y: stats.fixed_n, label: `fixed n = ${stats.fixed_n}` } });
     plotBars(bars, stats.solver_calls.map((b) => [b.solver_calls, b.models]), { xLabel: "solver calls", yLabel: "models" });

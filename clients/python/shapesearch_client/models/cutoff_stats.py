@@ -28,12 +28,17 @@ class CutoffStats:
 
         Attributes:
             fixed_n (int): The fixed cutoff the adaptive one is compared with.
-            models (list[CutoffPoint]):
-            solver_calls (list[SolverCallsBin]): Ready models per solver-call count.
+            mean_n (float | None): Their mean adaptive cutoff n (null without any).
+            models (list[CutoffPoint]): At most 2000 of them in point-count order: all of them, or every k-th by point count
+                when there are more (a plot of every model of a large catalogue weighed tens of megabytes).
+            ready_models (int): Ready models with a cutoff record.
+            solver_calls (list[SolverCallsBin]): Ready models per solver-call count (every one of them).
      """
 
     fixed_n: int
+    mean_n: float | None
     models: list[CutoffPoint]
+    ready_models: int
     solver_calls: list[SolverCallsBin]
     additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
 
@@ -46,12 +51,17 @@ class CutoffStats:
         from ..models.solver_calls_bin import SolverCallsBin # noqa: PLC0415
         fixed_n = self.fixed_n
 
+        mean_n: float | None
+        mean_n = self.mean_n
+
         models = []
         for models_item_data in self.models:
             models_item = models_item_data.to_dict()
             models.append(models_item)
 
 
+
+        ready_models = self.ready_models
 
         solver_calls = []
         for solver_calls_item_data in self.solver_calls:
@@ -65,7 +75,9 @@ class CutoffStats:
         field_dict.update(self.additional_properties)
         field_dict.update({
             "fixed_n": fixed_n,
+            "mean_n": mean_n,
             "models": models,
+            "ready_models": ready_models,
             "solver_calls": solver_calls,
         })
 
@@ -80,6 +92,14 @@ class CutoffStats:
         d = dict(src_dict)
         fixed_n = d.pop("fixed_n")
 
+        def _parse_mean_n(data: object) -> float | None:
+            if data is None:
+                return data
+            return cast(float | None, data)
+
+        mean_n = _parse_mean_n(d.pop("mean_n"))
+
+
         models = []
         _models = d.pop("models")
         for models_item_data in (_models):
@@ -89,6 +109,8 @@ class CutoffStats:
 
             models.append(models_item)
 
+
+        ready_models = d.pop("ready_models")
 
         solver_calls = []
         _solver_calls = d.pop("solver_calls")
@@ -102,7 +124,9 @@ class CutoffStats:
 
         cutoff_stats = cls(
             fixed_n=fixed_n,
+            mean_n=mean_n,
             models=models,
+            ready_models=ready_models,
             solver_calls=solver_calls,
         )
 

@@ -75,7 +75,7 @@ def sync_detailed(
     client: AuthenticatedClient,
 
 ) -> Response[CutoffStats | Problem]:
-    """ Cutoff n against point count for every ready model (the paper's Figure 7)
+    """ Cutoff n against point count for the ready models (the paper's Figure 7)
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -101,7 +101,7 @@ def sync(
     client: AuthenticatedClient,
 
 ) -> CutoffStats | Problem | None:
-    """ Cutoff n against point count for every ready model (the paper's Figure 7)
+    """ Cutoff n against point count for the ready models (the paper's Figure 7)
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -122,7 +122,7 @@ async def asyncio_detailed(
     client: AuthenticatedClient,
 
 ) -> Response[CutoffStats | Problem]:
-    """ Cutoff n against point count for every ready model (the paper's Figure 7)
+    """ Cutoff n against point count for the ready models (the paper's Figure 7)
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -148,7 +148,7 @@ async def asyncio(
     client: AuthenticatedClient,
 
 ) -> CutoffStats | Problem | None:
-    """ Cutoff n against point count for every ready model (the paper's Figure 7)
+    """ Cutoff n against point count for the ready models (the paper's Figure 7)
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
