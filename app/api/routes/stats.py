@@ -104,7 +104,8 @@ class SolverCallsBin(BaseModel):
 
 
 # The most models ``GET /v1/stats/cutoff`` plots: at 10^5 ready models the whole list took
-# 7.8 s and 31.6 MB a request (+365 MB of memory), and the viewer asks every 3 s.
+# 6.6 s and 29.9 MB a request (+357 MB of memory; bench/cutoff_stats.py), and the viewer
+# asked every 3 s.
 PLOTTED_MAX = 2000
 
 

@@ -28,7 +28,20 @@ export function databasePage(page, signal) {
     plotBars(bars, stats.solver_calls.map((b) => [b.solver_calls, b.models]), { xLabel: "solver calls", yLabel: "models" });
   }
 
-  refresh().catch((error) => { summary.textContent = error.message; });
-  const timer = setInterval(() => refresh().catch(() => {}), REFRESH_MS);
-  signal.addEventListener("abort", () => clearInterval(timer));
+  // Every REFRESH_MS, or ten times as long as the last answer took (a large catalogue's
+  // counts take a second): the page costs the service at most a tenth of one request slot.
+  let timer = null;
+  async function loop(first) {
+    const started = performance.now();
+    try {
+      await refresh();
+    } catch (error) {
+      if (first) summary.textContent = error.message;
+    }
+    if (signal.aborted) return;
+    const wait = Math.max(REFRESH_MS, 10 * (performance.now() - started));
+    timer = setTimeout(() => loop(false), wait);
+  }
+  loop(true);
+  signal.addEventListener("abort", () => clearTimeout(timer));
 }
