@@ -27,6 +27,7 @@ wait.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import logging
@@ -149,23 +150,34 @@ class _Neighbours:
     def bind(self) -> socket.socket:
         """A new socket of this process in the folder (made if missing); OSError if the
         folder is not this user's own."""
-        self.folder.mkdir(mode=0o700, exist_ok=True)
-        if self.folder.stat().st_uid != os.getuid():
-            raise PermissionError(f"{self.folder} belongs to another user")
-        path = str(self.folder / f"{os.getpid()}-{secrets.token_hex(4)}")
         listening = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         try:
-            listening.bind(path)
+            self._bind_in_folder(listening)
         except OSError:
             listening.close()
             raise
         return listening
 
-    @staticmethod
-    def unbind(listening: socket.socket) -> None:
+    def _bind_in_folder(self, listening: socket.socket) -> None:
+        path = str(self.folder / f"{os.getpid()}-{secrets.token_hex(4)}")
+        for attempt in range(2):  # the last one out may take the folder away meanwhile
+            self.folder.mkdir(mode=0o700, exist_ok=True)
+            if self.folder.stat().st_uid != os.getuid():
+                raise PermissionError(f"{self.folder} belongs to another user")
+            try:
+                listening.bind(path)
+                return
+            except FileNotFoundError:
+                if attempt:
+                    raise
+
+    def unbind(self, listening: socket.socket) -> None:
+        """Close and remove the socket, and the folder if it was the last one there."""
         path = listening.getsockname()
         listening.close()
         Path(path).unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # another process's socket is still there
+            self.folder.rmdir()
 
     def ring(self, channels: Sequence[str]) -> None:
         """Send each of ``channels`` to every listening socket; never raises."""
