@@ -198,14 +198,6 @@ class Deliverer:
         elif not outcome.ok:
             log.info("delivery %s attempt %d: %s", claimed.id, claimed.attempts, outcome.error)
 
-    def run_once(self) -> bool:
-        """Deliver one due event; False if there was none."""
-        claimed = self.claim()
-        if claimed is None:
-            return False
-        self.deliver(claimed)
-        return True
-
 
 def _claimable_queries() -> tuple[Select[Any], Select[Any]]:
     """The two reads of ``_claimable``, built once (building them anew cost more than
