@@ -106,7 +106,7 @@ def _merged(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nda
     vertices, faces = vertices[is_used], (np.cumsum(is_used) - 1)[faces]
     # From the part's own corner, so that the keys stay within [0, _MERGE_STEPS] however
     # far the file places the part from its origin (a part 1e10 of its size away gave keys
-    # past int64 and merged everything), and the volume below sums small tetrahedra.
+    # past int64 and merged everything).
     vertices = vertices - vertices.min(axis=0)
     scale = float(vertices.max()) or 1.0
     keys = np.round(vertices / scale * _MERGE_STEPS).astype(np.int64)

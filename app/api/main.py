@@ -67,9 +67,9 @@ def _sync(index: ShapeIndex) -> None:
 
 def _follow_feed(index: ShapeIndex, interval: float, stop: threading.Event) -> None:
     """Sync when the feed's doorbell rings (a model became ready or went, in this process
-    or, on PostgreSQL, in another) and at least every ``interval`` seconds; once a sync
-    finds nothing new and the index wants its hub-discount neighbourhoods (after start-up,
-    or after a bulk change forgot them), compute them in the background
+    or in another: ``app.db.doorbells``) and at least every ``interval`` seconds; once a
+    sync finds nothing new and the index wants its hub-discount neighbourhoods (after
+    start-up, or after a bulk change forgot them), compute them in the background
     (``ShapeIndex.keep_neighbourhoods``)."""
     keeper: threading.Thread | None = None
     outage = Outage(log, "index sync: the change feed")
@@ -159,7 +159,7 @@ def create_app(
             )
             pool.start()
             deliveries = start_delivery_lanes(settings, sessions)  # webhooks, next to jobs
-        # What other processes write wakes this one's waiters at once (PostgreSQL).
+        # What other processes write wakes this one's waiters at once (app.db.doorbells).
         listener = Listener(engine, [FEED] if pool is None else [FEED, JOBS, WEBHOOKS])
         listener.start()
         try:

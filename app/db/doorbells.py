@@ -62,7 +62,8 @@ class Doorbell:
     Parameters
     ----------
     channel : str
-        The PostgreSQL ``NOTIFY`` channel that carries its rings between processes.
+        The name that carries its rings between processes (PostgreSQL's ``NOTIFY``
+        channel; the datagram between processes on one SQLite file).
     """
 
     def __init__(self, channel: str) -> None:
@@ -90,8 +91,8 @@ WEBHOOKS = Doorbell("shapesearch_webhooks")  # a delivery was queued: deliverers
 
 
 def announce(session: Session, bell: Doorbell) -> None:
-    """Ring ``bell`` when ``session``'s transaction commits, here and, on PostgreSQL, in
-    every process that listens on its channel."""
+    """Ring ``bell`` when ``session``'s transaction commits, here and in every process that
+    listens on its channel (PostgreSQL, or a SQLite file on this machine)."""
     announced: set[Doorbell] = session.info.setdefault(_ANNOUNCED, set())
     if bell in announced:
         return
@@ -124,8 +125,8 @@ class _Neighbours:
 
     Each process's ``Listener`` binds a socket in ``folder`` (in the temporary directory,
     named by a hash of the file's path: a socket's path must stay under about 100 bytes, and
-    a data directory's may not), and ``ring`` sends a channel's name to every other socket
-    there, its own included (as PostgreSQL delivers a ``NOTIFY`` to every listener: a
+    a data directory's may not), and ``ring`` sends a channel's name to every socket there,
+    this process's own included (as PostgreSQL delivers a ``NOTIFY`` to every listener: a
     second ring of a bell just rung costs at most one look). A socket whose process is gone
     refuses the datagram and is removed. The folder is the user's own (0700): one left by
     another user is not used, and the timers serve.

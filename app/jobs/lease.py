@@ -17,17 +17,18 @@ deliveries among endpoints (``app.jobs.turns``).
 
 On PostgreSQL ``SKIP LOCKED`` lets concurrent workers pass over each other's candidate rows;
 SQLite has a single writer, so the statement is atomic as it stands. A failed attempt waits
-``backoff_seconds`` before the row is due again. A caller may choose the candidates its own
-way (``due``): the deliverers take only the next delivery of each endpoint with none in
-flight (``app.webhooks.delivery``).
+``backoff_seconds`` before the row is due again. A caller may narrow the candidates to rows
+it chose (``among``): the deliverers take only the next delivery of each endpoint with none
+in flight (``app.webhooks.delivery``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from datetime import datetime, timedelta
 from typing import Any
 
-from sqlalchemy import Row, Select, and_, or_, select, update
+from sqlalchemy import Row, and_, or_, select, true, update
 from sqlalchemy.orm import Session
 
 __all__ = ["backoff_seconds", "claim_next"]
@@ -48,31 +49,28 @@ def claim_next(
     now: datetime,
     lease: timedelta,
     returning: tuple[Any, ...],
-    due: Select[Any] | None = None,
+    among: Sequence[Any] | None = None,
 ) -> Row[Any] | None:
     """Claim the next due row of ``table`` (an ORM class with ``id``, ``status``,
     ``turn``, ``run_after``, ``worker_id``, ``attempts``, ``leased_until`` and
     ``updated_at``) for ``worker_id``, the first by turn then by ``run_after``; returns the
     ``returning`` columns of the claimed row, or None.
 
-    ``due``: the candidates' ids in the order to claim them, instead of every due row. Its
-    own conditions must say that a row is due: on PostgreSQL they are checked again on a
-    row that another claim changed meanwhile.
+    ``among``: the ids of the only rows to consider (a short list: the claim then looks
+    them up by primary key).
     """
-    if due is None:
-        due = (
-            select(table.id)
-            .where(
-                or_(
-                    and_(table.status == waiting, table.run_after <= now),
-                    and_(table.status == held, table.leased_until < now),
-                )
-            )
-            .order_by(table.turn, table.run_after)
-        )
     first = (
-        due.limit(1)
-        .with_for_update(skip_locked=True, of=table)  # rendered on PostgreSQL only
+        select(table.id)
+        .where(
+            or_(
+                and_(table.status == waiting, table.run_after <= now),
+                and_(table.status == held, table.leased_until < now),
+            ),
+            true() if among is None else table.id.in_(among),
+        )
+        .order_by(table.turn, table.run_after)
+        .limit(1)
+        .with_for_update(skip_locked=True)  # rendered on PostgreSQL, ignored by SQLite
         .scalar_subquery()
     )
     return session.execute(

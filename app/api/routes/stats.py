@@ -141,19 +141,20 @@ def get_cutoff_stats(tenant: TenantDep, session: SessionDep, services: ServicesD
         Model.cutoff.is_not(None),
         Model.n_points.is_not(None),
     )
-    ready, mean_n = session.execute(
-        select(func.count(), func.avg(Model.cutoff["n"].as_float())).where(*plotted)
-    ).one()
     calls = _solver_calls(Model.cutoff)
-    histogram = session.execute(
-        select(calls, func.count()).where(*plotted).group_by(calls).order_by(calls)
+    histogram = session.execute(  # per solver-call count: its models and the sum of their n
+        select(calls, func.count(), func.sum(Model.cutoff["n"].as_float()))
+        .where(*plotted)
+        .group_by(calls)
+        .order_by(calls)
     ).all()
+    ready = sum(models for _, models, _ in histogram)
     return CutoffStats(
         fixed_n=services.settings.cutoff_n,
         ready_models=ready,
-        mean_n=None if mean_n is None else float(mean_n),
+        mean_n=sum(float(n) for _, _, n in histogram) / ready if ready else None,
         models=_plotted(session, plotted, step=max(1, math.ceil(ready / PLOTTED_MAX))),
-        solver_calls=[SolverCallsBin(solver_calls=c, models=m) for c, m in histogram],
+        solver_calls=[SolverCallsBin(solver_calls=c, models=m) for c, m, _ in histogram],
     )
 
 
