@@ -335,6 +335,13 @@ class Settings(BaseSettings):
         description="On shutdown, how long a running job may take to finish before it is "
         "released to other workers.",
     )
+    history_days: float = Field(
+        default=30.0,
+        ge=0,
+        description="Days settled jobs (done, failed) and webhook deliveries (delivered, "
+        "failed, with their attempts) are kept; older ones are deleted hourly by each "
+        "process that runs workers, but never a model's newest job. 0: kept forever.",
+    )
 
     # --- index and access ----------------------------------------------------------------
     index_sync_interval: float = Field(

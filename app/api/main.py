@@ -29,6 +29,7 @@ from app.api.routes import ROUTERS
 from app.api.search_describer import SearchAdmission, SearchDescriber
 from app.api.uploads import UploadReader
 from app.db.doorbells import FEED, JOBS, WEBHOOKS, Listener
+from app.db.retention import HistoryPruner
 from app.db.session import make_session_factory, migrated_engine, read_only
 from app.ingest.describing import pin_blas_threads
 from app.jobs.worker import (
@@ -159,6 +160,7 @@ def create_app(
             )
             pool.start()
             deliveries = start_delivery_lanes(settings, sessions)  # webhooks, next to jobs
+            pruner = HistoryPruner(sessions, settings.history_days).start()
         # What other processes write wakes this one's waiters at once (app.db.doorbells).
         listener = Listener(engine, [FEED] if pool is None else [FEED, JOBS, WEBHOOKS])
         listener.start()
@@ -168,6 +170,7 @@ def create_app(
             if pool is not None:
                 pool.stop(settings.shutdown_grace_seconds)
                 deliveries.stop()
+                pruner.stop()
             listener.stop()
             stop.set()
             FEED.ring()  # the follower sees the stop now

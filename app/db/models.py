@@ -166,6 +166,8 @@ class Job(Base):
         Index("ix_jobs_claim", "status", "turn", "run_after"),
         Index("ix_jobs_tenant_turn", "tenant", "background", "status", "turn"),
         Index("ix_jobs_tenant_created", "tenant", "created_at", "id"),
+        # Settled jobs by age (app.db.retention walks them when pruning the history).
+        Index("ix_jobs_settled", "status", "updated_at", "id"),
     )
 
     id: Mapped[uuid.UUID] = mapped_column(Uuid, primary_key=True, default=uuid.uuid4)
@@ -277,6 +279,8 @@ class WebhookDelivery(Base):
         Index("ix_webhook_deliveries_endpoint_turn", "webhook_id", "status", "turn"),
         # An endpoint's deliveries newest first (GET /v1/webhooks/{id}/deliveries).
         Index("ix_webhook_deliveries_endpoint_created", "webhook_id", "created_at"),
+        # Settled deliveries by age (app.db.retention).
+        Index("ix_webhook_deliveries_settled", "status", "updated_at", "id"),
     )
 
     # Also the Standard Webhooks message id (``webhook-id``): retries reuse it.

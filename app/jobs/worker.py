@@ -43,6 +43,7 @@ from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.orm import Session
 
 from app.db.doorbells import JOBS, WEBHOOKS, Doorbell, Listener
+from app.db.retention import HistoryPruner
 from app.db.session import migrated_engine, open_sessions
 from app.ingest.describing import (
     CutoffPredictorCache,
@@ -491,9 +492,11 @@ def _work(settings: Settings, threads: int) -> int:
     signal.signal(signal.SIGINT, on_signal)
     pool.start()
     deliveries = start_delivery_lanes(settings, sessions)
+    pruner = HistoryPruner(sessions, settings.history_days).start()
     while not requested.wait(0.5):
         pass
     pool.stop(settings.shutdown_grace_seconds, abort)
     deliveries.stop()
+    pruner.stop()
     listener.stop()
     return 0

@@ -9,6 +9,9 @@ Process metrics, counted as things happen (module-level, one set per process):
     shapesearch_solver_calls_total                               eigen-solver calls
     shapesearch_cutoff_n                                         eigenpairs chosen per model
     shapesearch_webhook_delivery_attempts_total{outcome}         delivered / retry / failed
+    shapesearch_history_pruned_total{table}                     settled jobs / webhook
+                                                                 deliveries deleted as older
+                                                                 than SHAPESEARCH_HISTORY_DAYS
     shapesearch_uploads_unchecked_total{reason}                  uploads let through without
                                                                  their quick check: busy /
                                                                  timeout (app.api.uploads)
@@ -78,6 +81,7 @@ from core.cutoff import CutoffRecord
 
 __all__ = [
     "CONTENT_TYPE_LATEST",
+    "HISTORY_PRUNED",
     "MULTIPROCESS_VARIABLE",
     "UNCHECKED_UPLOADS",
     "WEBHOOK_ATTEMPTS",
@@ -119,6 +123,12 @@ UNCHECKED_UPLOADS = Counter(
     "Uploads accepted without their sandboxed quick check, by reason: busy (no check slot "
     "came free in time) or timeout (the check ran out of time); the worker's describe decides.",
     ["reason"],
+)
+HISTORY_PRUNED = Counter(
+    "shapesearch_history_pruned",
+    "Settled jobs and webhook deliveries deleted as older than SHAPESEARCH_HISTORY_DAYS, by "
+    "table (jobs, webhook_deliveries).",
+    ["table"],
 )
 CUTOFF_N = Histogram(
     "shapesearch_cutoff_n", "Eigenpairs the cutoff chose per described shape.",

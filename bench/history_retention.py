@@ -1,0 +1,176 @@
+"""Benchmark: pruning a year of history (``app.db.retention``) beside a writer.
+
+A new SQLite database (or ``--database-url``, an empty one) holds ``--models`` ready models,
+each with ``--history`` settled jobs older than the retention plus its newest job (kept),
+and ``--deliveries`` settled webhook deliveries older than the retention with one attempt
+each. Then:
+
+1. the baseline: a writer queues one job per transaction (``queue_job``, commit) on the idle
+   database, ``--writes`` times;
+2. the first pass deletes the old history while that writer goes on in another thread; its
+   latencies meanwhile are what the pruning costs everyone else (SQLite has one writer);
+3. a second pass finds nothing to delete: what every later hourly pass costs at this size.
+
+Prints the pass times, rows a second, the writer's median and worst latency during the pass
+against its baseline, and what is left.
+
+    .venv/bin/python bench/history_retention.py [--models 100000] [--history 2]
+        [--deliveries 300000] [--batch 1000] [--database-url URL]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import threading
+import time
+import uuid
+from datetime import timedelta
+from pathlib import Path
+
+from sqlalchemy import func, insert, select
+from sqlalchemy.orm import Session, sessionmaker
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from app.db.models import (  # noqa: E402
+    Job,
+    Model,
+    Webhook,
+    WebhookAttempt,
+    WebhookDelivery,
+    utcnow,
+)
+from app.db.retention import prune_history  # noqa: E402
+from app.db.session import make_session_factory, migrated_engine  # noqa: E402
+from app.jobs.turns import queue_job  # noqa: E402
+
+CHUNK = 20000
+
+
+def fill(sessions: sessionmaker[Session], models: int, history: int, deliveries: int) -> None:
+    now = utcnow()
+    old = now - timedelta(days=400)
+    engine = sessions.kw["bind"]
+    with engine.begin() as connection:
+        for start in range(0, models, CHUNK):
+            ids = [uuid.uuid4() for _ in range(start, min(models, start + CHUNK))]
+            connection.execute(insert(Model), [
+                {"id": model_id, "tenant": "t", "meta": {}, "status": "ready",
+                 "file_name": "a.stl", "file_size": 1, "file_sha256": "0" * 64,
+                 "file_format": "stl", "created_at": old, "updated_at": old}
+                for model_id in ids
+            ])
+            connection.execute(insert(Job), [
+                {"id": uuid.uuid4(), "model_id": model_id, "tenant": "t", "kind": "redescribe",
+                 "status": "done", "attempts": 1, "turn": 0, "background": False,
+                 "run_after": old, "created_at": old + timedelta(days=age),
+                 "updated_at": old + timedelta(days=age)}
+                for model_id in ids for age in range(history + 1)  # the last one is kept
+            ])
+        webhook_id = uuid.uuid4()
+        connection.execute(insert(Webhook), [{
+            "id": webhook_id, "tenant": "t", "url": "https://example.com/hook",
+            "events": ["model.ready"], "secret": "whsec_" + "A" * 32, "created_at": old,
+        }])
+        for start in range(0, deliveries, CHUNK):
+            ids = [uuid.uuid4() for _ in range(start, min(deliveries, start + CHUNK))]
+            connection.execute(insert(WebhookDelivery), [
+                {"id": delivery_id, "webhook_id": webhook_id, "event_type": "model.ready",
+                 "payload": {"type": "model.ready", "data": {"model": {"id": str(delivery_id)}}},
+                 "status": "delivered", "attempts": 1, "turn": 0, "run_after": old,
+                 "created_at": old, "updated_at": old}
+                for delivery_id in ids
+            ])
+            connection.execute(insert(WebhookAttempt), [
+                {"delivery_id": delivery_id, "attempt": 1, "status_code": 204,
+                 "duration_ms": 12.0, "created_at": old}
+                for delivery_id in ids
+            ])
+
+
+def write_once(sessions: sessionmaker[Session]) -> float:
+    """An upload's transaction: its model, then its job (the write first, as on SQLite
+    every write transaction of the service begins)."""
+    started = time.perf_counter()
+    with sessions.begin() as session:
+        model = Model(tenant="writer", meta={}, status="queued", file_name="a.stl",
+                      file_size=1, file_sha256="0" * 64, file_format="stl")
+        session.add(model)
+        session.flush()
+        queue_job(session, tenant="writer", model_id=model.id)
+    return time.perf_counter() - started
+
+
+def counts(sessions: sessionmaker[Session]) -> tuple[int, int, int]:
+    with sessions() as session:
+        return (
+            session.scalar(select(func.count()).select_from(Job)) or 0,
+            session.scalar(select(func.count()).select_from(WebhookDelivery)) or 0,
+            session.scalar(select(func.count()).select_from(WebhookAttempt)) or 0,
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", type=int, default=100000)
+    parser.add_argument("--history", type=int, default=2)
+    parser.add_argument("--deliveries", type=int, default=300000)
+    parser.add_argument("--batch", type=int, default=1000)
+    parser.add_argument("--writes", type=int, default=200)
+    parser.add_argument("--database-url")
+    args = parser.parse_args()
+
+    with tempfile.TemporaryDirectory() as folder:
+        url = args.database_url or f"sqlite:///{folder}/history.db"
+        engine = migrated_engine(url)
+        sessions = make_session_factory(engine)
+        started = time.perf_counter()
+        fill(sessions, args.models, args.history, args.deliveries)
+        print(f"{engine.dialect.name}: {args.models} models with {args.history} old jobs "
+              f"each and their newest, {args.deliveries} old deliveries with an attempt each "
+              f"(filled in {time.perf_counter() - started:.0f} s); rows (jobs, deliveries, "
+              f"attempts): {counts(sessions)}")
+
+        baseline = [write_once(sessions) for _ in range(args.writes)]
+
+        during: list[float] = []
+        done = threading.Event()
+
+        def writer() -> None:
+            while not done.is_set():
+                during.append(write_once(sessions))
+                time.sleep(0.005)
+
+        thread = threading.Thread(target=writer)
+        thread.start()
+        started = time.perf_counter()
+        pruned = prune_history(sessions, days=30, batch=args.batch)
+        first = time.perf_counter() - started
+        done.set()
+        thread.join()
+
+        started = time.perf_counter()
+        again = prune_history(sessions, days=30, batch=args.batch)
+        second = time.perf_counter() - started
+
+        rows = pruned.jobs + pruned.webhook_deliveries
+        base = statistics.median(baseline)
+        print(f"first pass: {pruned.jobs} jobs and {pruned.webhook_deliveries} deliveries "
+              f"(with their attempts) in {first:.1f} s, {rows / first:.0f} rows/s "
+              f"(batch {args.batch})")
+        middle = statistics.median(during)
+        print(f"an upload's transaction: baseline median {base * 1e3:.2f} ms, worst "
+              f"{max(baseline) * 1e3:.1f} ms; during the pass ({len(during)} uploads) median "
+              f"{middle * 1e3:.2f} ms ({middle / base:.1f}x), worst {max(during) * 1e3:.1f} ms "
+              f"({max(during) / base:.0f}x the baseline median)")
+        print(f"second pass (nothing older left): {again.jobs + again.webhook_deliveries} rows "
+              f"in {second * 1e3:.0f} ms; left (jobs, deliveries, attempts): {counts(sessions)}")
+        engine.dispose()
+
+
+if __name__ == "__main__":
+    main()
