@@ -21,8 +21,9 @@ from standardwebhooks.webhooks import Webhook as Verifier
 
 from app.api.main import create_app
 from app.db.doorbells import WEBHOOKS, Doorbell
+from app.db.migrate import upgrade
 from app.db.models import Model, Webhook, WebhookDelivery
-from app.db.session import make_engine, make_session_factory
+from app.db.session import make_engine, make_session_factory, one_at_a_time
 from app.jobs.queue import JobQueue
 from app.webhooks import (
     Deliverer,
@@ -280,6 +281,88 @@ def test_idle_lanes_look_for_work_as_often_as_one_lane(sessions: sessionmaker[Se
     # One lane's polling is elapsed / interval looks (fewer on a slow machine); four lanes
     # each on its own timer made four times that.
     assert 0 < idle_looks <= 1.5 * elapsed / interval
+
+
+def test_claims_are_not_refused_while_another_connection_writes(
+    sessions: sessionmaker[Session],
+) -> None:
+    """A claim read the outbox and then wrote its claim. On SQLite a commit between the two
+    made the write fail at once with "database is locked" (1,305 of 1,356 claims beside a
+    loop of inserts), which the lanes took for an outage; now every claim takes the write
+    lock first. Each claim's lease lapses at once, so that every look finds a delivery and
+    writes."""
+    with sessions.begin() as session:
+        model = Model(tenant="t", meta={}, status="ready", file_name="a.stl", file_size=1,
+                      file_sha256="0" * 64, file_format="stl")
+        session.add(model)
+        session.add_all(Webhook(tenant="t", url=f"http://127.0.0.1:9/{n}", events=["model.ready"],
+                                secret="whsec_" + "A" * 32) for n in range(20))
+        session.flush()
+        record_model_event(session, model.id, "model.ready")
+    deliverer = Deliverer(sessions, worker_id="busy", allow_private=True, timeout=0.0005,
+                          max_attempts=3, backoff_base=60, backoff_cap=60, lease_seconds=0.001)
+    stop = threading.Event()
+    writes: list[int] = []
+
+    def write() -> None:
+        while not stop.is_set():
+            with sessions.begin() as session:
+                session.add(Model(tenant="w", meta={}, status="queued", file_name="b.stl",
+                                  file_size=1, file_sha256="0" * 64, file_format="stl"))
+            writes.append(1)
+
+    writer = threading.Thread(target=write)
+    writer.start()
+    claimed, refused = 0, 0
+    try:
+        deadline = time.monotonic() + 1.5
+        while time.monotonic() < deadline:
+            try:
+                claimed += deliverer.claim() is not None
+            except Exception:
+                refused += 1
+            time.sleep(0.002)  # a lane's pace, not a loop that keeps the writer waiting
+    finally:
+        stop.set()
+        writer.join()
+        deliverer.close()
+    assert len(writes) > 10 and claimed > 10  # both went on side by side
+    assert refused == 0
+
+
+def test_claims_of_two_processes_go_one_after_another(database_url: str) -> None:
+    """The transaction that a claim begins with ``one_at_a_time`` holds the next one
+    (another engine, as another process has) until it ends: each claim reads the one
+    before it committed, on PostgreSQL too, where two claims used to read side by side."""
+    first_engine, second_engine = make_engine(database_url), make_engine(database_url)
+    upgrade(first_engine)
+    first, second = make_session_factory(first_engine), make_session_factory(second_engine)
+    entered = threading.Event()
+    waited: list[float] = []
+
+    def later() -> None:
+        entered.wait()
+        started = time.monotonic()
+        with second.begin() as session:
+            one_at_a_time(session, "shapesearch.webhook-claims")
+            waited.append(time.monotonic() - started)
+
+    thread = threading.Thread(target=later)
+    thread.start()
+    try:
+        with first.begin() as session:
+            one_at_a_time(session, "shapesearch.webhook-claims")
+            entered.set()
+            time.sleep(0.5)  # the other transaction is waiting meanwhile
+        thread.join(10)
+        assert waited and waited[0] >= 0.4
+        with second.begin() as session:  # another name does not wait
+            started = time.monotonic()
+            one_at_a_time(session, "another")
+            assert time.monotonic() - started < 0.3
+    finally:
+        first_engine.dispose()
+        second_engine.dispose()
 
 
 def test_unsafe_targets_are_refused_and_redirects_not_followed(

@@ -2,19 +2,21 @@
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 from typing import Any, cast
 
 import psycopg
-from sqlalchemy import CursorResult, Engine, Result, create_engine, event
+from sqlalchemy import CursorResult, Engine, Result, create_engine, event, func, select, update
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.migrate import upgrade
+from app.db.models import FeedState
 
 __all__ = [
-    "make_engine", "make_session_factory", "migrated_engine", "open_sessions", "read_only",
-    "rows_changed",
+    "make_engine", "make_session_factory", "migrated_engine", "one_at_a_time", "open_sessions",
+    "read_only", "rows_changed",
 ]
 
 
@@ -129,3 +131,21 @@ def rows_changed(result: Result[Any]) -> int:
     """How many rows an UPDATE or DELETE changed: its cursor's ``rowcount`` (SQLAlchemy
     types ``Session.execute``'s result without it)."""
     return int(cast(CursorResult[Any], result).rowcount or 0)
+
+
+def one_at_a_time(session: Session, name: str) -> None:
+    """Make ``session``'s transaction the only one past this call for ``name`` in every
+    process, until it ends; call it first in the transaction.
+
+    PostgreSQL: a transaction-level advisory lock keyed by ``name``; statements after it see
+    every commit made before it was granted (READ COMMITTED), so a claim that reads and then
+    writes cannot act on a read that another claim's commit made stale. SQLite: the
+    database's write lock, taken by a write that changes nothing. SQLite has one writer, and
+    a transaction that read first cannot take the lock once another connection committed
+    meanwhile: its write fails at once with "database is locked", busy timeout or not.
+    """
+    if session.get_bind().dialect.name == "postgresql":
+        key = int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "big", signed=True)
+        session.execute(select(func.pg_advisory_xact_lock(key)))
+    else:
+        session.execute(update(FeedState).where(FeedState.id == 0).values(revision=0))

@@ -9,9 +9,11 @@ delivery being sent under a live lease. So an endpoint receives its events one a
 another, in order unless one is retried, and an endpoint that hangs holds one lane for its
 timeout while the other lanes serve every other endpoint. With one lane, an endpoint hanging
 with a backlog made each other endpoint's event wait out one timeout
-(``bench/webhook_fairness.py``). The lanes of a process claim one at a time, so the rule is
-exact within a process; two processes claiming for one endpoint in the same instant may
-both send (PostgreSQL reads the other's claim only once it commits).
+(``bench/webhook_fairness.py``). Claims go one at a time, across processes too
+(``app.db.session.one_at_a_time``: an advisory lock on PostgreSQL, the write lock on SQLite),
+so each reads the one before it committed and the rule is exact; on SQLite a claim that read
+and then wrote also failed ("database is locked") whenever another connection committed in
+between.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ from standardwebhooks.webhooks import Webhook as Signer
 
 from app.db.doorbells import WEBHOOKS, Doorbell
 from app.db.models import Webhook, WebhookAttempt, WebhookDelivery, utcnow
-from app.db.session import rows_changed
+from app.db.session import one_at_a_time, rows_changed
 from app.jobs.lease import backoff_seconds, claim_next
 from app.observability.logs import Outage
 from app.observability.metrics import WEBHOOK_ATTEMPTS
@@ -110,6 +112,11 @@ class Deliverer:
         deliverer's lease expired, of an endpoint with no other delivery in flight."""
         now = utcnow()
         with self._claiming, self.sessions.begin() as session:
+            # Claims of every process one after another: each reads the one before it
+            # committed (so an endpoint's one delivery in flight is the rule across
+            # processes too), and on SQLite the claim's write cannot fail for a commit
+            # made between its read and its write.
+            one_at_a_time(session, "shapesearch.webhook-claims")
             claimable = _claimable(session, now)
             if not claimable:
                 return None
