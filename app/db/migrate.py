@@ -1,7 +1,10 @@
 """Apply the Alembic migrations shipped inside the ``migrations`` package.
 
-Run at start-up by every process; on PostgreSQL an advisory lock makes concurrent
-start-ups take turns instead of racing to create the same tables.
+Run at start-up by every process; concurrent start-ups take turns instead of racing to
+create the same tables: on PostgreSQL by an advisory lock, on SQLite by taking the write lock
+at the migration's BEGIN (Alembic reads the schema before it writes, and on SQLite a
+transaction that read first cannot take the lock once another process committed: of two
+processes started at once after an upgrade, one died with "database is locked").
 """
 
 from __future__ import annotations
@@ -16,7 +19,11 @@ from sqlalchemy import Engine, text
 
 import migrations
 
-__all__ = ["alembic_config", "is_at_head", "upgrade"]
+__all__ = ["WRITE_FIRST", "alembic_config", "is_at_head", "upgrade"]
+
+# Execution option of a SQLite connection whose transactions take the write lock at BEGIN
+# (``app.db.session``).
+WRITE_FIRST = "shapesearch_write_first"
 
 _MIGRATION_LOCK = 0x5348_4150  # arbitrary, constant: "SHAP"
 
@@ -32,6 +39,7 @@ def upgrade(engine: Engine, revision: str = "head") -> None:
     """Bring the database schema to ``revision``, by default the latest."""
     config = alembic_config()
     with engine.connect() as connection:
+        connection.execution_options(**{WRITE_FIRST: True})  # SQLite's; ignored elsewhere
         postgres = connection.dialect.name == "postgresql"
         if postgres:
             connection.execute(text("SELECT pg_advisory_lock(:k)"), {"k": _MIGRATION_LOCK})

@@ -11,7 +11,7 @@ from sqlalchemy import CursorResult, Engine, Result, create_engine, event, func,
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.orm import Session, sessionmaker
 
-from app.db.migrate import upgrade
+from app.db.migrate import WRITE_FIRST, upgrade
 from app.db.models import FeedState
 
 __all__ = [
@@ -48,7 +48,10 @@ def make_engine(url: str) -> Engine:
         # A deferred BEGIN: readers never wait (WAL). Write transactions therefore start
         # with their write (UPDATE/INSERT/DELETE ... RETURNING), which waits for the lock
         # (busy_timeout); one that read first and wrote later could fail with SQLITE_BUSY.
-        connection.exec_driver_sql("BEGIN")
+        # A connection that cannot start with its write (a migration: Alembic reads the
+        # schema first) asks for the lock at BEGIN (``WRITE_FIRST``).
+        immediate = connection.get_execution_options().get(WRITE_FIRST, False)
+        connection.exec_driver_sql("BEGIN IMMEDIATE" if immediate else "BEGIN")
 
     return engine
 
