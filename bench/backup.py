@@ -10,7 +10,13 @@ busy timeout), measures
   consistency, the disk's own speed) in the same run, medians of ``--repeats``;
 * the writer's commit latency while nothing else runs, and while each backup runs.
 
+With ``--database-url`` (an empty PostgreSQL database) the backup is
+``app.cli.backup.backup_postgres`` (an exported snapshot, ``pg_dump --format=custom``, the
+archive read back) and the baseline a plain ``pg_dump --format=custom`` of the same
+database.
+
     .venv/bin/python bench/backup.py --models 20000 --file-kb 40 --repeats 3
+    .venv/bin/python bench/backup.py --database-url postgresql+psycopg://postgres@127.0.0.1/bench
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ import argparse
 import os
 import shutil
 import statistics
+import subprocess
 import tempfile
 import threading
 import time
@@ -27,8 +34,9 @@ from pathlib import Path
 
 import numpy as np
 from sqlalchemy import insert, text
+from sqlalchemy.engine import make_url
 
-from app.cli.backup import backup_sqlite
+from app.cli.backup import backup_postgres, backup_sqlite
 from app.db.migrate import upgrade
 from app.db.models import Model, Upload, utcnow
 from app.db.session import make_engine
@@ -76,9 +84,10 @@ class Writer(threading.Thread):
         while not self.stop.is_set():
             model_id = self.ids[int(rng.integers(len(self.ids)))]
             started = time.perf_counter()
+            key = model_id.hex if self.engine.dialect.name == "sqlite" else model_id
             with self.engine.begin() as connection:
                 connection.execute(text("UPDATE models SET name = :name WHERE id = :id"),
-                                   {"name": f"n{started}", "id": model_id.hex})
+                                   {"name": f"n{started}", "id": key})
             ended = time.perf_counter()
             self.commits.append((ended, ended - started))
             time.sleep(0.002)
@@ -101,14 +110,16 @@ def main() -> None:
     parser.add_argument("--models", type=int, default=20000)
     parser.add_argument("--file-kb", type=int, default=40)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--database-url", help="an empty PostgreSQL database (default: SQLite)")
     args = parser.parse_args()
 
     folder = Path(tempfile.mkdtemp(prefix="shapesearch-bench-backup-"))
     database = folder / "shapesearch.db"
-    url = f"sqlite:///{database}"
+    url = args.database_url or f"sqlite:///{database}"
+    postgres = args.database_url is not None
     started = time.perf_counter()
     ids = fill(url, args.models, args.file_kb * 1024)
-    size_mb = database.stat().st_size / 1e6
+    size_mb = database_bytes(url) / 1e6
     print(f"{args.models} models with {args.file_kb} KB files: {size_mb:.0f} MB database, "
           f"filled in {time.perf_counter() - started:.0f} s; load {os.getloadavg()[0]:.1f}")
 
@@ -118,28 +129,50 @@ def main() -> None:
     idle = writer.between(0.0, time.perf_counter())
     copies, backups, during = [], [], []
     for repeat in range(args.repeats):
+        plain = folder / f"plain-{repeat}"
         start = time.perf_counter()
-        shutil.copyfile(database, folder / f"plain-{repeat}.db")
+        if postgres:
+            libpq = make_url(url).set(drivername="postgresql").render_as_string(False)
+            subprocess.run(["pg_dump", "--format=custom", f"--file={plain}", f"--dbname={libpq}"],
+                           check=True)
+        else:
+            shutil.copyfile(database, plain)
         copies.append(time.perf_counter() - start)
         start = time.perf_counter()
-        made = backup_sqlite(database, folder / f"backup-{repeat}.db")
+        target = folder / f"backup-{repeat}"
+        made = backup_postgres(make_url(url), target) if postgres else backup_sqlite(
+            database, target)
         end = time.perf_counter()
         backups.append(end - start)
         during.extend(writer.between(start, end))
         assert made.models_by_status == {"ready": args.models}, made.models_by_status
-        (folder / f"plain-{repeat}.db").unlink()
+        plain.unlink()
         made.path.unlink()
         time.sleep(1.0)
     writer.stop.set()
     writer.join()
 
     copy, backup = statistics.median(copies), statistics.median(backups)
-    print(f"plain file copy (baseline): median {copy:.2f} s ({size_mb / copy:.0f} MB/s)")
-    print(f"shapesearch backup:         median {backup:.2f} s ({size_mb / backup:.0f} MB/s), "
-          f"{backup / copy:.1f}x the plain copy")
+    baseline = "plain pg_dump (baseline)" if postgres else "plain file copy (baseline)"
+    print(f"{baseline}: median {copy:.2f} s ({size_mb / copy:.0f} MB/s)")
+    print(f"shapesearch backup: median {backup:.2f} s ({size_mb / backup:.0f} MB/s), "
+          f"{backup / copy:.1f}x the baseline")
     print(f"writer alone:          {latency(idle)}")
     print(f"writer during backups: {latency(during)}")
     shutil.rmtree(folder)
+
+
+def database_bytes(url: str) -> int:
+    engine = make_engine(url)
+    try:
+        with engine.connect() as connection:
+            if engine.dialect.name == "sqlite":
+                pages = connection.execute(text("PRAGMA page_count")).scalar_one()
+                return int(pages) * int(connection.execute(text("PRAGMA page_size")).scalar_one())
+            size = connection.execute(text("SELECT pg_database_size(current_database())"))
+            return int(size.scalar_one())
+    finally:
+        engine.dispose()
 
 
 if __name__ == "__main__":

@@ -220,7 +220,8 @@ def build_parser() -> argparse.ArgumentParser:
     duplicates.set_defaults(handler=_duplicates)
 
     backup = commands.add_parser(
-        "backup", help="copy the embedded SQLite database, consistently, while the service runs"
+        "backup", help="copy the database (SQLite, or pg_dump's archive of PostgreSQL), "
+        "consistently, while the service runs"
     )
     backup.add_argument("destination", help="a new file, or a directory for a time-stamped one")
     backup.set_defaults(handler=_backup)
