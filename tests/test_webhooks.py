@@ -365,6 +365,28 @@ def test_claims_of_two_processes_go_one_after_another(database_url: str) -> None
         second_engine.dispose()
 
 
+def test_an_idle_look_does_not_wait_for_another_claim(database_url: str) -> None:
+    """A look that finds nothing takes no lock: an idle lane neither waits for a claim of
+    another process nor, on SQLite, holds up the writers."""
+    holder_engine, engine = make_engine(database_url), make_engine(database_url)
+    upgrade(holder_engine)
+    deliverer = Deliverer(make_session_factory(engine), worker_id="idle", allow_private=True,
+                          timeout=5, max_attempts=3, backoff_base=60, backoff_cap=60,
+                          lease_seconds=10)
+    looked: list[object] = []
+    try:
+        with make_session_factory(holder_engine).begin() as session:
+            one_at_a_time(session, "shapesearch.webhook-claims")  # another process's claim
+            look = threading.Thread(target=lambda: looked.append(deliverer.claim()))
+            look.start()
+            look.join(3)
+            assert not look.is_alive() and looked == [None]
+    finally:
+        deliverer.close()
+        holder_engine.dispose()
+        engine.dispose()
+
+
 def test_unsafe_targets_are_refused_and_redirects_not_followed(
     make_client: ClientFactory, database_url: str
 ) -> None:

@@ -13,7 +13,7 @@ with a backlog made each other endpoint's event wait out one timeout
 (``app.db.session.one_at_a_time``: an advisory lock on PostgreSQL, the write lock on SQLite),
 so each reads the one before it committed and the rule is exact; on SQLite a claim that read
 and then wrote also failed ("database is locked") whenever another connection committed in
-between.
+between. A look that finds nothing takes no lock.
 """
 
 from __future__ import annotations
@@ -111,7 +111,15 @@ class Deliverer:
         """Take the next due delivery in turn order (endpoints take turns), or one whose
         deliverer's lease expired, of an endpoint with no other delivery in flight."""
         now = utcnow()
-        with self._claiming, self.sessions.begin() as session:
+        with self._claiming:
+            # A look that finds nothing (an idle lane's) takes no lock.
+            with self.sessions() as session:
+                if not _claimable(session, now):
+                    return None
+            return self._claim(now)
+
+    def _claim(self, now: datetime) -> _Claimed | None:
+        with self.sessions.begin() as session:
             # Claims of every process one after another: each reads the one before it
             # committed (so an endpoint's one delivery in flight is the rule across
             # processes too), and on SQLite the claim's write cannot fail for a commit
