@@ -54,6 +54,7 @@ CATALOGUE: dict[str, Kind] = {
     "job-not-found": Kind(404, "Job not found"),
     "duplicates-report-not-found": Kind(404, "Duplicates report not found"),
     "webhook-not-found": Kind(404, "Webhook not found"),
+    "delivery-not-found": Kind(404, "Webhook delivery not found"),
     "preview-not-available": Kind(404, "Preview not available"),
     "model-not-ready": Kind(409, "Model not ready"),
     "duplicate-external-id": Kind(409, "Duplicate external id"),

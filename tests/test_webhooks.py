@@ -134,6 +134,57 @@ def test_a_receiver_failing_twice_gets_the_event_three_times(make_client: Client
     assert attempts_counted("delivered") - delivered_before == 1
 
 
+def wait_for_statuses(
+    client: TestClient, hook_id: str, wanted: set[str], count: int
+) -> list[dict[str, Any]]:
+    deadline = time.monotonic() + 20
+    while True:
+        log = deliveries(client, hook_id)
+        if len(log) == count and {d["status"] for d in log} <= wanted:
+            return log
+        assert time.monotonic() < deadline, log
+        time.sleep(0.05)
+
+
+def test_failed_deliveries_are_sent_again_on_request(make_client: ClientFactory) -> None:
+    """A receiver away longer than the retries lost its events for good (failed, never
+    sent again). Recovering queues the failed ones again, oldest first, with their ids;
+    one delivery can be sent again alone, a delivered one too."""
+    client = make_client(**FAST_RETRIES, webhook_max_attempts=2)
+    files = [PARTS / "20mm-xyz-cube.stl", PARTS / "cylinder.stl", PARTS / "angle_block.STL"]
+    with Receiver(statuses=[503] * 6) as receiver:  # away: both attempts of all three fail
+        hook = register(client, receiver.url, events=["model.ready"])
+        for path in files:
+            wait_for_status(client, upload(client, path).json()["id"])
+        failed = wait_for_statuses(client, hook["id"], {"failed"}, 3)
+        oldest_first = [d["id"] for d in reversed(failed)]
+        assert len(receiver.requests) == 6
+
+        since = failed[1]["created_at"]  # the two newest
+        recovered = client.post(f"/v1/webhooks/{hook['id']}/recover", json={"since": since})
+        assert recovered.status_code == 202 and recovered.json() == {"requeued": 2}
+        wait_for_statuses(client, hook["id"], {"delivered", "failed"}, 3)
+        assert client.post(f"/v1/webhooks/{hook['id']}/recover", json={}).json() == {
+            "requeued": 1}  # every failed one left: the oldest
+        log = wait_for_statuses(client, hook["id"], {"delivered"}, 3)
+        resent = [headers["webhook-id"] for _, headers, _ in receiver.requests[6:]]
+        assert resent == oldest_first[1:] + oldest_first[:1]  # in the order asked, by age
+        oldest = next(d for d in log if d["id"] == oldest_first[0])
+        assert [(a["attempt"], a["status_code"]) for a in oldest["attempts"]] == [
+            (1, 503), (2, 503), (1, 200)]  # a new round, logged after the first
+
+        again = client.post(f"/v1/webhooks/{hook['id']}/deliveries/{oldest['id']}/retry")
+        assert again.status_code == 202 and again.json()["status"] == "pending"
+        receiver.wait_for(10)
+        assert receiver.requests[9][1]["webhook-id"] == oldest["id"]
+    missing = client.post(f"/v1/webhooks/{hook['id']}/deliveries/{hook['id']}/retry")
+    assert missing.status_code == 404
+    assert missing.json()["type"] == "urn:shapesearch:problem:delivery-not-found"
+    assert client.post(f"/v1/webhooks/{oldest['id']}/recover", json={}).status_code == 404
+    bad = client.post(f"/v1/webhooks/{hook['id']}/recover", json={"since": "yesterday"})
+    assert bad.status_code == 422
+
+
 def test_an_event_outlives_the_worker_that_completed_the_job(
     make_client: ClientFactory, database_url: str
 ) -> None:

@@ -145,6 +145,8 @@ _INVALID_CURSOR = _problem("invalid-cursor",
                            "cursor is not valid; pass next_cursor unchanged.")
 _WEBHOOK_NOT_FOUND = _problem("webhook-not-found", f"There is no webhook {_HOOK}.")
 _JOB_NOT_FOUND = _problem("job-not-found", f"There is no job {_JOB}.")
+_DELIVERY_NOT_FOUND = _problem("delivery-not-found",
+                               f"The webhook {_HOOK} has no delivery {_DELIVERY}.")
 _NEW_FILE = {
     "filename": "angle_block_rev_b.STL",
     "size": 36112,
@@ -441,6 +443,36 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
             }]},
             401: _UNAUTHORIZED,
             404: _WEBHOOK_NOT_FOUND,
+        },
+    },
+    ("post", "/v1/webhooks/{webhook_id}/recover"): {
+        "request": {"application/json": {"since": "2026-11-22T00:00:00Z"}},
+        "responses": {
+            202: {"requeued": 17},
+            401: _UNAUTHORIZED,
+            404: _WEBHOOK_NOT_FOUND,
+            422: _validation("body", "since", "Input should be a valid datetime or date, "
+                             "invalid character in year", "datetime_from_date_parsing"),
+        },
+    },
+    ("post", "/v1/webhooks/{webhook_id}/deliveries/{delivery_id}/retry"): {
+        "responses": {
+            202: {
+                "id": _DELIVERY,
+                "event_type": "model.ready",
+                "status": "pending",
+                "attempts": [
+                    {"attempt": 8, "status_code": None,
+                     "error": "ConnectError: [Errno 111] Connection refused", "duration_ms": 2.3,
+                     "created_at": "2026-11-22T04:35:13.402117Z"},
+                ],
+                "payload": {"type": "model.ready", "timestamp": "2026-11-22T04:24:38.125003+00:00",
+                            "data": {"model": MODEL_READY}},
+                "next_attempt_at": "2026-11-22T09:02:11.250611Z",
+                "created_at": "2026-11-22T04:24:38.130552Z",
+            },
+            401: _UNAUTHORIZED,
+            404: _DELIVERY_NOT_FOUND,
         },
     },
 }

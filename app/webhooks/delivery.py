@@ -50,9 +50,12 @@ from app.observability.logs import Outage
 from app.observability.metrics import WEBHOOK_ATTEMPTS
 from app.webhooks.targets import TargetRefused, check_target, pinned
 
-__all__ = ["Deliverer", "DeliveryLanes", "start_delivery_lanes"]
+__all__ = ["CLAIMS", "Deliverer", "DeliveryLanes", "start_delivery_lanes"]
 
 log = logging.getLogger("shapesearch.webhooks")
+
+# The lock that claims (and requeues) take one at a time (``one_at_a_time``).
+CLAIMS = "shapesearch.webhook-claims"
 
 
 @dataclass(frozen=True)
@@ -124,7 +127,7 @@ class Deliverer:
             # committed (so an endpoint's one delivery in flight is the rule across
             # processes too), and on SQLite the claim's write cannot fail for a commit
             # made between its read and its write.
-            one_at_a_time(session, "shapesearch.webhook-claims")
+            one_at_a_time(session, CLAIMS)
             claimable = _claimable(session, now)
             if not claimable:
                 return None

@@ -1,19 +1,23 @@
 """The webhook outbox: one delivery row per subscribed endpoint, written inside the
-transaction that makes the change (the change and its event commit together)."""
+transaction that makes the change (the change and its event commit together); settled
+deliveries queued again on request (``requeue``)."""
 
 from __future__ import annotations
 
 import uuid
+from datetime import datetime
 from typing import Any
 
-from sqlalchemy import insert, select
+from sqlalchemy import insert, select, update
 from sqlalchemy.orm import Session
 
 from app.db.doorbells import WEBHOOKS, announce
 from app.db.models import Job, Model, Webhook, WebhookDelivery, utcnow
+from app.db.session import one_at_a_time
 from app.jobs.turns import next_turn
+from app.webhooks.delivery import CLAIMS
 
-__all__ = ["EVENT_TYPES", "record_model_event"]
+__all__ = ["EVENT_TYPES", "record_model_event", "requeue"]
 
 EVENT_TYPES = ("model.ready", "model.failed", "model.deleted")
 
@@ -78,3 +82,42 @@ def record_model_event(
     )
     announce(session, WEBHOOKS)  # the deliverers send it once the change commits
     return len(endpoints)
+
+
+
+def requeue(
+    session: Session, webhook_id: uuid.UUID, *, delivery_id: uuid.UUID | None = None,
+    since: datetime | None = None,
+) -> list[uuid.UUID]:
+    """Queue settled deliveries of an endpoint again: the one ``delivery_id`` (delivered or
+    failed), or else every failed one created at or after ``since`` (None: every failed one
+    still kept). Returns their ids, oldest first.
+
+    Each keeps its id (the ``webhook-id`` a receiver deduplicates on) and payload, starts a
+    new round of up to ``SHAPESEARCH_WEBHOOK_MAX_ATTEMPTS`` attempts (its log numbers them
+    from 1 again) at once, and takes the endpoint's next turns in the order the events were
+    created. The claims' lock comes first: no claim reads the endpoint half requeued, and on
+    SQLite the transaction begins with the write lock (``app.db.session.one_at_a_time``).
+    """
+    one_at_a_time(session, CLAIMS)
+    query = select(WebhookDelivery.id).where(WebhookDelivery.webhook_id == webhook_id)
+    if delivery_id is not None:
+        query = query.where(WebhookDelivery.id == delivery_id,
+                            WebhookDelivery.status.in_(("delivered", "failed")))
+    else:
+        query = query.where(WebhookDelivery.status == "failed")
+        if since is not None:
+            query = query.where(WebhookDelivery.created_at >= since)
+    ids = list(session.scalars(query.order_by(WebhookDelivery.created_at, WebhookDelivery.id)))
+    if not ids:
+        return []
+    first = next_turn(session, WebhookDelivery, [WebhookDelivery.webhook_id == webhook_id],
+                      waiting="pending")
+    now = utcnow()
+    session.execute(update(WebhookDelivery), [
+        {"id": queued, "status": "pending", "attempts": 0, "run_after": now, "turn": first + n,
+         "leased_until": None, "worker_id": None, "updated_at": now}
+        for n, queued in enumerate(ids)
+    ])
+    announce(session, WEBHOOKS)
+    return ids

@@ -1,9 +1,11 @@
 """/v1/webhooks: a tenant's endpoints for model.ready, model.failed and model.deleted,
-and the delivery log of each (see app/webhooks/ for signing and delivery)."""
+the delivery log of each, and sending deliveries again (see app/webhooks/ for signing and
+delivery)."""
 
 from __future__ import annotations
 
 import uuid
+from collections.abc import Sequence
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
@@ -15,7 +17,7 @@ from app.api.deps import ServicesDep, SessionDep
 from app.api.problems import Problem, problem_responses
 from app.auth.dependency import TenantDep
 from app.db.models import Webhook, WebhookAttempt, WebhookDelivery
-from app.webhooks import TargetRefused, check_target, new_secret, valid_secret
+from app.webhooks import TargetRefused, check_target, new_secret, requeue, valid_secret
 
 __all__ = ["router"]
 
@@ -207,12 +209,83 @@ def list_deliveries(
         .order_by(WebhookDelivery.created_at.desc(), WebhookDelivery.id)
         .limit(limit)
     ).all()
+    return DeliveryList(items=_delivery_resources(session, deliveries))
+
+
+class Recovery(BaseModel):
+    since: datetime | None = Field(
+        default=None,
+        description="Only failed deliveries created at or after this time (ISO 8601; without "
+        "a zone: UTC). Absent or null: every failed delivery still kept "
+        "(SHAPESEARCH_HISTORY_DAYS).",
+    )
+
+
+class Recovered(BaseModel):
+    requeued: int = Field(description="Failed deliveries queued again.")
+
+
+@router.post(
+    "/webhooks/{webhook_id}/recover",
+    status_code=202,
+    response_model=Recovered,
+    responses=problem_responses(401, 404, 422),
+    summary="Queue the endpoint's failed deliveries again",
+    description="For a receiver that was away longer than the retries last "
+    "(SHAPESEARCH_WEBHOOK_MAX_ATTEMPTS attempts, backing off to "
+    "SHAPESEARCH_WEBHOOK_BACKOFF_MAX_SECONDS): every failed delivery (since `since`) is sent "
+    "again, oldest first, one at a time, each with a new round of attempts and its own "
+    "webhook-id, so a receiver that did get one deduplicates it.",
+)
+def recover_deliveries(
+    webhook_id: str, body: Recovery, tenant: TenantDep, session: SessionDep,
+    services: ServicesDep,
+) -> Recovered:
+    hook = _load(session, tenant, webhook_id)
+    with services.sessions.begin() as writing:  # requeue's lock comes first in it
+        return Recovered(requeued=len(requeue(writing, hook.id, since=body.since)))
+
+
+@router.post(
+    "/webhooks/{webhook_id}/deliveries/{delivery_id}/retry",
+    status_code=202,
+    response_model=DeliveryResource,
+    responses=problem_responses(401, 404),
+    summary="Send one delivery again",
+    description="A delivered or failed delivery is queued again with a new round of "
+    "attempts and the same webhook-id; one still pending or being sent is answered as it is.",
+)
+def retry_delivery(
+    webhook_id: str, delivery_id: str, tenant: TenantDep, session: SessionDep,
+    services: ServicesDep,
+) -> DeliveryResource:
+    hook = _load(session, tenant, webhook_id)
+    try:
+        parsed = uuid.UUID(delivery_id)
+    except ValueError:
+        raise Problem("delivery-not-found",
+                      f"The webhook {webhook_id} has no delivery {delivery_id}.") from None
+    with services.sessions.begin() as writing:  # requeue's lock comes first in it
+        requeue(writing, hook.id, delivery_id=parsed)
+        delivery = writing.scalar(select(WebhookDelivery).where(
+            WebhookDelivery.id == parsed, WebhookDelivery.webhook_id == hook.id
+        ))
+        if delivery is None:
+            raise Problem("delivery-not-found",
+                          f"The webhook {webhook_id} has no delivery {delivery_id}.")
+        return _delivery_resources(writing, [delivery])[0]
+
+
+def _delivery_resources(
+    session: Any, deliveries: Sequence[WebhookDelivery]
+) -> list[DeliveryResource]:
+    """``deliveries`` with their attempt logs, each in the order the attempts were made."""
     attempts: dict[uuid.UUID, list[AttemptResource]] = {d.id: [] for d in deliveries}
     if deliveries:
         for row in session.scalars(
             select(WebhookAttempt)
             .where(WebhookAttempt.delivery_id.in_(list(attempts)))
-            .order_by(WebhookAttempt.attempt)
+            .order_by(WebhookAttempt.id)  # a delivery sent again numbers its attempts anew
         ):
             attempts[row.delivery_id].append(
                 AttemptResource(
@@ -220,17 +293,15 @@ def list_deliveries(
                     duration_ms=row.duration_ms, created_at=row.created_at,
                 )
             )
-    return DeliveryList(
-        items=[
-            DeliveryResource(
-                id=d.id,
-                event_type=d.event_type,  # type: ignore[arg-type]
-                status=d.status,  # type: ignore[arg-type]
-                attempts=attempts[d.id],
-                payload=d.payload,
-                next_attempt_at=d.run_after if d.status == "pending" else None,
-                created_at=d.created_at,
-            )
-            for d in deliveries
-        ]
-    )
+    return [
+        DeliveryResource(
+            id=d.id,
+            event_type=d.event_type,  # type: ignore[arg-type]
+            status=d.status,  # type: ignore[arg-type]
+            attempts=attempts[d.id],
+            payload=d.payload,
+            next_attempt_at=d.run_after if d.status == "pending" else None,
+            created_at=d.created_at,
+        )
+        for d in deliveries
+    ]

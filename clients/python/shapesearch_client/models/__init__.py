@@ -48,6 +48,8 @@ from .model_summary_metadata import ModelSummaryMetadata
 from .problem import Problem
 from .problem_checks import ProblemChecks
 from .problem_errors_item import ProblemErrorsItem
+from .recovered import Recovered
+from .recovery import Recovery
 from .revision_list import RevisionList
 from .revision_resource import RevisionResource
 from .revision_resource_status import RevisionResourceStatus
@@ -123,6 +125,8 @@ __all__ = (
     "Problem",
     "ProblemChecks",
     "ProblemErrorsItem",
+    "Recovered",
+    "Recovery",
     "RevisionList",
     "RevisionResource",
     "RevisionResourceStatus",
