@@ -481,13 +481,18 @@ class Settings(BaseSettings):
         "for its timeout and the others serve every other endpoint.",
     )
     webhook_max_attempts: int = Field(
-        default=8, ge=1, description="Delivery attempts per event before it is marked failed."
+        default=20,
+        ge=1,
+        description="Delivery attempts per event before it is marked failed. With the "
+        "default backoff, 20 attempts span about 10.4 hours: a receiver away overnight "
+        "misses nothing. A failed delivery can be sent again (POST "
+        "/v1/webhooks/{id}/recover).",
     )
     webhook_backoff_seconds: float = Field(
         default=5.0, ge=0, description="Delay after the first failed delivery; doubles each time."
     )
     webhook_backoff_max_seconds: float = Field(
-        default=600.0, ge=0, description="Cap of the webhook retry delay."
+        default=3600.0, ge=0, description="Cap of the webhook retry delay."
     )
 
     # --- browsers --------------------------------------------------------------------

@@ -24,7 +24,9 @@ from app.db.doorbells import WEBHOOKS, Doorbell
 from app.db.migrate import upgrade
 from app.db.models import Model, Webhook, WebhookDelivery
 from app.db.session import make_engine, make_session_factory, one_at_a_time
+from app.jobs.lease import backoff_seconds
 from app.jobs.queue import JobQueue
+from app.settings import Settings
 from app.webhooks import (
     Deliverer,
     DeliveryLanes,
@@ -183,6 +185,17 @@ def test_failed_deliveries_are_sent_again_on_request(make_client: ClientFactory)
     assert client.post(f"/v1/webhooks/{oldest['id']}/recover", json={}).status_code == 404
     bad = client.post(f"/v1/webhooks/{hook['id']}/recover", json={"since": "yesterday"})
     assert bad.status_code == 422
+
+
+def test_the_default_retries_span_the_documented_ten_hours() -> None:
+    """The README and the setting say a receiver away overnight misses nothing: the
+    delays between the default attempts add up to about 10.4 hours (8 attempts used to
+    span 10.6 minutes)."""
+    settings = Settings(database_url="sqlite://")
+    delays = [backoff_seconds(attempt, settings.webhook_backoff_seconds,
+                              settings.webhook_backoff_max_seconds)
+              for attempt in range(1, settings.webhook_max_attempts)]
+    assert round(sum(delays) / 3600, 1) == 10.4
 
 
 def test_an_event_outlives_the_worker_that_completed_the_job(
