@@ -59,21 +59,26 @@ def catalogue(client: TestClient) -> dict[str, Any]:
     }
 
 
+def fill(client: TestClient) -> dict[str, Any]:
+    """Three parts, one with a second revision (the backup must hold both files); the
+    catalogue then."""
+    for path in FILES:
+        wait_for_status(client, upload(client, path, external_id=path.stem).json()["id"])
+    changed = client.put(
+        f"/v1/models/by-external-id/{FILES[0].stem}",
+        files={"file": (FILES[1].name, FILES[1].read_bytes())},
+    )
+    assert changed.status_code == 202, changed.text
+    # The model stays ready meanwhile: wait for the revision's job itself.
+    assert wait_for_job(client, changed.json()["job"]["id"])["status"] == "done"
+    return catalogue(client)
+
+
 def test_a_backup_taken_while_serving_restores_the_whole_service(tmp_path: Path) -> None:
     live = tmp_path / "live" / "shapesearch.db"
     client = started(live)
     try:
-        for path in FILES:
-            wait_for_status(client, upload(client, path, external_id=path.stem).json()["id"])
-        # A second revision of one part: the backup must hold both files.
-        changed = client.put(
-            f"/v1/models/by-external-id/{FILES[0].stem}",
-            files={"file": (FILES[1].name, FILES[1].read_bytes())},
-        )
-        assert changed.status_code == 202, changed.text
-        # The model stays ready meanwhile: wait for the revision's job itself.
-        assert wait_for_job(client, changed.json()["job"]["id"])["status"] == "done"
-        before = catalogue(client)
+        before = fill(client)
         (tmp_path / "backups").mkdir()
         made = backup_sqlite(live, tmp_path / "backups")  # a directory: a time-stamped file
     finally:
@@ -147,14 +152,7 @@ def test_a_postgresql_backup_taken_while_serving_restores_the_whole_service(
     url = new_database_url("postgresql")
     client = started_on(url)
     try:
-        for path in FILES:
-            wait_for_status(client, upload(client, path, external_id=path.stem).json()["id"])
-        changed = client.put(
-            f"/v1/models/by-external-id/{FILES[0].stem}",
-            files={"file": (FILES[1].name, FILES[1].read_bytes())},
-        )
-        assert wait_for_job(client, changed.json()["job"]["id"])["status"] == "done"
-        before = catalogue(client)
+        before = fill(client)
         made = backup_postgres(make_url(url), tmp_path)
     finally:
         client.__exit__(None, None, None)

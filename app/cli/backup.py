@@ -27,6 +27,7 @@ import sqlite3
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -90,23 +91,12 @@ def backup_sqlite(source: Path, destination: Path) -> Backup:
     """
     if not source.is_file():
         raise BackupError(f"no database at {source} (SHAPESEARCH_DATA_DIR)")
-    destination, partial = _new_file(destination, ".db")
-    started = time.perf_counter()
-    try:
+
+    def copy(partial: Path) -> dict[str, int]:
         _vacuum_into(source, partial)
-        models = _checked_contents(partial)
-        partial.replace(destination)
-    except (OSError, sqlite3.Error) as error:
-        raise BackupError(f"the backup to {destination} failed: {error}") from error
-    finally:
-        partial.unlink(missing_ok=True)
-    return Backup(
-        path=destination,
-        size_bytes=destination.stat().st_size,
-        models_by_status=models,
-        seconds=time.perf_counter() - started,
-        check="integrity check",
-    )
+        return _checked_contents(partial)
+
+    return _written(destination, ".db", copy, check="integrity check")
 
 
 def backup_postgres(url: URL, destination: Path) -> Backup:
@@ -124,34 +114,51 @@ def backup_postgres(url: URL, destination: Path) -> Backup:
         raise BackupError(f"{' and '.join(missing)} not found: install PostgreSQL's client "
                           "programs (Debian: apt-get install postgresql-client), of the "
                           "server's major version or newer")
-    destination, partial = _new_file(destination, ".dump")
-    started = time.perf_counter()
-    engine = create_engine(url, poolclass=NullPool)
-    try:
-        with engine.connect() as connection:
-            connection.execution_options(isolation_level="REPEATABLE READ")
-            with connection.begin():
-                # The dump reads the data as of this snapshot, while this transaction stays
-                # open; the models are counted in it too.
-                snapshot = connection.execute(text("SELECT pg_export_snapshot()")).scalar_one()
-                models = _models_by_status(connection)
-                _run(tools["pg_dump"], "--format=custom", f"--snapshot={snapshot}",
-                     f"--file={partial}", *_schemas(url), f"--dbname={_libpq(url)}",
-                     env=_libpq_environment(url))
+
+    def dump(partial: Path) -> dict[str, int]:
+        engine = create_engine(url, poolclass=NullPool)
+        try:
+            with engine.connect() as connection:
+                connection.execution_options(isolation_level="REPEATABLE READ")
+                with connection.begin():
+                    # The dump reads the data as of this snapshot, while this transaction
+                    # stays open; the models are counted in it too.
+                    snapshot = connection.execute(text("SELECT pg_export_snapshot()"))
+                    models = _models_by_status(connection)
+                    _run(tools["pg_dump"], "--format=custom",
+                         f"--snapshot={snapshot.scalar_one()}", f"--file={partial}",
+                         *_schemas(url), f"--dbname={_libpq(url)}",
+                         env=_libpq_environment(url))
+        finally:
+            engine.dispose()
         # Read back: every block of the archive, its data included, written to nowhere.
         _run(tools["pg_restore"], f"--file={os.devnull}", str(partial))
+        return models
+
+    return _written(destination, ".dump", dump, check="archive read back")
+
+
+def _written(
+    destination: Path, suffix: str, write: Callable[[Path], dict[str, int]], *, check: str
+) -> Backup:
+    """The backup that ``write`` makes at a hidden path (returning the models it holds by
+    status), renamed to ``destination`` (a time-stamped name in it if it is a directory)
+    once ``write`` has checked it; nothing is left behind if it fails."""
+    destination, partial = _new_file(destination, suffix)
+    started = time.perf_counter()
+    try:
+        models = write(partial)
         partial.replace(destination)
-    except (OSError, SQLAlchemyError) as error:
+    except (OSError, sqlite3.Error, SQLAlchemyError) as error:
         raise BackupError(f"the backup to {destination} failed: {error}") from error
     finally:
-        engine.dispose()
         partial.unlink(missing_ok=True)
     return Backup(
         path=destination,
         size_bytes=destination.stat().st_size,
         models_by_status=models,
         seconds=time.perf_counter() - started,
-        check="archive read back",
+        check=check,
     )
 
 

@@ -260,19 +260,19 @@ def retry_delivery(
     services: ServicesDep,
 ) -> DeliveryResource:
     hook = _load(session, tenant, webhook_id)
+    missing = Problem("delivery-not-found",
+                      f"The webhook {webhook_id} has no delivery {delivery_id}.")
     try:
         parsed = uuid.UUID(delivery_id)
     except ValueError:
-        raise Problem("delivery-not-found",
-                      f"The webhook {webhook_id} has no delivery {delivery_id}.") from None
+        raise missing from None
     with services.sessions.begin() as writing:  # requeue's lock comes first in it
         requeue(writing, hook.id, delivery_id=parsed)
         delivery = writing.scalar(select(WebhookDelivery).where(
             WebhookDelivery.id == parsed, WebhookDelivery.webhook_id == hook.id
         ))
         if delivery is None:
-            raise Problem("delivery-not-found",
-                          f"The webhook {webhook_id} has no delivery {delivery_id}.")
+            raise missing
         return _delivery_resources(writing, [delivery])[0]
 
 
