@@ -84,7 +84,6 @@ def record_model_event(
     return len(endpoints)
 
 
-
 def requeue(
     session: Session, webhook_id: uuid.UUID, *, delivery_id: uuid.UUID | None = None,
     since: datetime | None = None,
