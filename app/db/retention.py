@@ -37,7 +37,7 @@ from sqlalchemy import ColumnElement, and_, delete, exists, or_, select, true, t
 from sqlalchemy.orm import Session, aliased, sessionmaker
 
 from app.db.models import Job, WebhookDelivery, utcnow
-from app.db.session import rows_changed
+from app.db.session import pause_for_writers, rows_changed
 from app.observability.metrics import HISTORY_PRUNED
 
 __all__ = ["HistoryPruner", "Pruned", "prune_history"]
@@ -46,7 +46,6 @@ log = logging.getLogger("shapesearch.retention")
 
 SETTLED_JOBS = ("done", "failed")
 SETTLED_DELIVERIES = ("delivered", "failed")
-PAUSE_SECONDS = 0.1
 
 
 @dataclass(frozen=True)
@@ -143,10 +142,7 @@ def _delete_in_batches(
         if len(rows) < batch:
             break
         after = tuple(rows[-1])
-        # A pause as long as the delete, and at least SQLite's longest busy-handler sleep
-        # (100 ms): back to back, batches kept an upload waiting for the lock up to 835 ms
-        # (``bench/history_retention.py``), since a waiter retries only between its sleeps.
-        stop.wait(max(time.monotonic() - started, PAUSE_SECONDS))
+        pause_for_writers(started, stop)
     return deleted
 
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import hashlib
+import threading
+import time
 from pathlib import Path
 from typing import Any, cast
 
@@ -16,7 +18,7 @@ from app.db.models import FeedState
 
 __all__ = [
     "make_engine", "make_session_factory", "migrated_engine", "one_at_a_time", "open_sessions",
-    "read_only", "rows_changed",
+    "pause_for_writers", "read_only", "rows_changed",
 ]
 
 
@@ -152,3 +154,13 @@ def one_at_a_time(session: Session, name: str) -> None:
         session.execute(select(func.pg_advisory_xact_lock(key)))
     else:
         session.execute(update(FeedState).where(FeedState.id == 0).values(revision=0))
+
+
+def pause_for_writers(started: float, stop: threading.Event | None = None) -> None:
+    """Wait after one transaction of a long series of writes that began at ``started``
+    (``time.monotonic()``): as long as it took, and at least SQLite's longest busy-handler
+    sleep (100 ms), so that other writers take the lock between two of them. Back to back,
+    the history pruner's batches kept an upload waiting up to 835 ms, since a waiter
+    retries only between its sleeps (``bench/history_retention.py``). ``stop`` set: at once.
+    """
+    (stop or threading.Event()).wait(max(time.monotonic() - started, 0.1))

@@ -2,8 +2,8 @@
 
     outbox            record_model_event writes one delivery row per subscribed endpoint
                       inside the caller's transaction (the change and its event commit
-                      together); requeue queues settled deliveries again (a receiver that
-                      was away longer than the retries)
+                      together); requeue and recover queue settled deliveries again (a
+                      receiver that was away longer than the retries)
     targets           check_target: http(s) only; private, loopback and link-local addresses
                       refused unless SHAPESEARCH_WEBHOOK_ALLOW_PRIVATE=true; the request then
                       goes to the checked address (``pinned``), so DNS cannot swap it after
@@ -23,7 +23,7 @@ The body is ``{"type", "timestamp", "data": {"model": ..., "job": ...}}``; the h
 
 from app.webhooks.delivery import Deliverer, DeliveryLanes, start_delivery_lanes
 from app.webhooks.endpoint_secrets import new_secret, valid_secret
-from app.webhooks.outbox import EVENT_TYPES, record_model_event, requeue
+from app.webhooks.outbox import EVENT_TYPES, record_model_event, recover, requeue
 from app.webhooks.targets import TargetRefused, check_target, pinned
 
 __all__ = [
@@ -35,6 +35,7 @@ __all__ = [
     "new_secret",
     "pinned",
     "record_model_event",
+    "recover",
     "requeue",
     "start_delivery_lanes",
     "valid_secret",

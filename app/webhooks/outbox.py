@@ -1,23 +1,24 @@
 """The webhook outbox: one delivery row per subscribed endpoint, written inside the
 transaction that makes the change (the change and its event commit together); settled
-deliveries queued again on request (``requeue``)."""
+deliveries queued again on request (``requeue`` one, ``recover`` an endpoint's failed ones)."""
 
 from __future__ import annotations
 
+import time
 import uuid
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import insert, select, update
-from sqlalchemy.orm import Session
+from sqlalchemy import ColumnElement, insert, select, tuple_, update
+from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.doorbells import WEBHOOKS, announce
 from app.db.models import Job, Model, Webhook, WebhookDelivery, utcnow
-from app.db.session import one_at_a_time
+from app.db.session import one_at_a_time, pause_for_writers
 from app.jobs.turns import next_turn
 from app.webhooks.delivery import CLAIMS
 
-__all__ = ["EVENT_TYPES", "record_model_event", "requeue"]
+__all__ = ["EVENT_TYPES", "record_model_event", "recover", "requeue"]
 
 EVENT_TYPES = ("model.ready", "model.failed", "model.deleted")
 
@@ -84,13 +85,50 @@ def record_model_event(
     return len(endpoints)
 
 
-def requeue(
-    session: Session, webhook_id: uuid.UUID, *, delivery_id: uuid.UUID | None = None,
-    since: datetime | None = None,
-) -> list[uuid.UUID]:
-    """Queue settled deliveries of an endpoint again: the one ``delivery_id`` (delivered or
-    failed), or else every failed one created at or after ``since`` (None: every failed one
-    still kept). Returns their ids, oldest first.
+def requeue(session: Session, webhook_id: uuid.UUID, delivery_id: uuid.UUID) -> bool:
+    """Queue one delivered or failed delivery of an endpoint again; False if the endpoint
+    has no such settled delivery (``_requeue`` says how)."""
+    settled = WebhookDelivery.status.in_(("delivered", "failed"))
+    return bool(_requeue(session, webhook_id, [WebhookDelivery.id == delivery_id, settled]))
+
+
+def recover(
+    sessions: sessionmaker[Session], webhook_id: uuid.UUID, since: datetime | None = None,
+    *, batch: int = 1000,
+) -> int:
+    """Queue every failed delivery of an endpoint again, created at or after ``since``
+    (None: every failed one still kept), oldest first; returns how many.
+
+    ``batch`` per transaction, paced (``app.db.session.pause_for_writers``): in one
+    transaction, 10^5 failed deliveries held SQLite's write lock for 6.6 s, and an upload
+    waited as long (``bench/webhook_recover.py``). A delivery
+    that fails again meanwhile is not taken twice (only those last changed before the call
+    are), and each batch starts after the last one's last delivery.
+    """
+    began = utcnow()
+    count, after = 0, None
+    while True:
+        started = time.monotonic()
+        where = [WebhookDelivery.status == "failed", WebhookDelivery.updated_at < began]
+        if since is not None:
+            where.append(WebhookDelivery.created_at >= since)
+        if after is not None:
+            where.append(tuple_(WebhookDelivery.created_at, WebhookDelivery.id) > after)
+        with sessions.begin() as session:
+            queued = _requeue(session, webhook_id, where, limit=batch)
+        count += len(queued)
+        if len(queued) < batch:
+            return count
+        after = tuple_(*queued[-1])
+        pause_for_writers(started)
+
+
+def _requeue(
+    session: Session, webhook_id: uuid.UUID, where: list[ColumnElement[bool]],
+    limit: int | None = None,
+) -> list[tuple[datetime, uuid.UUID]]:
+    """Queue the endpoint's deliveries that ``where`` selects (at most ``limit``) again;
+    their (created_at, id), oldest first.
 
     Each keeps its id (the ``webhook-id`` a receiver deduplicates on) and payload, starts a
     new round of up to ``SHAPESEARCH_WEBHOOK_MAX_ATTEMPTS`` attempts (its log numbers them
@@ -99,24 +137,21 @@ def requeue(
     SQLite the transaction begins with the write lock (``app.db.session.one_at_a_time``).
     """
     one_at_a_time(session, CLAIMS)
-    query = select(WebhookDelivery.id).where(WebhookDelivery.webhook_id == webhook_id)
-    if delivery_id is not None:
-        query = query.where(WebhookDelivery.id == delivery_id,
-                            WebhookDelivery.status.in_(("delivered", "failed")))
-    else:
-        query = query.where(WebhookDelivery.status == "failed")
-        if since is not None:
-            query = query.where(WebhookDelivery.created_at >= since)
-    ids = list(session.scalars(query.order_by(WebhookDelivery.created_at, WebhookDelivery.id)))
-    if not ids:
+    rows = session.execute(
+        select(WebhookDelivery.created_at, WebhookDelivery.id)
+        .where(WebhookDelivery.webhook_id == webhook_id, *where)
+        .order_by(WebhookDelivery.created_at, WebhookDelivery.id)
+        .limit(limit)
+    ).all()
+    if not rows:
         return []
     first = next_turn(session, WebhookDelivery, [WebhookDelivery.webhook_id == webhook_id],
                       waiting="pending")
     now = utcnow()
     session.execute(update(WebhookDelivery), [
-        {"id": queued, "status": "pending", "attempts": 0, "run_after": now, "turn": first + n,
-         "leased_until": None, "worker_id": None, "updated_at": now}
-        for n, queued in enumerate(ids)
+        {"id": row.id, "status": "pending", "attempts": 0, "run_after": now,
+         "turn": first + n, "leased_until": None, "worker_id": None, "updated_at": now}
+        for n, row in enumerate(rows)
     ])
     announce(session, WEBHOOKS)
-    return ids
+    return [(row.created_at, row.id) for row in rows]

@@ -17,7 +17,14 @@ from app.api.deps import ServicesDep, SessionDep
 from app.api.problems import Problem, problem_responses
 from app.auth.dependency import TenantDep
 from app.db.models import Webhook, WebhookAttempt, WebhookDelivery
-from app.webhooks import TargetRefused, check_target, new_secret, requeue, valid_secret
+from app.webhooks import (
+    TargetRefused,
+    check_target,
+    new_secret,
+    recover,
+    requeue,
+    valid_secret,
+)
 
 __all__ = ["router"]
 
@@ -242,8 +249,7 @@ def recover_deliveries(
     services: ServicesDep,
 ) -> Recovered:
     hook = _load(session, tenant, webhook_id)
-    with services.sessions.begin() as writing:  # requeue's lock comes first in it
-        return Recovered(requeued=len(requeue(writing, hook.id, since=body.since)))
+    return Recovered(requeued=recover(services.sessions, hook.id, body.since))
 
 
 @router.post(
@@ -267,7 +273,7 @@ def retry_delivery(
     except ValueError:
         raise missing from None
     with services.sessions.begin() as writing:  # requeue's lock comes first in it
-        requeue(writing, hook.id, delivery_id=parsed)
+        requeue(writing, hook.id, parsed)
         delivery = writing.scalar(select(WebhookDelivery).where(
             WebhookDelivery.id == parsed, WebhookDelivery.webhook_id == hook.id
         ))
