@@ -101,9 +101,9 @@ def recover(
 
     ``batch`` per transaction, paced (``app.db.session.pause_for_writers``): in one
     transaction, 10^5 failed deliveries held SQLite's write lock for 6.6 s, and an upload
-    waited as long (``bench/webhook_recover.py``). A delivery
-    that fails again meanwhile is not taken twice (only those last changed before the call
-    are), and each batch starts after the last one's last delivery.
+    waited as long (``bench/webhook_recover.py``). A delivery that fails again meanwhile is
+    not taken twice (only those last changed before the call are), and each batch starts
+    after the last one's last delivery.
     """
     began = utcnow()
     count, after = 0, None
