@@ -5,13 +5,13 @@ each with ``--history`` settled jobs older than the retention plus its newest jo
 and ``--deliveries`` settled webhook deliveries older than the retention with one attempt
 each. Then:
 
-1. the baseline: a writer queues one job per transaction (``queue_job``, commit) on the idle
-   database, ``--writes`` times;
-2. the first pass deletes the old history while that writer goes on in another thread; its
+1. the baseline: an upload's transaction (its model, then its job: ``bench/uploads_beside.py``)
+   on the idle database, ``--writes`` times;
+2. the first pass deletes the old history while uploads go on in another thread; their
    latencies meanwhile are what the pruning costs everyone else (SQLite has one writer);
 3. a second pass finds nothing to delete: what every later hourly pass costs at this size.
 
-Prints the pass times, rows a second, the writer's median and worst latency during the pass
+Prints the pass times, rows a second, the uploads' median and worst latency during the pass
 against its baseline, and what is left.
 
     .venv/bin/python bench/history_retention.py [--models 100000] [--history 2]
@@ -24,7 +24,6 @@ import argparse
 import statistics
 import sys
 import tempfile
-import threading
 import time
 import uuid
 from datetime import timedelta
@@ -46,7 +45,7 @@ from app.db.models import (  # noqa: E402
 )
 from app.db.retention import prune_history  # noqa: E402
 from app.db.session import make_session_factory, migrated_engine  # noqa: E402
-from app.jobs.turns import queue_job  # noqa: E402
+from bench.uploads_beside import beside_uploads, upload_once  # noqa: E402
 
 CHUNK = 20000
 
@@ -92,19 +91,6 @@ def fill(sessions: sessionmaker[Session], models: int, history: int, deliveries:
             ])
 
 
-def write_once(sessions: sessionmaker[Session]) -> float:
-    """An upload's transaction: its model, then its job (the write first, as on SQLite
-    every write transaction of the service begins)."""
-    started = time.perf_counter()
-    with sessions.begin() as session:
-        model = Model(tenant="writer", meta={}, status="queued", file_name="a.stl",
-                      file_size=1, file_sha256="0" * 64, file_format="stl")
-        session.add(model)
-        session.flush()
-        queue_job(session, tenant="writer", model_id=model.id)
-    return time.perf_counter() - started
-
-
 def counts(sessions: sessionmaker[Session]) -> tuple[int, int, int]:
     with sessions() as session:
         return (
@@ -135,23 +121,10 @@ def main() -> None:
               f"(filled in {time.perf_counter() - started:.0f} s); rows (jobs, deliveries, "
               f"attempts): {counts(sessions)}")
 
-        baseline = [write_once(sessions) for _ in range(args.writes)]
-
-        during: list[float] = []
-        done = threading.Event()
-
-        def writer() -> None:
-            while not done.is_set():
-                during.append(write_once(sessions))
-                time.sleep(0.005)
-
-        thread = threading.Thread(target=writer)
-        thread.start()
-        started = time.perf_counter()
-        pruned = prune_history(sessions, days=30, batch=args.batch)
-        first = time.perf_counter() - started
-        done.set()
-        thread.join()
+        baseline = [upload_once(sessions) for _ in range(args.writes)]
+        pruned, first, during = beside_uploads(
+            sessions, lambda: prune_history(sessions, days=30, batch=args.batch)
+        )
 
         started = time.perf_counter()
         again = prune_history(sessions, days=30, batch=args.batch)

@@ -16,8 +16,6 @@ import argparse
 import statistics
 import sys
 import tempfile
-import threading
-import time
 import uuid
 from datetime import timedelta
 from pathlib import Path
@@ -28,10 +26,10 @@ from sqlalchemy.orm import Session, sessionmaker
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.db.models import Model, Webhook, WebhookDelivery, utcnow  # noqa: E402
+from app.db.models import Webhook, WebhookDelivery, utcnow  # noqa: E402
 from app.db.session import make_session_factory, migrated_engine  # noqa: E402
-from app.jobs.turns import queue_job  # noqa: E402
 from app.webhooks import recover  # noqa: E402
+from bench.uploads_beside import beside_uploads, upload_once  # noqa: E402
 
 CHUNK = 20000
 
@@ -55,37 +53,6 @@ def fill(sessions: sessionmaker[Session], deliveries: int) -> uuid.UUID:
     return hook
 
 
-def upload_once(sessions: sessionmaker[Session]) -> float:
-    started = time.perf_counter()
-    with sessions.begin() as session:
-        model = Model(tenant="writer", meta={}, status="queued", file_name="a.stl",
-                      file_size=1, file_sha256="0" * 64, file_format="stl")
-        session.add(model)
-        session.flush()
-        queue_job(session, tenant="writer", model_id=model.id)
-    return time.perf_counter() - started
-
-
-def beside_uploads(sessions: sessionmaker[Session], run: object) -> tuple[float, list[float]]:
-    """``run()``'s seconds, and the upload latencies written meanwhile."""
-    during: list[float] = []
-    done = threading.Event()
-
-    def uploads() -> None:
-        while not done.is_set():
-            during.append(upload_once(sessions))
-            time.sleep(0.005)
-
-    thread = threading.Thread(target=uploads)
-    thread.start()
-    started = time.perf_counter()
-    run()  # type: ignore[operator]
-    seconds = time.perf_counter() - started
-    done.set()
-    thread.join()
-    return seconds, during
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--deliveries", type=int, default=100000)
@@ -105,13 +72,9 @@ def main() -> None:
                              (f"batches of {args.batch}", args.batch)):
             with sessions.begin() as session:  # failed again, for this round
                 session.execute(update(WebhookDelivery).values(status="failed", attempts=20))
-            count = 0
-
-            def run(batch: int = batch) -> None:
-                nonlocal count
-                count = recover(sessions, hook, batch=batch)
-
-            seconds, during = beside_uploads(sessions, run)
+            count, seconds, during = beside_uploads(
+                sessions, lambda batch=batch: recover(sessions, hook, batch=batch)
+            )
             assert count == args.deliveries, count
             middle = statistics.median(during)
             print(f"{label}: {seconds:.1f} s; {len(during)} uploads meanwhile, median "
