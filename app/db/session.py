@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import sqlite3
 import threading
 import time
 from pathlib import Path
@@ -40,9 +41,9 @@ def make_engine(url: str) -> Engine:
         # Let SQLAlchemy, not the sqlite3 module, decide when transactions begin.
         dbapi_connection.isolation_level = None
         cursor = dbapi_connection.cursor()
-        cursor.execute("PRAGMA journal_mode=WAL")  # readers do not block the writer
-        cursor.execute("PRAGMA foreign_keys=ON")
         cursor.execute("PRAGMA busy_timeout=30000")
+        _write_ahead_log(cursor)  # readers do not block the writer
+        cursor.execute("PRAGMA foreign_keys=ON")
         cursor.close()
 
     @event.listens_for(engine, "begin")
@@ -56,6 +57,26 @@ def make_engine(url: str) -> Engine:
         connection.exec_driver_sql("BEGIN IMMEDIATE" if immediate else "BEGIN")
 
     return engine
+
+
+def _write_ahead_log(cursor: sqlite3.Cursor, wait: float = 30.0) -> None:
+    """Put the database in WAL mode, waiting up to ``wait`` seconds for the lock it needs.
+
+    Turning a new file to WAL takes the database's exclusive lock, and SQLite answers a
+    connection that finds it taken "database is locked" at once, busy timeout or not: of
+    two processes opening a new file together (``serve`` and ``shapesearch worker``, or the
+    compose file's services), one died at start in 2 of 6 trials
+    (``tests/test_migrations.py``). So the statement is tried again until ``wait`` is over.
+    """
+    deadline = time.monotonic() + wait
+    while True:
+        try:
+            cursor.execute("PRAGMA journal_mode=WAL")
+            return
+        except sqlite3.OperationalError as error:
+            if "locked" not in str(error) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.01)
 
 
 def make_session_factory(engine: Engine) -> sessionmaker[Session]:
