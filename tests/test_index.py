@@ -4,14 +4,16 @@ partitioned by tenant and descriptor version."""
 from __future__ import annotations
 
 import uuid
+from datetime import timedelta
 
 import numpy as np
 import pytest
-from sqlalchemy import delete
+from sqlalchemy import delete, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.feed import record_event
-from app.db.models import Model
+from app.db.models import IndexEvent, Model, utcnow
+from app.db.retention import prune_history
 from app.search.index import ShapeIndex
 from app.search.index._entry_neighbours import KEPT_MODELS, KeptEntryNeighbours, nearest_models
 from app.search.similarity import find_similar, metadata_matches, score_of
@@ -93,6 +95,30 @@ def test_an_event_for_a_model_deleted_meanwhile_adds_nothing(
     delete_model(sessions, doomed)
     index.sync()
     assert len(index) == 0
+
+
+def test_an_index_behind_the_pruned_feed_rebuilds_one_following_it_does_not(
+    sessions: sessionmaker[Session],
+) -> None:
+    kept = add_ready(sessions, unit(1))
+    doomed = add_ready(sessions, unit(2))
+    following, behind = ShapeIndex(sessions), ShapeIndex(sessions)
+    following.rebuild()
+    behind.rebuild()
+    added = add_ready(sessions, unit(3))  # its event is pruned before `behind` reads it
+    delete_model(sessions, doomed)  # the tenant's newest event: kept
+    assert following.sync() == 2
+    with sessions.begin() as session:
+        session.execute(update(IndexEvent).values(created_at=utcnow() - timedelta(days=40)))
+    assert prune_history(sessions, days=30).index_events == 3
+    changes = following.changes
+
+    assert following.sync() == 0 and following.changes == changes  # no rebuild
+    behind.sync()  # following the feed alone, it would never add `added`
+
+    for index in (following, behind):
+        assert kept in index and added in index and doomed not in index
+        assert len(index) == 2
 
 
 def test_partitions_keep_tenants_and_versions_apart(sessions: sessionmaker[Session]) -> None:

@@ -1,6 +1,6 @@
 """History retention (``app.db.retention``) on both databases: settled jobs and webhook
-deliveries older than the setting go, with their attempts; a model's newest job, anything
-unsettled and anything young stay."""
+deliveries older than the setting go, with their attempts, and so do old change-feed events;
+a model's newest job, a tenant's newest event, anything unsettled and anything young stay."""
 
 from __future__ import annotations
 
@@ -11,12 +11,24 @@ from datetime import datetime, timedelta
 
 from fastapi.testclient import TestClient
 from prometheus_client import REGISTRY
-from sqlalchemy import func, select
+from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.api.main import create_app
-from app.db.models import Job, Model, Webhook, WebhookAttempt, WebhookDelivery, utcnow
+from app.db.feed import record_event
+from app.db.models import (
+    DuplicateReport,
+    FeedState,
+    IndexEvent,
+    Job,
+    Model,
+    Webhook,
+    WebhookAttempt,
+    WebhookDelivery,
+    utcnow,
+)
 from app.db.retention import HistoryPruner, prune_history
+from app.search.duplicate_reports import is_stale
 from tests.conftest import fake_describe, make_settings
 
 NOW = utcnow()
@@ -180,3 +192,52 @@ def test_a_stopped_pass_deletes_nothing(sessions: sessionmaker[Session]) -> None
     stop.set()
     assert prune_history(sessions, 30, stop=stop).jobs == 0
     assert len(job_ids(sessions)) == 2
+
+
+def add_events(sessions: sessionmaker[Session], *made: tuple[str | None, datetime]) -> None:
+    """One change-feed event per (tenant, when), revisions 1, 2, ... in order."""
+    with sessions.begin() as session:
+        for index_id, (tenant, at) in enumerate(made, start=1):
+            revision = record_event(session, index_id, "ready", tenant or "none")
+            session.execute(update(IndexEvent).where(IndexEvent.revision == revision)
+                            .values(tenant=tenant, created_at=at))
+
+
+def test_old_feed_events_go_but_each_tenants_newest_stays_and_the_gap_is_recorded(
+    sessions: sessionmaker[Session],
+) -> None:
+    add_events(
+        sessions,
+        ("a", OLD - timedelta(days=3)),  # 1: a has a newer one
+        ("b", OLD - timedelta(days=2)),  # 2: b has a newer one
+        ("a", OLD - timedelta(days=1)),  # 3: a's newest
+        ("c", OLD),  # 4: c's newest
+        (None, OLD),  # 5: from before events named their tenant
+        ("b", YOUNG),  # 6
+    )
+    counted = pruned_total("index_events")
+
+    pruned = prune_history(sessions, days=30, now=NOW)
+
+    assert pruned.index_events == 3
+    assert pruned_total("index_events") - counted == 3
+    with sessions() as session:
+        assert set(session.scalars(select(IndexEvent.revision))) == {3, 4, 6}
+        assert session.scalar(select(FeedState.pruned_through)) == 5
+        # A tenant's reports are dated as before: a's newest event is still 3.
+        assert is_stale(session, DuplicateReport(tenant="a", revision=2))
+        assert not is_stale(session, DuplicateReport(tenant="a", revision=3))
+        assert not is_stale(session, DuplicateReport(tenant="c", revision=4))
+    assert prune_history(sessions, days=30, now=NOW).index_events == 0
+
+
+def test_feed_batches_reach_every_old_event_and_stop_at_young_ones(
+    sessions: sessionmaker[Session],
+) -> None:
+    add_events(sessions, *[("a", OLD - timedelta(hours=9 - hour)) for hour in range(9)],
+               ("a", YOUNG), ("a", YOUNG))
+
+    assert prune_history(sessions, days=30, batch=4, now=NOW).index_events == 9  # 4, 4, 1
+    with sessions() as session:
+        assert set(session.scalars(select(IndexEvent.revision))) == {10, 11}
+        assert session.scalar(select(FeedState.pruned_through)) == 9

@@ -234,6 +234,9 @@ class FeedState(Base):
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     revision: Mapped[int] = mapped_column(BigInteger, default=0)
+    # The newest revision whose event was pruned (revision 0015, ``app.db.retention``): a
+    # reader behind it may have missed an event and must rebuild instead of following.
+    pruned_through: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
 
 
 class ModelRevision(Base):

@@ -1,23 +1,30 @@
-"""How long the database keeps what is finished: settled jobs and webhook deliveries.
+"""How long the database keeps what is finished: settled jobs, webhook deliveries and the
+change feed's old events.
 
-Every upload, re-describe and catalogue re-describe adds a job, and every model event adds
-a delivery per subscribed endpoint with its attempts; once settled (a job ``done`` or
-``failed``, a delivery ``delivered`` or ``failed``) they are history. Without an end, the
-two tables grow with the service's age rather than its catalogue: a catalogue of 10^5
-parts re-described for each of a few releases and watched by three endpoints holds about
-a million rows of history after a year.
+Every upload, re-describe and catalogue re-describe adds a job and a change-feed event
+(``app.db.feed``), and every model event adds a delivery per subscribed endpoint with its
+attempts; once settled (a job ``done`` or ``failed``, a delivery ``delivered`` or
+``failed``, an event applied by every index) they are history. Without an end, the three
+tables grow with the service's age rather than its catalogue: a catalogue of 10^5 parts
+re-described for each of a few releases and watched by three endpoints holds about a
+million rows of history after a year.
 
-``prune_history`` deletes those settled longer than ``SHAPESEARCH_HISTORY_DAYS`` ago (30;
-0 keeps them all). It keeps, whatever its age,
+``prune_history`` deletes those older than ``SHAPESEARCH_HISTORY_DAYS`` (30; 0 keeps them
+all). It keeps, whatever its age,
 
 * a model's newest job: the model's resource shows it (``job``), and it tells why the
   model failed;
-* every job and delivery not yet settled (queued, running, pending or being sent).
+* every job and delivery not yet settled (queued, running, pending or being sent);
+* each tenant's newest event: it tells whether the tenant's stored duplicates reports are
+  stale (``app.search.duplicate_reports``).
 
 A deleted job's ``GET /v1/jobs/{id}`` is a 404 ``job-not-found``; a deleted delivery leaves
-its endpoint's deliveries list with its attempts. Rows go in short transactions of
-``batch`` with a pause after each, so that a writer waits for one batch at most, never for a
-whole year's history.
+its endpoint's deliveries list with its attempts. Deleting events records the newest revision
+deleted (``feed_state.pruned_through``) in the same transaction; a search index whose
+revision is behind it (one that stopped following for the whole retention) rebuilds from
+the models instead of following the feed. Rows go in short transactions of ``batch`` with
+a pause after each, so that a writer waits for one batch at most, never for a whole year's
+history.
 
 Every process that runs job workers runs a ``HistoryPruner``: once at start, then every
 ``interval`` seconds. Processes pruning at the same time delete disjoint rows or find them
@@ -33,10 +40,10 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta
 from typing import Any
 
-from sqlalchemy import ColumnElement, and_, delete, exists, or_, select, true, tuple_
+from sqlalchemy import ColumnElement, and_, delete, exists, or_, select, true, tuple_, update
 from sqlalchemy.orm import Session, aliased, sessionmaker
 
-from app.db.models import Job, WebhookDelivery, utcnow
+from app.db.models import FeedState, IndexEvent, Job, WebhookDelivery, utcnow
 from app.db.session import pause_for_writers, rows_changed
 from app.observability.metrics import HISTORY_PRUNED
 
@@ -54,13 +61,15 @@ class Pruned:
 
     jobs: int
     webhook_deliveries: int
+    index_events: int
 
 
 def prune_history(
     sessions: sessionmaker[Session], days: float, *, batch: int = 1000,
     stop: threading.Event | None = None, now: datetime | None = None,
 ) -> Pruned:
-    """Delete jobs and webhook deliveries settled more than ``days`` ago.
+    """Delete jobs and webhook deliveries settled, and change-feed events made, more than
+    ``days`` ago.
 
     Parameters
     ----------
@@ -81,7 +90,7 @@ def prune_history(
         How many rows of each table went.
     """
     if days <= 0:
-        return Pruned(jobs=0, webhook_deliveries=0)
+        return Pruned(jobs=0, webhook_deliveries=0, index_events=0)
     before = (now or utcnow()) - timedelta(days=days)
     stop = stop or threading.Event()
     jobs = sum(
@@ -92,9 +101,11 @@ def prune_history(
         _delete_in_batches(sessions, WebhookDelivery, status, before, true(), batch, stop)
         for status in SETTLED_DELIVERIES
     )
+    events = _prune_feed(sessions, before, batch, stop)
     HISTORY_PRUNED.labels("jobs").inc(jobs)
     HISTORY_PRUNED.labels("webhook_deliveries").inc(deliveries)
-    return Pruned(jobs=jobs, webhook_deliveries=deliveries)
+    HISTORY_PRUNED.labels("index_events").inc(events)
+    return Pruned(jobs=jobs, webhook_deliveries=deliveries, index_events=events)
 
 
 def _not_a_models_newest() -> ColumnElement[bool]:
@@ -146,6 +157,57 @@ def _delete_in_batches(
     return deleted
 
 
+def _prune_feed(
+    sessions: sessionmaker[Session], before: datetime, batch: int, stop: threading.Event
+) -> int:
+    """Delete the change-feed events made before ``before`` but each tenant's newest,
+    ``batch`` at a time, oldest first.
+
+    Revisions commit in order (``app.db.feed``), so the events are walked by revision, their
+    primary key, until the first young one. Each transaction also raises
+    ``feed_state.pruned_through`` to the newest revision it deleted: an index reads the
+    events and then that number (``ShapeIndex.sync``), so it either read a deleted event
+    before it went or sees that it went."""
+    newer = aliased(IndexEvent)
+    # Events of no tenant are from before revision 0010: no report is dated by them.
+    not_a_tenants_newest = or_(IndexEvent.tenant.is_(None), exists().where(
+        newer.tenant == IndexEvent.tenant, newer.revision > IndexEvent.revision
+    ))
+    deleted = 0
+    after = 0
+    while not stop.is_set():
+        with sessions() as session:
+            rows = session.execute(
+                select(IndexEvent.revision, IndexEvent.created_at)
+                .where(IndexEvent.revision > after)
+                .order_by(IndexEvent.revision)
+                .limit(batch)
+            ).all()
+        old = [row.revision for row in rows if row.created_at < before]
+        if not old:
+            break
+        started = time.monotonic()
+        with sessions.begin() as session:
+            gone = session.execute(
+                delete(IndexEvent)
+                .where(IndexEvent.revision.in_(old), not_a_tenants_newest)
+                .returning(IndexEvent.revision)
+            ).scalars().all()
+            if gone:
+                newest_gone = max(gone)
+                session.execute(
+                    update(FeedState)
+                    .where(FeedState.id == 1, FeedState.pruned_through < newest_gone)
+                    .values(pruned_through=newest_gone)
+                )
+            deleted += len(gone)
+        if len(old) < batch:  # a young event, or the feed's end
+            break
+        after = old[-1]
+        pause_for_writers(started, stop)
+    return deleted
+
+
 class HistoryPruner:
     """A daemon thread that prunes at start and every ``interval`` seconds.
 
@@ -182,9 +244,10 @@ class HistoryPruner:
         while not self.stopping.is_set():
             try:
                 pruned = prune_history(self.sessions, self.days, stop=self.stopping)
-                if pruned.jobs or pruned.webhook_deliveries:
+                if pruned.jobs or pruned.webhook_deliveries or pruned.index_events:
                     log.info("history older than %g days pruned: %d jobs, %d webhook "
-                             "deliveries", self.days, pruned.jobs, pruned.webhook_deliveries)
+                             "deliveries, %d change-feed events", self.days, pruned.jobs,
+                             pruned.webhook_deliveries, pruned.index_events)
             except Exception as error:  # the database is away: the next pass tries again
                 log.warning("history pruning failed, next try in %.0f s: %s",
                             self.interval, error)

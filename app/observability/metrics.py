@@ -10,7 +10,8 @@ Process metrics, counted as things happen (module-level, one set per process):
     shapesearch_cutoff_n                                         eigenpairs chosen per model
     shapesearch_webhook_delivery_attempts_total{outcome}         delivered / retry / failed
     shapesearch_history_pruned_total{table}                     settled jobs / webhook
-                                                                 deliveries deleted as older
+                                                                 deliveries / change-feed
+                                                                 events deleted as older
                                                                  than SHAPESEARCH_HISTORY_DAYS
     shapesearch_uploads_unchecked_total{reason}                  uploads let through without
                                                                  their quick check: busy /
@@ -126,8 +127,8 @@ UNCHECKED_UPLOADS = Counter(
 )
 HISTORY_PRUNED = Counter(
     "shapesearch_history_pruned",
-    "Settled jobs and webhook deliveries deleted as older than SHAPESEARCH_HISTORY_DAYS, by "
-    "table (jobs, webhook_deliveries).",
+    "Settled jobs and webhook deliveries, and change-feed events, deleted as older than "
+    "SHAPESEARCH_HISTORY_DAYS, by table (jobs, webhook_deliveries, index_events).",
     ["table"],
 )
 CUTOFF_N = Histogram(

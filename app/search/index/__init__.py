@@ -5,6 +5,8 @@ start-up (``rebuild``, streamed in chunks of rows) and then follows the change f
 (``index_events``, see ``app.db.feed``) with ``sync``, run by a background thread: it keeps
 the last revision it applied and reads only newer events, so a sync that finds nothing new
 is one indexed query. Deletes made in this process are also applied at once with ``remove``.
+Events older than the history kept are pruned (``app.db.retention``); an index that was
+behind them all that time rebuilds instead.
 
 One partition per (tenant, descriptor_version): tenants never see each other's models and
 descriptors of different layouts are never compared. Scan mode's extra entries, the
@@ -50,6 +52,7 @@ aside and swaps them in, so searches never wait for it.
 
 from __future__ import annotations
 
+import logging
 import threading
 import uuid
 from collections import Counter, defaultdict
@@ -83,6 +86,8 @@ from app.search.index._view_ids import (
 )
 from core.hubness import HUB_NEIGHBOURS
 from core.settings import MAX_VIEWS
+
+log = logging.getLogger("shapesearch.index")
 
 __all__ = [
     "VIEW_ID_BASE",
@@ -604,7 +609,21 @@ class ShapeIndex:
             last = rows[-1][0]
 
     def sync(self) -> int:
-        """Apply the change-feed events newer than ``revision``; returns how many."""
+        """Apply the change-feed events newer than ``revision``; returns how many.
+
+        An index behind the feed's pruning (``app.db.retention``: it stopped following for
+        longer than the history is kept) may have missed events that are gone; it rebuilds
+        from the models instead."""
+        applied, missed = self._follow()
+        if missed:
+            log.warning("search index at change-feed revision %d, behind the feed's pruning: "
+                        "rebuilding it from the models", self.revision)
+            self.rebuild()
+        return applied
+
+    def _follow(self) -> tuple[int, bool]:
+        """Apply the events newer than ``revision``: how many, and whether some of them
+        were pruned before they could be read."""
         assert self.sessions is not None
         applied = 0
         with self._sync_lock:
@@ -616,8 +635,15 @@ class ShapeIndex:
                         .order_by(IndexEvent.revision)
                         .limit(_EVENT_BATCH)
                     ).all()
+                    # Read after the events: a pruning that deleted one of them before
+                    # that read had committed, and so shows here.
+                    pruned_through = session.execute(
+                        select(FeedState.pruned_through).where(FeedState.id == 1)
+                    ).scalar_one()
+                    if pruned_through > self.revision:
+                        return applied, True
                     if not events:
-                        return applied
+                        return applied, False
                     latest = {event.index_id: event.kind for event in events}  # last one wins
                     wanted = [i for i, kind in latest.items() if kind == "ready"]
                     rows = cast(list[_Row], (
