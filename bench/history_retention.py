@@ -1,9 +1,10 @@
 """Benchmark: pruning a year of history (``app.db.retention``) beside a writer.
 
 A new SQLite database (or ``--database-url``, an empty one) holds ``--models`` ready models,
-each with ``--history`` settled jobs older than the retention plus its newest job (kept),
-and ``--deliveries`` settled webhook deliveries older than the retention with one attempt
-each. Then:
+each with ``--history`` settled jobs older than the retention plus its newest job (kept)
+and a change-feed event for each of those jobs (the tenant's newest event is kept), and
+``--deliveries`` settled webhook deliveries older than the retention with one attempt each.
+Then:
 
 1. the baseline: an upload's transaction (its model, then its job: ``bench/uploads_beside.py``)
    on the idle database, ``--writes`` times;
@@ -12,7 +13,9 @@ each. Then:
 3. a second pass finds nothing to delete: what every later hourly pass costs at this size.
 
 Prints the pass times, rows a second, the uploads' median and worst latency during the pass
-against its baseline, and what is left.
+against its baseline, and what is left; last, what an idle search index's sync costs now
+that it reads ``feed_state.pruned_through`` after the events, against the events' read
+alone (all a sync read before the feed was pruned).
 
     .venv/bin/python bench/history_retention.py [--models 100000] [--history 2]
         [--deliveries 300000] [--batch 1000] [--database-url URL]
@@ -29,13 +32,15 @@ import uuid
 from datetime import timedelta
 from pathlib import Path
 
-from sqlalchemy import func, insert, select
+from sqlalchemy import func, insert, select, update
 from sqlalchemy.orm import Session, sessionmaker
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from app.db.models import (  # noqa: E402
+    FeedState,
+    IndexEvent,
     Job,
     Model,
     Webhook,
@@ -45,6 +50,7 @@ from app.db.models import (  # noqa: E402
 )
 from app.db.retention import prune_history  # noqa: E402
 from app.db.session import make_session_factory, migrated_engine  # noqa: E402
+from app.search.index import ShapeIndex  # noqa: E402
 from bench.uploads_beside import beside_uploads, upload_once  # noqa: E402
 
 CHUNK = 20000
@@ -54,9 +60,17 @@ def fill(sessions: sessionmaker[Session], models: int, history: int, deliveries:
     now = utcnow()
     old = now - timedelta(days=400)
     engine = sessions.kw["bind"]
+    revision = 0
     with engine.begin() as connection:
         for start in range(0, models, CHUNK):
             ids = [uuid.uuid4() for _ in range(start, min(models, start + CHUNK))]
+            events = [
+                {"revision": revision + 1 + number, "index_id": start + 1 + number // (history + 1),
+                 "kind": "ready", "tenant": "t", "created_at": old}
+                for number in range(len(ids) * (history + 1))
+            ]
+            connection.execute(insert(IndexEvent), events)
+            revision += len(events)
             connection.execute(insert(Model), [
                 {"id": model_id, "tenant": "t", "meta": {}, "status": "ready",
                  "file_name": "a.stl", "file_size": 1, "file_sha256": "0" * 64,
@@ -70,6 +84,7 @@ def fill(sessions: sessionmaker[Session], models: int, history: int, deliveries:
                  "updated_at": old + timedelta(days=age)}
                 for model_id in ids for age in range(history + 1)  # the last one is kept
             ])
+        connection.execute(update(FeedState).where(FeedState.id == 1).values(revision=revision))
         webhook_id = uuid.uuid4()
         connection.execute(insert(Webhook), [{
             "id": webhook_id, "tenant": "t", "url": "https://example.com/hook",
@@ -91,13 +106,33 @@ def fill(sessions: sessionmaker[Session], models: int, history: int, deliveries:
             ])
 
 
-def counts(sessions: sessionmaker[Session]) -> tuple[int, int, int]:
+def counts(sessions: sessionmaker[Session]) -> tuple[int, int, int, int]:
     with sessions() as session:
-        return (
-            session.scalar(select(func.count()).select_from(Job)) or 0,
-            session.scalar(select(func.count()).select_from(WebhookDelivery)) or 0,
-            session.scalar(select(func.count()).select_from(WebhookAttempt)) or 0,
+        return tuple(  # type: ignore[return-value]
+            session.scalar(select(func.count()).select_from(table)) or 0
+            for table in (Job, WebhookDelivery, WebhookAttempt, IndexEvent)
         )
+
+
+def idle_sync(sessions: sessionmaker[Session], repeats: int = 2000) -> tuple[float, float]:
+    """Median seconds of an up-to-date index's sync, and of its events' read alone."""
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    syncs, reads = [], []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        index.sync()
+        syncs.append(time.perf_counter() - started)
+        started = time.perf_counter()
+        with sessions() as session:
+            session.execute(
+                select(IndexEvent.revision, IndexEvent.index_id, IndexEvent.kind)
+                .where(IndexEvent.revision > index.revision)
+                .order_by(IndexEvent.revision)
+                .limit(5000)
+            ).all()
+        reads.append(time.perf_counter() - started)
+    return statistics.median(syncs), statistics.median(reads)
 
 
 def main() -> None:
@@ -117,9 +152,10 @@ def main() -> None:
         started = time.perf_counter()
         fill(sessions, args.models, args.history, args.deliveries)
         print(f"{engine.dialect.name}: {args.models} models with {args.history} old jobs "
-              f"each and their newest, {args.deliveries} old deliveries with an attempt each "
-              f"(filled in {time.perf_counter() - started:.0f} s); rows (jobs, deliveries, "
-              f"attempts): {counts(sessions)}")
+              f"each and their newest, an event for each of those jobs, {args.deliveries} "
+              f"old deliveries with an attempt each (filled in "
+              f"{time.perf_counter() - started:.0f} s); rows (jobs, deliveries, attempts, "
+              f"events): {counts(sessions)}")
 
         baseline = [upload_once(sessions) for _ in range(args.writes)]
         pruned, first, during = beside_uploads(
@@ -130,18 +166,22 @@ def main() -> None:
         again = prune_history(sessions, days=30, batch=args.batch)
         second = time.perf_counter() - started
 
-        rows = pruned.jobs + pruned.webhook_deliveries
+        rows = pruned.jobs + pruned.webhook_deliveries + pruned.index_events
         base = statistics.median(baseline)
-        print(f"first pass: {pruned.jobs} jobs and {pruned.webhook_deliveries} deliveries "
-              f"(with their attempts) in {first:.1f} s, {rows / first:.0f} rows/s "
-              f"(batch {args.batch})")
+        print(f"first pass: {pruned.jobs} jobs, {pruned.webhook_deliveries} deliveries "
+              f"(with their attempts) and {pruned.index_events} events in {first:.1f} s, "
+              f"{rows / first:.0f} rows/s (batch {args.batch})")
         middle = statistics.median(during)
         print(f"an upload's transaction: baseline median {base * 1e3:.2f} ms, worst "
               f"{max(baseline) * 1e3:.1f} ms; during the pass ({len(during)} uploads) median "
               f"{middle * 1e3:.2f} ms ({middle / base:.1f}x), worst {max(during) * 1e3:.1f} ms "
               f"({max(during) / base:.0f}x the baseline median)")
-        print(f"second pass (nothing older left): {again.jobs + again.webhook_deliveries} rows "
-              f"in {second * 1e3:.0f} ms; left (jobs, deliveries, attempts): {counts(sessions)}")
+        left = again.jobs + again.webhook_deliveries + again.index_events
+        print(f"second pass (nothing older left): {left} rows in {second * 1e3:.0f} ms; left "
+              f"(jobs, deliveries, attempts, events): {counts(sessions)}")
+        sync, read = idle_sync(sessions)
+        print(f"an idle index's sync: median {sync * 1e6:.0f} us, its events' read alone "
+              f"{read * 1e6:.0f} us ({sync / read:.2f}x)")
         engine.dispose()
 
 

@@ -4,9 +4,10 @@ The database is the source of truth. Each process builds its index from the data
 start-up (``rebuild``, streamed in chunks of rows) and then follows the change feed
 (``index_events``, see ``app.db.feed``) with ``sync``, run by a background thread: it keeps
 the last revision it applied and reads only newer events, so a sync that finds nothing new
-is one indexed query. Deletes made in this process are also applied at once with ``remove``.
-Events older than the history kept are pruned (``app.db.retention``); an index that was
-behind them all that time rebuilds instead.
+is two indexed reads (the events, then how far the feed was pruned). Deletes made in this
+process are also applied at once with ``remove``. Events older than the history kept are
+pruned (``app.db.retention``); an index that was behind them all that time rebuilds
+instead.
 
 One partition per (tenant, descriptor_version): tenants never see each other's models and
 descriptors of different layouts are never compared. Scan mode's extra entries, the
