@@ -58,6 +58,7 @@ import json
 import os
 import secrets
 import socket
+import statistics
 import subprocess
 import sys
 import time
@@ -294,6 +295,9 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
     print(f"recall@{K} vs exact, after exact re-ranking: {recall:.4f}; {K}th distance found / "
           f"exact: mean {ratio.mean():.4f}, max {ratio.max():.4f}")
 
+    if index.hub_neighbours:
+        hub_discount_at_scale(index, key, real, args, total)
+
     doomed = np.random.default_rng(3).choice(total, size=1000, replace=False)
     t0 = time.perf_counter()
     index.remove_many(doomed.tolist())
@@ -303,6 +307,54 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
         f"peak RSS of this process {now['VmHWM']:.0f} MB; now anonymous "
         f"{now['RssAnon']:.0f} MB + file-backed {now['RssFile']:.0f} MB"
     )
+
+
+def hub_discount_at_scale(
+    index: Any, key: tuple[str, str], real: np.ndarray, args: argparse.Namespace, total: int
+) -> None:
+    """What the hub discount costs at this size (``app.search.index._kept``): a similar
+    query's candidates' radii before any neighbourhood is kept and after the background
+    pass has kept them all, the pass itself, and a model added alone (a sync of one ready
+    event) with and without them kept: it forgets the neighbourhoods it enters."""
+    support = args.noise_support
+    candidates = 4 * K  # the discount's pool (app.search.similarity)
+    probes = queries(real, args.hub_queries, args.noise, 5, support=support)
+    pools = [[i for i, _ in index.search(key, vector, candidates)] for vector in probes]
+    fresh = queries(real, 2 * args.adds, args.noise, 6, support=support)
+
+    def radii_times() -> list[float]:
+        times = []
+        for pool in pools:
+            t0 = time.perf_counter()
+            index.neighbourhood_radii(key, pool)
+            times.append(time.perf_counter() - t0)
+        return times
+
+    def single_adds(vectors: np.ndarray, first_id: int) -> list[float]:
+        times = []
+        for offset, vector in enumerate(vectors):
+            t0 = time.perf_counter()
+            index.add(first_id + offset, key, vector)
+            times.append(time.perf_counter() - t0)
+        return times
+
+    unkept = radii_times()  # computed, not kept: a query computes only its own pool's
+    index._partitions[key].kept.forget()  # noqa: SLF001 (as before any query)
+    plain_adds = single_adds(fresh[: args.adds], 10**8)
+    before = status_mb()
+    t0 = time.perf_counter()
+    kept = index.keep_neighbourhoods()
+    seconds = time.perf_counter() - t0
+    grown = status_mb()["RssAnon"] - before["RssAnon"]
+    kept_radii = radii_times()
+    kept_adds = single_adds(fresh[args.adds :], 10**8 + args.adds)
+    print(f"hub discount (k={index.hub_neighbours}): a query's {candidates} candidates' radii, "
+          f"none kept: {percentiles(unkept)}")
+    print(f"the background pass kept {kept} neighbourhoods in {seconds:.0f} s, one thread "
+          f"(anonymous memory +{grown:.0f} MB); then the radii: {percentiles(kept_radii)} "
+          f"({statistics.median(unkept) / statistics.median(kept_radii):.0f}x faster)")
+    print(f"a model added alone ({args.adds} each): none kept {percentiles(plain_adds)}; all "
+          f"kept (each forgets those it enters) {percentiles(kept_adds)}")
 
 
 # --- phase: a database and an API process ---------------------------------------------------
@@ -939,6 +991,10 @@ def main() -> None:
         help="index phase: noise on every dimension, or only where the real descriptors differ",
     )
     parser.add_argument("--queries", type=int, default=200, help="queries per in-process figure")
+    parser.add_argument("--hub-queries", type=int, default=50,
+                        help="index phase: queries whose candidates' radii are timed")
+    parser.add_argument("--adds", type=int, default=200,
+                        help="index phase: models added one at a time, each way")
     parser.add_argument("--concurrency", type=int, nargs="*", default=[1, 16, 64])
     parser.add_argument("--requests", type=int, default=3000, help="HTTP requests per level")
     parser.add_argument("--seconds", type=float, default=20, help="time bound per level")

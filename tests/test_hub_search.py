@@ -5,12 +5,13 @@ the setting that turns it off."""
 
 from __future__ import annotations
 
+import faiss
 import numpy as np
 import pytest
 from conftest import make_settings
 from sqlalchemy.orm import Session, sessionmaker
 
-from app.search.index import ShapeIndex
+from app.search.index import ShapeIndex, _neighbours
 from app.search.similarity import Match, find_similar
 from core.hubness import hub_keys, neighbourhood_radii, rerank_depth
 from core.reciprocal import pool_keys, reciprocal_depth
@@ -314,6 +315,51 @@ def test_a_bulk_change_forgets_every_neighbourhood_and_the_index_wants_them_agai
     small = ShapeIndex(sessions, hub_neighbours=200)
     small.rebuild()
     assert small.wants_neighbourhoods() is False and small.keep_neighbourhoods() == 0
+
+
+def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
+    sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    rows = unit_rows(400, 6, seed=21).astype(np.float32)
+    ids = [add_ready(sessions, row) for row in rows[:399]]
+    index = ShapeIndex(sessions, hub_neighbours=4, exact_max=100)
+    index.rebuild()
+    partition = index._partitions[KEY]
+    assert partition.approximate  # one block per inverted list
+    invlists = faiss.extract_index_ivf(partition.index).invlists
+    lists = sum(invlists.list_size(number) > 0 for number in range(invlists.nlist))
+    kept = partition.kept
+    computed: list[int] = []
+    nearest = _neighbours._nearest
+    stopped = False
+
+    def counted(*args: object) -> tuple[np.ndarray, np.ndarray]:
+        nonlocal stopped
+        computed.append(1)
+        if len(computed) == 5 and not stopped:
+            kept.version += 1  # as a change between two blocks: the pass stops
+            stopped = True
+        return nearest(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(_neighbours, "_nearest", counted)
+    assert 0 < index.keep_neighbourhoods() < len(ids) and len(computed) == 5
+    computed.clear()
+    assert index.keep_neighbourhoods() == len(ids)
+    assert len(computed) == lists - 5  # it went on where the stopped one ended
+    ids.append(add_ready(sessions, rows[399]))
+    assert index.sync() == 1  # forgets its own neighbourhood and those it enters
+    computed.clear()
+    assert index.keep_neighbourhoods() == len(ids)
+    assert 0 < len(computed) < lists / 2
+    # What the passes kept piecewise is what one pass keeps from nothing.
+    piecewise = {own: kept.get(own) for own in ids}
+    kept.forget()
+    assert index.keep_neighbourhoods() == len(ids)
+    for own, entry in piecewise.items():
+        whole = kept.get(own)
+        assert entry is not None and whole is not None
+        assert (entry.top, entry.kth, entry.after) == pytest.approx(
+            (whole.top, whole.kth, whole.after), abs=1e-6)
 
 
 def test_a_candidate_the_index_dropped_comes_after_the_others_in_the_re_rank(

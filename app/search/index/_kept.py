@@ -126,6 +126,18 @@ class KeptNeighbourhoods:
             found.append(entry)
         return found
 
+    def holding(self, ids: np.ndarray) -> np.ndarray:
+        """Whether a neighbourhood of each of ``ids : (m,) int64`` is kept: ``(m,) bool``."""
+        held = self._table.rows(np.asarray(ids, dtype=np.int64)) >= 0
+        entries = self._entries
+        if entries:
+            held |= np.fromiter((own in entries for own in ids.tolist()), bool, len(ids))
+        return held
+
+    def holds_all(self, ids: np.ndarray) -> bool:
+        """Whether the neighbourhood of every one of ``ids : (m,) int64`` is kept."""
+        return bool(self.holding(ids).all())
+
     def put(self, own: int, entry: Neighbourhood) -> None:
         """Keep one neighbourhood a query computed."""
         self._entries[own] = entry

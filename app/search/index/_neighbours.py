@@ -29,7 +29,7 @@ one from the graph instead, one block per read lock (an API process, in the back
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import faiss
@@ -97,18 +97,27 @@ def neighbour_graph(partition: Partition, k: int) -> NeighbourGraph:
 GraphBlock = tuple[slice, np.ndarray, np.ndarray]
 
 
-def graph_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
+#: Whether a block of rows with these ``(m,)`` ids may be left out (it is known already).
+Skip = Callable[[np.ndarray], bool]
+
+
+def graph_blocks(
+    partition: Partition, k: int, skip: Skip | None = None
+) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
     """The graph of ``partition`` (not empty) block by block: the ``(n,)`` ids, the blocks,
-    each computed when the iterator is advanced, and whether every pair is compared. The
-    read lock must be held while the ids are taken and while each block is computed, and
-    the partition unchanged in between (``Partition.kept.version``): a caller may release
-    the lock between blocks and stop when the partition changed."""
+    each computed when the iterator is advanced (but those ``skip`` leaves out), and whether
+    every pair is compared. The read lock must be held while the ids are taken and while
+    each block is computed, and the partition unchanged in between
+    (``Partition.kept.version``): a caller may release the lock between blocks and stop
+    when the partition changed."""
     if partition.approximate:
-        return _ivf_blocks(partition, k)
-    return _flat_blocks(partition, k)
+        return _ivf_blocks(partition, k, skip)
+    return _flat_blocks(partition, k, skip)
 
 
-def _flat_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
+def _flat_blocks(
+    partition: Partition, k: int, skip: Skip | None
+) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
     """Every vector against every other, a block of rows at a time."""
     index = partition.index  # IndexIDMap2(IndexFlatL2)
     ids = faiss.vector_to_array(index.id_map).astype(np.int64)
@@ -120,6 +129,8 @@ def _flat_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[Gra
     def blocks() -> Iterator[GraphBlock]:
         for start in range(0, n, step):
             rows = slice(start, start + step)
+            if skip is not None and skip(ids[rows]):
+                continue
             yield rows, *_nearest(vectors[rows], positions[rows], vectors, positions, k)
 
     return ids, blocks(), True
@@ -189,7 +200,13 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
     would, from the neighbour graph (one block-wise pass instead of a search per model);
     the count kept. Takes the read lock for one block at a time, so that changes wait for
     a block, not for the whole pass; stops early when the partition changed meanwhile
-    (those kept so far stay: the change forgot the ones it moved)."""
+    (those kept so far stay: the change forgot the ones it moved).
+
+    A block whose every neighbourhood is kept already is not computed again, so the next
+    pass goes on where a stopped one ended, and after a few changes computes only the
+    blocks of the neighbourhoods they moved. Starting over instead, a pass longer than the
+    time between two changes (15 minutes at 10^6 models, ``bench/search_scale.py``) never
+    reached its end while parts kept arriving."""
     kept = partition.kept
     with partition.lock.reading():
         kept.use(k)
@@ -197,21 +214,20 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
         if partition.index.ntotal < k + 2:
             kept.pass_version = version
             return 0
-        ids, blocks, _ = graph_blocks(partition, k + 1)
+        ids, blocks, _ = graph_blocks(partition, k + 1, skip=kept.holds_all)
         kept.start_pass(ids)
-    count = 0
     while True:
         with partition.lock.reading():
             if kept.version != version or kept.k != k:
-                return count
+                break
             block = next(blocks, None)
             if block is None:
                 kept.pass_version = version
-                return count
+                break
             rows, _, cosines = block
             complete = np.isfinite(cosines).all(axis=1)
             kept.put_block(ids[rows][complete], cosines[complete])
-            count += int(complete.sum())
+    return int(kept.holding(ids).sum())
 
 
 def _counted_radii(
@@ -247,7 +263,9 @@ def _nearest_others(
     return nearest
 
 
-def _ivf_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
+def _ivf_blocks(
+    partition: Partition, k: int, skip: Skip | None
+) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
     """Each inverted list against the ``nprobe`` lists nearest it, on the full vectors."""
     ivf = faiss.extract_index_ivf(partition.index)
     full = partition.full
@@ -261,7 +279,7 @@ def _ivf_blocks(partition: Partition, k: int) -> tuple[np.ndarray, Iterator[Grap
 
     def blocks() -> Iterator[GraphBlock]:
         for number in range(ivf.nlist):
-            if len(members[number]) == 0:
+            if len(members[number]) == 0 or (skip is not None and skip(members[number])):
                 continue
             # Its own list first, whatever ties between equal centroids say.
             lists = [number, *(int(j) for j in nearby[number] if 0 <= j != number)][:probes]
