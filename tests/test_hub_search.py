@@ -331,23 +331,28 @@ def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
     kept = partition.kept
     computed: list[int] = []
     nearest = _neighbours._nearest
+    stop_after = lists * 3 // 4  # more than half kept when it stops
     stopped = False
 
     def counted(*args: object) -> tuple[np.ndarray, np.ndarray]:
         nonlocal stopped
         computed.append(1)
-        if len(computed) == 5 and not stopped:
+        if len(computed) == stop_after and not stopped:
             kept.version += 1  # as a change between two blocks: the pass stops
             stopped = True
         return nearest(*args)  # type: ignore[arg-type]
 
     monkeypatch.setattr(_neighbours, "_nearest", counted)
-    assert 0 < index.keep_neighbourhoods() < len(ids) and len(computed) == 5
+    assert len(ids) / 2 < index.keep_neighbourhoods() < len(ids)
+    assert len(computed) == stop_after
+    assert index.wants_neighbourhoods()  # a stopped pass is wanted again, however far it got
     computed.clear()
     assert index.keep_neighbourhoods() == len(ids)
-    assert len(computed) == lists - 5  # it went on where the stopped one ended
+    assert len(computed) == lists - stop_after  # it went on where the stopped one ended
+    assert not index.wants_neighbourhoods()
     ids.append(add_ready(sessions, rows[399]))
     assert index.sync() == 1  # forgets its own neighbourhood and those it enters
+    assert not index.wants_neighbourhoods()  # those few are left to the queries
     computed.clear()
     assert index.keep_neighbourhoods() == len(ids)
     assert 0 < len(computed) < lists / 2

@@ -339,7 +339,8 @@ class ShapeIndex:
 
     def wants_neighbourhoods(self) -> bool:
         """Whether ``keep_neighbourhoods`` would keep more: a partition large enough to keep
-        them holds fewer than half, and has changed since a pass last went through it."""
+        them has changed since a pass last went through it, and holds fewer than half or
+        its last pass was stopped by a change (``_kept.KeptNeighbourhoods.wanted``)."""
         return self.hub_neighbours > 0 and any(
             partition.kept.wanted(self.hub_neighbours, int(partition.index.ntotal))
             for key, partition in list(self._partitions.items()) if not holds_views(key))

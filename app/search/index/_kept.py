@@ -90,6 +90,7 @@ class KeptNeighbourhoods:
         self.k = 0
         self.version = 0  # moves on every change of the partition
         self.pass_version = -1  # the version a whole pass (keep_neighbourhoods) went through
+        self.pass_stopped = False  # the last pass was stopped by a change before its end
         self._table = _PassTable.empty()
         self._entries: dict[int, Neighbourhood] = {}  # kept outside a pass
 
@@ -105,10 +106,12 @@ class KeptNeighbourhoods:
 
     def wanted(self, k: int, held: int) -> bool:
         """Whether a whole pass would keep more: the partition (``held`` vectors) is large
-        enough to keep neighbourhoods of ``k``, fewer than half are kept, and it changed
-        since a pass last went through it."""
+        enough to keep neighbourhoods of ``k``, it changed since a pass last went through
+        it, and fewer than half are kept or the last pass was stopped before its end (the
+        next one goes on from there). The few that single changes forget are left to the
+        queries that need them."""
         return (held >= k + 2 and self.pass_version != self.version
-                and (self.k != k or len(self) < held / 2))
+                and (self.k != k or len(self) < held / 2 or self.pass_stopped))
 
     def get(self, own: int) -> Neighbourhood | None:
         """The kept neighbourhood of ``own``, or None."""

@@ -203,10 +203,10 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
     (those kept so far stay: the change forgot the ones it moved).
 
     A block whose every neighbourhood is kept already is not computed again, so the next
-    pass goes on where a stopped one ended, and after a few changes computes only the
-    blocks of the neighbourhoods they moved. Starting over instead, a pass longer than the
-    time between two changes (15 minutes at 10^6 models, ``bench/search_scale.py``) never
-    reached its end while parts kept arriving."""
+    pass (``KeptNeighbourhoods.wanted``: a stopped pass is wanted again) goes on where a
+    stopped one ended. Starting over instead, a pass longer than the time between two
+    changes never got past its first blocks while parts kept arriving, and started again
+    after every change (``bench/neighbourhood_pass.py``)."""
     kept = partition.kept
     with partition.lock.reading():
         kept.use(k)
@@ -219,10 +219,11 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
     while True:
         with partition.lock.reading():
             if kept.version != version or kept.k != k:
+                kept.pass_stopped = True
                 break
             block = next(blocks, None)
             if block is None:
-                kept.pass_version = version
+                kept.pass_version, kept.pass_stopped = version, False
                 break
             rows, _, cosines = block
             complete = np.isfinite(cosines).all(axis=1)
