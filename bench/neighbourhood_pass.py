@@ -17,10 +17,12 @@ Two runs on the same index, each from nothing kept, for ``--limit`` seconds:
 2. the service's pass: blocks whose neighbourhoods are all kept are left out, and a pass
    stopped by a change is wanted again until one reaches its end.
 
-Prints, for each, the seconds until the index stopped wanting a pass
+A similar query's index work (its candidates and their radii) runs every ``--query-every``
+seconds meanwhile. Prints, for each run, the seconds until the index stopped wanting a pass
 (``KeptNeighbourhoods.wanted``; a neighbourhood not kept is computed by the query that needs
 it, one index search each, and kept), the passes started, the CPU seconds they used, and the
-share kept at the limit.
+share kept at the limit, and the queries' latency over the run's second half, against the
+same queries with every neighbourhood kept and nothing arriving.
 
     nice -n 5 .venv/bin/python bench/neighbourhood_pass.py [--descriptors 100000]
         [--every 10] [--look 1] [--limit 300]
@@ -46,17 +48,33 @@ from bench.search_scale import chunks, queries, real_descriptors  # noqa: E402
 KEY = ("bench", "v")
 
 
+def similar_query(index: ShapeIndex, vector: np.ndarray) -> float:
+    """Seconds of a similar query's index work: its ``4 k`` candidates and their radii (each
+    computed by one index search when its neighbourhood is not kept)."""
+    started = time.perf_counter()
+    pool = [i for i, _ in index.search(KEY, vector, 40)]
+    index.neighbourhood_radii(KEY, pool)
+    return time.perf_counter() - started
+
+
 def keep_while_arriving(
-    index: ShapeIndex, fresh: np.ndarray, first_id: int, args: argparse.Namespace
-) -> tuple[float | None, int, float, float]:
-    """Run the keeper beside the arrivals for ``--limit`` seconds: when the index stopped
-    wanting a pass (None: never), the passes started, their CPU seconds, and the share of
-    neighbourhoods kept at the end."""
+    index: ShapeIndex, fresh: np.ndarray, probes: np.ndarray, first_id: int,
+    args: argparse.Namespace,
+) -> tuple[float | None, int, float, float, list[float]]:
+    """Run the keeper beside the arrivals and a query every ``--query-every`` seconds, for
+    ``--limit`` seconds: when the index stopped wanting a pass (None: never), the passes
+    started, their CPU seconds, the share of neighbourhoods kept at the end and the queries'
+    seconds."""
     partition = index._partitions[KEY]  # noqa: SLF001 (a benchmark's look inside)
     kept = partition.kept
     kept.forget()
     stop = threading.Event()
     held = list(range(args.descriptors))
+    answered: list[float] = []
+
+    def queries_meanwhile() -> None:
+        while not stop.wait(args.query_every):
+            answered.append(similar_query(index, probes[len(answered) % len(probes)]))
 
     def arrivals() -> None:
         while not stop.wait(args.every):
@@ -73,6 +91,8 @@ def keep_while_arriving(
 
     adder = threading.Thread(target=arrivals, daemon=True)
     adder.start()
+    asker = threading.Thread(target=queries_meanwhile, daemon=True)
+    asker.start()
     keeper: threading.Thread | None = None
     started = time.monotonic()
     satisfied: float | None = None
@@ -92,9 +112,16 @@ def keep_while_arriving(
     share = float(kept.holding(np.asarray(held, dtype=np.int64)).mean())
     stop.set()
     adder.join()
+    asker.join()
     if keeper is not None:
         keeper.join()  # uninterrupted now: what it keeps from here on is not counted
-    return satisfied, passes[0], cpu[0], share
+    return satisfied, passes[0], cpu[0], share, answered
+
+
+def milliseconds(seconds: list[float]) -> str:
+    ordered = sorted(seconds)
+    return (f"p50 {ordered[len(ordered) // 2] * 1e3:.1f} ms, "
+            f"p99 {ordered[int(len(ordered) * 0.99)] * 1e3:.1f} ms")
 
 
 def main() -> None:
@@ -104,6 +131,8 @@ def main() -> None:
     parser.add_argument("--look", type=float, default=1.0,
                         help="seconds between the keeper's looks")
     parser.add_argument("--limit", type=float, default=300.0, help="seconds per run at most")
+    parser.add_argument("--query-every", type=float, default=0.1,
+                        help="seconds between two similar queries")
     parser.add_argument("--noise", type=float, default=0.08)
     args = parser.parse_args()
 
@@ -117,6 +146,11 @@ def main() -> None:
     print(f"{args.descriptors} descriptors of {real.shape[1]} dims, {index.describe(KEY)}; "
           f"a model every {args.every:g} s, a look every {args.look:g} s, limit {args.limit:g} s")
     fresh = queries(real, 1000, args.noise)
+    probes = queries(real, 200, args.noise, batch=1)
+    index.keep_neighbourhoods()
+    idle = [similar_query(index, vector) for vector in probes]
+    print(f"a query's index work, every neighbourhood kept, nothing arriving: "
+          f"{milliseconds(idle)}")
     kept_class = type(index._partitions[KEY].kept)  # noqa: SLF001
     service = kept_class.holds_all, kept_class.wanted
 
@@ -131,11 +165,14 @@ def main() -> None:
             kept_class.wanted = wanted_before  # type: ignore[method-assign]
         else:
             kept_class.holds_all, kept_class.wanted = service  # type: ignore[method-assign]
-        satisfied, passes, cpu, share = keep_while_arriving(index, fresh, first_id, args)
+        satisfied, passes, cpu, share, answered = keep_while_arriving(
+            index, fresh, probes, first_id, args)
         reached = ("still wanted at the limit" if satisfied is None
                    else f"no longer wanted after {satisfied:.0f} s")
+        late = answered[len(answered) // 2:]  # the second half of the run
         print(f"{name}: {reached}; {passes} passes started, {cpu:.0f} CPU s; "
-              f"{share:.1%} of the neighbourhoods kept at the limit")
+              f"{share:.1%} of the neighbourhoods kept at the limit; a query's index work "
+              f"in the run's second half: {milliseconds(late)} ({len(late)} queries)")
     kept_class.holds_all, kept_class.wanted = service  # type: ignore[method-assign]
 
 
