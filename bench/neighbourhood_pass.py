@@ -146,7 +146,7 @@ def main() -> None:
     print(f"{args.descriptors} descriptors of {real.shape[1]} dims, {index.describe(KEY)}; "
           f"a model every {args.every:g} s, a look every {args.look:g} s, limit {args.limit:g} s")
     fresh = queries(real, 1000, args.noise)
-    probes = queries(real, 200, args.noise, batch=1)
+    probes = queries(real, 5000, args.noise, batch=1)  # a query is rarely asked twice
     index.keep_neighbourhoods()
     idle = [similar_query(index, vector) for vector in probes]
     print(f"a query's index work, every neighbourhood kept, nothing arriving: "
