@@ -53,6 +53,7 @@ log = logging.getLogger("shapesearch.doorbells")
 
 _ANNOUNCED = "shapesearch.announced"  # session.info key: the bells its commit rings
 _NEIGHBOURS = "shapesearch.neighbours"  # session.info key: the SQLite file's _Neighbours
+_NO_CHANNEL = ""  # a datagram that rings no bell: it finds the sockets of gone processes
 
 
 class Doorbell:
@@ -128,8 +129,10 @@ class _Neighbours:
     a data directory's may not), and ``ring`` sends a channel's name to every socket there,
     this process's own included (as PostgreSQL delivers a ``NOTIFY`` to every listener: a
     second ring of a bell just rung costs at most one look). A socket whose process is gone
-    refuses the datagram and is removed. The folder is the user's own (0700): one left by
-    another user is not used, and the timers serve.
+    refuses the datagram and is removed; a new listener sends every socket there an empty
+    datagram first, so that a process killed before a restart leaves nothing behind. The
+    folder is the user's own (0700): one left by another user is not used, and the timers
+    serve.
     """
 
     def __init__(self, folder: Path) -> None:
@@ -149,14 +152,15 @@ class _Neighbours:
         return _Neighbours(Path(tempfile.gettempdir()) / f"shapesearch-bells-{key}")
 
     def bind(self) -> socket.socket:
-        """A new socket of this process in the folder (made if missing); OSError if the
-        folder is not this user's own."""
+        """A new socket of this process in the folder (made if missing), after removing
+        those of processes that are gone; OSError if the folder is not this user's own."""
         listening = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         try:
             self._bind_in_folder(listening)
         except OSError:
             listening.close()
             raise
+        self.ring([_NO_CHANNEL])  # no bell answers it; a gone process's socket refuses it
         return listening
 
     def _bind_in_folder(self, listening: socket.socket) -> None:
