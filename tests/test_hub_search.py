@@ -303,18 +303,20 @@ def test_a_bulk_change_forgets_every_neighbourhood_and_the_index_wants_them_agai
     index = ShapeIndex(sessions, hub_neighbours=4)
     index.rebuild()
     assert index.wants_neighbourhoods()  # none kept yet
+    assert index.neighbourhoods_kept() == 0.0
     assert index.keep_neighbourhoods() == 40
-    assert not index.wants_neighbourhoods()
+    assert not index.wants_neighbourhoods() and index.neighbourhoods_kept() == 1.0
     for row in rows[40:]:  # 70 models in one sync: more than a change forgets one by one
         add_ready(sessions, row)
     assert index.sync() == 70
-    assert len(index._partitions[KEY].kept) == 0
+    assert len(index._partitions[KEY].kept) == 0 and index.neighbourhoods_kept() == 0.0
     assert index.wants_neighbourhoods()
     assert index.keep_neighbourhoods() == 110 and not index.wants_neighbourhoods()
     # Too few models to keep any: a pass finds nothing to do, and is not wanted again.
     small = ShapeIndex(sessions, hub_neighbours=200)
     small.rebuild()
     assert small.wants_neighbourhoods() is False and small.keep_neighbourhoods() == 0
+    assert small.neighbourhoods_kept() == 1.0  # nothing it could keep is missing
 
 
 def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
@@ -346,6 +348,7 @@ def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
     assert len(ids) / 2 < index.keep_neighbourhoods() < len(ids)
     assert len(computed) == stop_after
     assert index.wants_neighbourhoods()  # a stopped pass is wanted again, however far it got
+    assert 0.5 < index.neighbourhoods_kept() < 1.0
     computed.clear()
     assert index.keep_neighbourhoods() == len(ids)
     assert len(computed) == lists - stop_after  # it went on where the stopped one ended

@@ -111,6 +111,7 @@ def test_one_scrape_counts_the_requests_of_every_api_process(tmp_path: Path) -> 
                      route="/v1/models") == REQUESTS  # fmt: skip
         # One series of the index gauge (the processes merged), and one live file each.
         assert samples[("shapesearch_index_models", ())] == 0
+        assert samples[("shapesearch_index_neighbourhoods_kept_ratio", ())] == 1
         assert len(list(shared.glob("gauge_livemin_*.db"))) == 2
     # Stopped: the dead processes' live gauges are gone, what they counted stays.
     assert not list(shared.glob("gauge_live*"))

@@ -104,6 +104,8 @@ def test_metrics_count_requests_jobs_describes_and_the_index(database_url: str) 
     partition = (("descriptor_version", "fake-1"), ("tenant", "default"))
     assert after[("shapesearch_index_partition_models", partition)] == 1
     assert after[("shapesearch_index_models", ())] == 1
+    # One model: too few to keep neighbourhoods of, so none is missing.
+    assert after[("shapesearch_index_neighbourhoods_kept_ratio", ())] == 1
 
 
 def test_metrics_answer_loopback_clients_only(database_url: str) -> None:
@@ -179,7 +181,7 @@ def test_the_grafana_dashboard_asks_for_metrics_that_exist(
         for expr in expressions
         for name in re.findall(r"\bshapesearch_[a-z_]+", expr)
     }
-    observe_index(0)  # the index gauge exists in API processes only
+    observe_index(0, 1.0)  # the index gauges exist in API processes only
     registry = metrics_registry(QueueCollector(sessions), IndexCollector(sessions))
     exported = {family.name for family in registry.collect()}
     assert asked and asked <= exported, asked - exported

@@ -61,9 +61,13 @@ _FORM_OVERHEAD_BYTES = 64 * 1024
 
 
 def _sync(index: ShapeIndex) -> None:
-    """Catch up with the change feed, and show the index's size in the metrics."""
+    """Catch up with the change feed, and show the index's size and warmth in the metrics."""
     index.sync()
-    observe_index(len(index))
+    _observe(index)
+
+
+def _observe(index: ShapeIndex) -> None:
+    observe_index(len(index), index.neighbourhoods_kept())
 
 
 def _follow_feed(index: ShapeIndex, interval: float, stop: threading.Event) -> None:
@@ -104,6 +108,7 @@ def _keep_neighbourhoods(index: ShapeIndex) -> None:
         return
     log.info("hub-discount neighbourhoods of %d models kept in %.1f s", kept,
              time.perf_counter() - started)
+    _observe(index)
 
 
 def create_app(
@@ -123,7 +128,7 @@ def create_app(
         sessions = make_session_factory(engine)
         index = ShapeIndex(sessions, **settings.index_options)
         index.rebuild()
-        observe_index(len(index))
+        _observe(index)
         log.info("index built: %d models, partitions by kind %s, payload %.0f MB",
                  len(index), index.kinds(), index.nbytes() / 1e6)
         app.state.metrics = metrics_registry(QueueCollector(sessions), IndexCollector(sessions))

@@ -18,6 +18,10 @@ Process metrics, counted as things happen (module-level, one set per process):
                                                                  timeout (app.api.uploads)
     shapesearch_index_models                                     models in an API process's
                                                                  index (the smallest of them)
+    shapesearch_index_neighbourhoods_kept_ratio                  share of its models whose
+                                                                 hub-discount neighbourhood
+                                                                 the index keeps (the
+                                                                 smallest; 1: warm)
 
 State metrics, read from the database when scraped (``QueueCollector``, ``IndexCollector``):
 
@@ -153,9 +157,23 @@ def _index_models() -> Gauge:
     )
 
 
-def observe_index(models: int) -> None:
-    """Record the size of this process's search index (after it changed)."""
+@cache
+def _neighbourhoods_kept() -> Gauge:
+    """As ``_index_models``: API processes only, the coldest live one. Below 1, similar
+    queries compute the radii of candidates whose neighbourhood is not kept (about 170 ms a
+    query at 10^6 models until the background pass has kept them: README)."""
+    return Gauge(
+        "shapesearch_index_neighbourhoods_kept_ratio", "Share of an API process's indexed "
+        "models whose hub-discount neighbourhood it keeps (several processes: the smallest).",
+        multiprocess_mode="livemin",
+    )
+
+
+def observe_index(models: int, neighbourhoods_kept: float) -> None:
+    """Record the size of this process's search index and the share of its hub-discount
+    neighbourhoods kept (after either changed)."""
     _index_models().set(models)
+    _neighbourhoods_kept().set(neighbourhoods_kept)
 
 
 def observe_description(columns: dict[str, Any]) -> None:

@@ -345,6 +345,20 @@ class ShapeIndex:
             partition.kept.wanted(self.hub_neighbours, int(partition.index.ntotal))
             for key, partition in list(self._partitions.items()) if not holds_views(key))
 
+    def neighbourhoods_kept(self) -> float:
+        """The share of models, in partitions large enough to keep them, whose hub-discount
+        neighbourhood is kept (1.0 with none such, or the discount off)."""
+        if self.hub_neighbours < 1:
+            return 1.0
+        sizes = [
+            (min(len(partition.kept), held), held)
+            for key, partition in list(self._partitions.items())
+            if not holds_views(key)
+            and (held := int(partition.index.ntotal)) >= self.hub_neighbours + 2
+        ]
+        total = sum(held for _, held in sizes)
+        return sum(kept for kept, _ in sizes) / total if total else 1.0
+
     def rerank_candidates(self, key: PartitionKey, k: int) -> int:
         """How many candidates to fetch from partition ``key`` for ``k`` exact results:
         ``k`` from an exact one, a margin for re-ranking from an approximate one."""
