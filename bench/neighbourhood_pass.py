@@ -22,7 +22,8 @@ seconds meanwhile. Prints, for each run, the seconds until the index stopped wan
 (``KeptNeighbourhoods.wanted``; a neighbourhood not kept is computed by the query that needs
 it, one index search each, and kept), the passes started, the CPU seconds they used, and the
 share kept at the limit, and the queries' latency over the run's second half, against the
-same queries with every neighbourhood kept and nothing arriving.
+same queries with every neighbourhood kept and nothing arriving; and how long adding each
+arriving model took (it waits for the partition's write lock).
 
     nice -n 5 .venv/bin/python bench/neighbourhood_pass.py [--descriptors 100000]
         [--every 10] [--look 1] [--limit 300]
@@ -60,11 +61,11 @@ def similar_query(index: ShapeIndex, vector: np.ndarray) -> float:
 def keep_while_arriving(
     index: ShapeIndex, fresh: np.ndarray, probes: np.ndarray, first_id: int,
     args: argparse.Namespace,
-) -> tuple[float | None, int, float, float, list[float]]:
+) -> tuple[float | None, int, float, float, list[float], list[float]]:
     """Run the keeper beside the arrivals and a query every ``--query-every`` seconds, for
     ``--limit`` seconds: when the index stopped wanting a pass (None: never), the passes
-    started, their CPU seconds, the share of neighbourhoods kept at the end and the queries'
-    seconds."""
+    started, their CPU seconds, the share of neighbourhoods kept at the end, the queries'
+    seconds and the arrivals' (each model added alone, as a sync applies it)."""
     partition = index._partitions[KEY]  # noqa: SLF001 (a benchmark's look inside)
     kept = partition.kept
     kept.forget()
@@ -76,10 +77,14 @@ def keep_while_arriving(
         while not stop.wait(args.query_every):
             answered.append(similar_query(index, probes[len(answered) % len(probes)]))
 
+    adds: list[float] = []
+
     def arrivals() -> None:
         while not stop.wait(args.every):
             new_id = first_id + len(held)
+            started = time.perf_counter()
             index.add(new_id, KEY, fresh[len(held) % len(fresh)])
+            adds.append(time.perf_counter() - started)
             held.append(new_id)
 
     passes, cpu = [0], [0.0]
@@ -115,7 +120,7 @@ def keep_while_arriving(
     asker.join()
     if keeper is not None:
         keeper.join()  # uninterrupted now: what it keeps from here on is not counted
-    return satisfied, passes[0], cpu[0], share, answered
+    return satisfied, passes[0], cpu[0], share, answered, adds
 
 
 def milliseconds(seconds: list[float]) -> str:
@@ -165,14 +170,15 @@ def main() -> None:
             kept_class.wanted = wanted_before  # type: ignore[method-assign]
         else:
             kept_class.holds_all, kept_class.wanted = service  # type: ignore[method-assign]
-        satisfied, passes, cpu, share, answered = keep_while_arriving(
+        satisfied, passes, cpu, share, answered, adds = keep_while_arriving(
             index, fresh, probes, first_id, args)
         reached = ("still wanted at the limit" if satisfied is None
                    else f"no longer wanted after {satisfied:.0f} s")
         late = answered[len(answered) // 2:]  # the second half of the run
         print(f"{name}: {reached}; {passes} passes started, {cpu:.0f} CPU s; "
               f"{share:.1%} of the neighbourhoods kept at the limit; a query's index work "
-              f"in the run's second half: {milliseconds(late)} ({len(late)} queries)")
+              f"in the run's second half: {milliseconds(late)} ({len(late)} queries); a "
+              f"model added: {milliseconds(adds)}, longest {max(adds) * 1e3:.0f} ms")
     kept_class.holds_all, kept_class.wanted = service  # type: ignore[method-assign]
 
 

@@ -5,6 +5,8 @@ the setting that turns it off."""
 
 from __future__ import annotations
 
+import threading
+
 import faiss
 import numpy as np
 import pytest
@@ -340,7 +342,7 @@ def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
         nonlocal stopped
         computed.append(1)
         if len(computed) == stop_after and not stopped:
-            kept.version += 1  # as a change between two blocks: the pass stops
+            kept.version += 1  # as a change while a block is computed: the pass stops
             stopped = True
         return nearest(*args)  # type: ignore[arg-type]
 
@@ -351,7 +353,9 @@ def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
     assert 0.5 < index.neighbourhoods_kept() < 1.0
     computed.clear()
     assert index.keep_neighbourhoods() == len(ids)
-    assert len(computed) == lists - stop_after  # it went on where the stopped one ended
+    # It went on where the stopped one ended: the block computed while the partition
+    # changed was not kept (what it compared may have gone), the ones before it were.
+    assert len(computed) == lists - stop_after + 1
     assert not index.wants_neighbourhoods()
     ids.append(add_ready(sessions, rows[399]))
     assert index.sync() == 1  # forgets its own neighbourhood and those it enters
@@ -368,6 +372,32 @@ def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
         assert entry is not None and whole is not None
         assert (entry.top, entry.kth, entry.after) == pytest.approx(
             (whole.top, whole.kth, whole.after), abs=1e-6)
+
+
+def test_a_change_does_not_wait_for_the_block_a_pass_is_computing(
+    sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    rows = unit_rows(400, 6, seed=22).astype(np.float32)
+    for row in rows[:399]:
+        add_ready(sessions, row)
+    index = ShapeIndex(sessions, hub_neighbours=4, exact_max=100)
+    index.rebuild()
+    assert index._partitions[KEY].approximate
+    nearest = _neighbours._nearest
+    added_meanwhile: list[bool] = []
+
+    def computed_while_a_model_is_added(*args: object) -> tuple[np.ndarray, np.ndarray]:
+        if not added_meanwhile:  # the first block: a model arrives while it is computed
+            adding = threading.Thread(target=index.add, args=(10**6, KEY, rows[399]))
+            adding.start()
+            adding.join(timeout=5)  # held up for good if the pass held the lock here
+            added_meanwhile.append(not adding.is_alive())
+        return nearest(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(_neighbours, "_nearest", computed_while_a_model_is_added)
+    assert index.keep_neighbourhoods() == 0  # the block computed meanwhile is not kept
+    assert added_meanwhile == [True] and 10**6 in index
+    assert index.wants_neighbourhoods()
 
 
 def test_a_candidate_the_index_dropped_comes_after_the_others_in_the_re_rank(

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import faiss
 import numpy as np
@@ -87,14 +88,15 @@ def neighbour_graph(partition: Partition, k: int) -> NeighbourGraph:
     ids, blocks, exact = graph_blocks(partition, k)
     neighbours = np.full((len(ids), k), -1, dtype=np.int64)
     cosines = np.full((len(ids), k), -np.inf, dtype=np.float32)
-    for rows, block_neighbours, block_cosines in blocks:
-        neighbours[rows], cosines[rows] = block_neighbours, block_cosines
+    for rows, compute in blocks:
+        neighbours[rows], cosines[rows] = compute()
     return NeighbourGraph(ids, neighbours, cosines, exact=exact)
 
 
-#: One block of the graph: the rows (a slice of ``ids``), their neighbours (positions in
-#: ``ids``, -1: none) and cosines (-inf: none).
-GraphBlock = tuple[slice, np.ndarray, np.ndarray]
+#: One block of the graph: the rows (a slice of ``ids``) and what computes their
+#: neighbours (positions in ``ids``, -1: none) and cosines (-inf: none) from copies of the
+#: vectors it compares, so that it may run without the partition's lock.
+GraphBlock = tuple[slice, Callable[[], tuple[np.ndarray, np.ndarray]]]
 
 
 #: Whether a block of rows with these ``(m,)`` ids may be left out (it is known already).
@@ -105,11 +107,11 @@ def graph_blocks(
     partition: Partition, k: int, skip: Skip | None = None
 ) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
     """The graph of ``partition`` (not empty) block by block: the ``(n,)`` ids, the blocks,
-    each computed when the iterator is advanced (but those ``skip`` leaves out), and whether
+    each gathered when the iterator is advanced (but those ``skip`` leaves out), and whether
     every pair is compared. The read lock must be held while the ids are taken and while
-    each block is computed, and the partition unchanged in between
-    (``Partition.kept.version``): a caller may release the lock between blocks and stop
-    when the partition changed."""
+    each block is gathered, and the partition unchanged in between
+    (``Partition.kept.version``): a caller may release the lock between blocks, compute a
+    block without it, and stop when the partition changed."""
     if partition.approximate:
         return _ivf_blocks(partition, k, skip)
     return _flat_blocks(partition, k, skip)
@@ -131,7 +133,7 @@ def _flat_blocks(
             rows = slice(start, start + step)
             if skip is not None and skip(ids[rows]):
                 continue
-            yield rows, *_nearest(vectors[rows], positions[rows], vectors, positions, k)
+            yield rows, partial(_nearest, vectors[rows], positions[rows], vectors, positions, k)
 
     return ids, blocks(), True
 
@@ -198,9 +200,13 @@ def neighbourhood_radii(
 def keep_neighbourhoods(partition: Partition, k: int) -> int:
     """Compute and keep every neighbourhood of ``partition`` that ``neighbourhood_radii``
     would, from the neighbour graph (one block-wise pass instead of a search per model);
-    the count kept. Takes the read lock for one block at a time, so that changes wait for
-    a block, not for the whole pass; stops early when the partition changed meanwhile
-    (those kept so far stay: the change forgot the ones it moved).
+    the count kept. Stops early when the partition changed meanwhile (those kept so far
+    stay: the change forgot the ones it moved).
+
+    The read lock is held while a block's vectors are copied and while its neighbourhoods
+    are kept, not while they are computed: at 10^6 models a block takes about a second, for
+    which a change waited, and the searches queued behind the change (the lock lets no
+    reader pass a waiting writer).
 
     A block whose every neighbourhood is kept already is not computed again, so the next
     pass (``KeptNeighbourhoods.wanted``: a stopped pass is wanted again) goes on where a
@@ -216,18 +222,26 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
             return 0
         ids, blocks, _ = graph_blocks(partition, k + 1, skip=kept.holds_all)
         kept.start_pass(ids)
+
+    def moved() -> bool:
+        return kept.version != version or kept.k != k
+
     while True:
         with partition.lock.reading():
-            if kept.version != version or kept.k != k:
-                kept.pass_stopped = True
+            if moved():
                 break
-            block = next(blocks, None)
+            block = next(blocks, None)  # copies the vectors it compares
             if block is None:
                 kept.pass_version, kept.pass_stopped = version, False
+                return int(kept.holding(ids).sum())
+        rows, compute = block
+        _, cosines = compute()  # without the lock
+        with partition.lock.reading():
+            if moved():  # what it compared may be gone
                 break
-            rows, _, cosines = block
             complete = np.isfinite(cosines).all(axis=1)
             kept.put_block(ids[rows][complete], cosines[complete])
+    kept.pass_stopped = True
     return int(kept.holding(ids).sum())
 
 
@@ -285,10 +299,10 @@ def _ivf_blocks(
             # Its own list first, whatever ties between equal centroids say.
             lists = [number, *(int(j) for j in nearby[number] if 0 <= j != number)][:probes]
             at = np.concatenate([np.arange(starts[j], starts[j + 1]) for j in lists])
-            columns, _ = full.get(ids[at].tolist())
+            columns, _ = full.get(ids[at].tolist())  # copies
             count = starts[number + 1] - starts[number]
             yield (slice(starts[number], starts[number + 1]),
-                   *_nearest(columns[:count], at[:count], columns, at, k))
+                   partial(_nearest, columns[:count], at[:count], columns, at, k))
 
     return ids, blocks(), probes >= ivf.nlist
 
