@@ -374,6 +374,35 @@ def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
             (whole.top, whole.kth, whole.after), abs=1e-6)
 
 
+def test_blocks_of_a_lists_rows_keep_what_whole_lists_keep(
+    sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    rows = unit_rows(400, 6, seed=23).astype(np.float32)
+    ids = [add_ready(sessions, row) for row in rows]
+    index = ShapeIndex(sessions, hub_neighbours=4, exact_max=100)
+    index.rebuild()
+    kept = index._partitions[KEY].kept
+    assert index.keep_neighbourhoods() == len(ids)
+    whole_lists = {own: kept.get(own) for own in ids}
+    graph = index.neighbour_graph(KEY, 5)
+    kept.forget()
+    monkeypatch.setattr(_neighbours, "_BLOCK_ROW_PRODUCTS", 300)  # a few rows a block
+    computed: list[int] = []
+    nearest = _neighbours._nearest
+    monkeypatch.setattr(_neighbours, "_nearest",
+                        lambda *args: computed.append(1) or nearest(*args))
+    assert index.keep_neighbourhoods() == len(ids)
+    assert len(computed) > 2 * 19  # more blocks than lists
+    for own, entry in whole_lists.items():  # the same, but for float32 rounding
+        again = kept.get(own)
+        assert entry is not None and again is not None
+        assert (again.top, again.kth, again.after) == pytest.approx(
+            (entry.top, entry.kth, entry.after), abs=1e-5)
+    in_blocks = index.neighbour_graph(KEY, 5)
+    assert np.array_equal(in_blocks.neighbours, graph.neighbours)
+    assert in_blocks.cosines == pytest.approx(graph.cosines, abs=1e-5)
+
+
 def test_a_change_does_not_wait_for_the_block_a_pass_is_computing(
     sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch,
 ) -> None:
