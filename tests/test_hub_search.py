@@ -6,6 +6,7 @@ the setting that turns it off."""
 from __future__ import annotations
 
 import threading
+import time
 
 import faiss
 import numpy as np
@@ -342,7 +343,7 @@ def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
         nonlocal stopped
         computed.append(1)
         if len(computed) == stop_after and not stopped:
-            kept.version += 1  # as a change while a block is computed: the pass stops
+            kept.version += 1  # as a change after this block: the pass stops
             stopped = True
         return nearest(*args)  # type: ignore[arg-type]
 
@@ -353,9 +354,7 @@ def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
     assert 0.5 < index.neighbourhoods_kept() < 1.0
     computed.clear()
     assert index.keep_neighbourhoods() == len(ids)
-    # It went on where the stopped one ended: the block computed while the partition
-    # changed was not kept (what it compared may have gone), the ones before it were.
-    assert len(computed) == lists - stop_after + 1
+    assert len(computed) == lists - stop_after  # it went on where the stopped one ended
     assert not index.wants_neighbourhoods()
     ids.append(add_ready(sessions, rows[399]))
     assert index.sync() == 1  # forgets its own neighbourhood and those it enters
@@ -403,7 +402,7 @@ def test_blocks_of_a_lists_rows_keep_what_whole_lists_keep(
     assert in_blocks.cosines == pytest.approx(graph.cosines, abs=1e-5)
 
 
-def test_a_change_does_not_wait_for_the_block_a_pass_is_computing(
+def test_a_change_waits_for_one_block_of_a_lists_rows_not_the_whole_list(
     sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     rows = unit_rows(400, 6, seed=22).astype(np.float32)
@@ -411,21 +410,28 @@ def test_a_change_does_not_wait_for_the_block_a_pass_is_computing(
         add_ready(sessions, row)
     index = ShapeIndex(sessions, hub_neighbours=4, exact_max=100)
     index.rebuild()
-    assert index._partitions[KEY].approximate
+    partition = index._partitions[KEY]
+    invlists = faiss.extract_index_ivf(partition.index).invlists
+    first_list = next(invlists.list_size(n) for n in range(invlists.nlist)
+                      if invlists.list_size(n) > 0)
+    monkeypatch.setattr(_neighbours, "_BLOCK_ROW_PRODUCTS", 300)  # a few rows a block
     nearest = _neighbours._nearest
-    added_meanwhile: list[bool] = []
+    adding: list[threading.Thread] = []
 
-    def computed_while_a_model_is_added(*args: object) -> tuple[np.ndarray, np.ndarray]:
-        if not added_meanwhile:  # the first block: a model arrives while it is computed
-            adding = threading.Thread(target=index.add, args=(10**6, KEY, rows[399]))
-            adding.start()
-            adding.join(timeout=5)  # held up for good if the pass held the lock here
-            added_meanwhile.append(not adding.is_alive())
+    def a_model_arrives_meanwhile(*args: object) -> tuple[np.ndarray, np.ndarray]:
+        if not adding:  # the first block: the change waits for it, and only for it
+            adding.append(threading.Thread(target=index.add, args=(10**6, KEY, rows[399])))
+            adding[0].start()
+            deadline = time.monotonic() + 5
+            while not partition.lock._writers_waiting and time.monotonic() < deadline:
+                time.sleep(0.001)  # until the change waits for the lock this block holds
         return nearest(*args)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(_neighbours, "_nearest", computed_while_a_model_is_added)
-    assert index.keep_neighbourhoods() == 0  # the block computed meanwhile is not kept
-    assert added_meanwhile == [True] and 10**6 in index
+    monkeypatch.setattr(_neighbours, "_nearest", a_model_arrives_meanwhile)
+    kept = index.keep_neighbourhoods()
+    adding[0].join(timeout=5)
+    assert not adding[0].is_alive() and 10**6 in index
+    assert 0 < kept < first_list  # the first block of the first list, then the change
     assert index.wants_neighbourhoods()
 
 

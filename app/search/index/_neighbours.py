@@ -96,7 +96,7 @@ def neighbour_graph(partition: Partition, k: int) -> NeighbourGraph:
 
 #: One block of the graph: the rows (a slice of ``ids``) and what computes their
 #: neighbours (positions in ``ids``, -1: none) and cosines (-inf: none) from copies of the
-#: vectors it compares, so that it may run without the partition's lock.
+#: vectors it compares.
 GraphBlock = tuple[slice, Callable[[], tuple[np.ndarray, np.ndarray]]]
 
 
@@ -107,12 +107,11 @@ Skip = Callable[[np.ndarray], bool]
 def graph_blocks(
     partition: Partition, k: int, skip: Skip | None = None
 ) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
-    """The graph of ``partition`` (not empty) block by block: the ``(n,)`` ids, the blocks,
-    each gathered when the iterator is advanced (but those ``skip`` leaves out), and whether
-    every pair is compared. The read lock must be held while the ids are taken and while
-    each block is gathered, and the partition unchanged in between
-    (``Partition.kept.version``): a caller may release the lock between blocks, compute a
-    block without it, and stop when the partition changed."""
+    """The graph of ``partition`` (not empty) block by block: the ``(n,)`` ids, the blocks
+    (but those ``skip`` leaves out), and whether every pair is compared. The read lock must
+    be held while the ids are taken and while each block is taken and computed, and the
+    partition unchanged in between (``Partition.kept.version``): a caller may release the
+    lock between blocks and stop when the partition changed."""
     if partition.approximate:
         return _ivf_blocks(partition, k, skip)
     return _flat_blocks(partition, k, skip)
@@ -204,11 +203,11 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
     the count kept. Stops early when the partition changed meanwhile (those kept so far
     stay: the change forgot the ones it moved).
 
-    The read lock is held while a block's vectors are copied and while its neighbourhoods
-    are kept, not while they are computed: at 10^6 models a whole list took about a second,
-    for which a change waited, and the searches queued behind the change (the lock lets no
-    reader pass a waiting writer). A block computed while the partition changed is not kept
-    (what it compared may be gone); blocks of about 0.1 s bound what a change costs a pass.
+    The read lock is held for one block at a time: a change waits for that block, not for
+    the pass. An IVF list's rows go in blocks of about 10^6 pairs (131 rows of a list of
+    ~1,000 at 10^6 models, where a whole list took about a second), so that a change, and
+    the searches queued behind it (the lock lets no reader pass a waiting writer), wait for
+    one such block at most.
 
     A block whose every neighbourhood is kept already is not computed again, so the next
     pass (``KeptNeighbourhoods.wanted``: a stopped pass is wanted again) goes on where a
@@ -225,25 +224,19 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
         ids, blocks, _ = graph_blocks(partition, k + 1, skip=kept.holds_all)
         kept.start_pass(ids)
 
-    def moved() -> bool:
-        return kept.version != version or kept.k != k
-
     while True:
         with partition.lock.reading():
-            if moved():
+            if kept.version != version or kept.k != k:
+                kept.pass_stopped = True
                 break
-            block = next(blocks, None)  # copies the vectors it compares
+            block = next(blocks, None)
             if block is None:
                 kept.pass_version, kept.pass_stopped = version, False
-                return int(kept.holding(ids).sum())
-        rows, compute = block
-        _, cosines = compute()  # without the lock
-        with partition.lock.reading():
-            if moved():  # what it compared may be gone
                 break
+            rows, compute = block
+            _, cosines = compute()
             complete = np.isfinite(cosines).all(axis=1)
             kept.put_block(ids[rows][complete], cosines[complete])
-    kept.pass_stopped = True
     return int(kept.holding(ids).sum())
 
 
