@@ -31,7 +31,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from functools import partial
 
 import faiss
 import numpy as np
@@ -89,15 +88,14 @@ def neighbour_graph(partition: Partition, k: int) -> NeighbourGraph:
     ids, blocks, exact = graph_blocks(partition, k)
     neighbours = np.full((len(ids), k), -1, dtype=np.int64)
     cosines = np.full((len(ids), k), -np.inf, dtype=np.float32)
-    for rows, compute in blocks:
-        neighbours[rows], cosines[rows] = compute()
+    for rows, block_neighbours, block_cosines in blocks:
+        neighbours[rows], cosines[rows] = block_neighbours, block_cosines
     return NeighbourGraph(ids, neighbours, cosines, exact=exact)
 
 
-#: One block of the graph: the rows (a slice of ``ids``) and what computes their
-#: neighbours (positions in ``ids``, -1: none) and cosines (-inf: none) from copies of the
-#: vectors it compares.
-GraphBlock = tuple[slice, Callable[[], tuple[np.ndarray, np.ndarray]]]
+#: One block of the graph: the rows (a slice of ``ids``), their neighbours (positions in
+#: ``ids``, -1: none) and cosines (-inf: none).
+GraphBlock = tuple[slice, np.ndarray, np.ndarray]
 
 
 #: Whether a block of rows with these ``(m,)`` ids may be left out (it is known already).
@@ -107,11 +105,12 @@ Skip = Callable[[np.ndarray], bool]
 def graph_blocks(
     partition: Partition, k: int, skip: Skip | None = None
 ) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
-    """The graph of ``partition`` (not empty) block by block: the ``(n,)`` ids, the blocks
-    (but those ``skip`` leaves out), and whether every pair is compared. The read lock must
-    be held while the ids are taken and while each block is taken and computed, and the
-    partition unchanged in between (``Partition.kept.version``): a caller may release the
-    lock between blocks and stop when the partition changed."""
+    """The graph of ``partition`` (not empty) block by block: the ``(n,)`` ids, the blocks,
+    each computed when the iterator is advanced (but those ``skip`` leaves out), and whether
+    every pair is compared. The read lock must be held while the ids are taken and while
+    each block is computed, and the partition unchanged in between
+    (``Partition.kept.version``): a caller may release the lock between blocks and stop
+    when the partition changed."""
     if partition.approximate:
         return _ivf_blocks(partition, k, skip)
     return _flat_blocks(partition, k, skip)
@@ -133,7 +132,7 @@ def _flat_blocks(
             rows = slice(start, start + step)
             if skip is not None and skip(ids[rows]):
                 continue
-            yield rows, partial(_nearest, vectors[rows], positions[rows], vectors, positions, k)
+            yield rows, *_nearest(vectors[rows], positions[rows], vectors, positions, k)
 
     return ids, blocks(), True
 
@@ -223,7 +222,6 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
             return 0
         ids, blocks, _ = graph_blocks(partition, k + 1, skip=kept.holds_all)
         kept.start_pass(ids)
-
     while True:
         with partition.lock.reading():
             if kept.version != version or kept.k != k:
@@ -233,8 +231,7 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
             if block is None:
                 kept.pass_version, kept.pass_stopped = version, False
                 break
-            rows, compute = block
-            _, cosines = compute()
+            rows, _, cosines = block
             complete = np.isfinite(cosines).all(axis=1)
             kept.put_block(ids[rows][complete], cosines[complete])
     return int(kept.holding(ids).sum())
@@ -305,7 +302,7 @@ def _ivf_blocks(
             columns, _ = full.get(ids[at].tolist())
             for rows in wanted:
                 own = slice(rows.start - first, rows.stop - first)
-                yield rows, partial(_nearest, columns[own], at[own], columns, at, k)
+                yield rows, *_nearest(columns[own], at[own], columns, at, k)
 
     return ids, blocks(), probes >= ivf.nlist
 
