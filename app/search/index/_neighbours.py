@@ -288,6 +288,8 @@ def _ivf_blocks(
     def blocks() -> Iterator[GraphBlock]:
         for number in range(ivf.nlist):
             first, end = int(starts[number]), int(starts[number + 1])
+            if first == end:
+                continue
             # Its own list first, whatever ties between equal centroids say.
             lists = [number, *(int(j) for j in nearby[number] if 0 <= j != number)][:probes]
             at = np.concatenate([np.arange(starts[j], starts[j + 1]) for j in lists])
