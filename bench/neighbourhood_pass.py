@@ -44,7 +44,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from app.search.index import ShapeIndex  # noqa: E402
-from bench.search_scale import chunks, queries, real_descriptors  # noqa: E402
+from bench.search_scale import (  # noqa: E402
+    chunks,
+    percentiles,
+    queries,
+    real_descriptors,
+)
 
 KEY = ("bench", "v")
 
@@ -123,12 +128,6 @@ def keep_while_arriving(
     return satisfied, passes[0], cpu[0], share, answered, adds
 
 
-def milliseconds(seconds: list[float]) -> str:
-    ordered = sorted(seconds)
-    return (f"p50 {ordered[len(ordered) // 2] * 1e3:.1f} ms, "
-            f"p99 {ordered[int(len(ordered) * 0.99)] * 1e3:.1f} ms")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--descriptors", type=int, default=100_000)
@@ -155,7 +154,7 @@ def main() -> None:
     index.keep_neighbourhoods()
     idle = [similar_query(index, vector) for vector in probes]
     print(f"a query's index work, every neighbourhood kept, nothing arriving: "
-          f"{milliseconds(idle)}")
+          f"{percentiles(idle)}")
     kept_class = type(index._partitions[KEY].kept)  # noqa: SLF001
     service = kept_class.holds_all, kept_class.wanted
 
@@ -177,8 +176,8 @@ def main() -> None:
         late = answered[len(answered) // 2:]  # the second half of the run
         print(f"{name}: {reached}; {passes} passes started, {cpu:.0f} CPU s; "
               f"{share:.1%} of the neighbourhoods kept at the limit; a query's index work "
-              f"in the run's second half: {milliseconds(late)} ({len(late)} queries); a "
-              f"model added: {milliseconds(adds)}, longest {max(adds) * 1e3:.0f} ms")
+              f"in the run's second half: {percentiles(late)} ({len(late)} queries); a "
+              f"model added: {percentiles(adds)}, longest {max(adds) * 1e3:.0f} ms")
     kept_class.holds_all, kept_class.wanted = service  # type: ignore[method-assign]
 
 
