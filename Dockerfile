@@ -46,6 +46,9 @@ RUN pip install --no-deps --no-index /wheels/*.whl && rm -rf /wheels
 
 USER shapesearch
 WORKDIR /home/shapesearch
+# Where the API saves the hub discount's neighbourhoods for its next start (compose mounts a
+# volume here, which takes this directory's owner: the unprivileged user can write it).
+RUN mkdir index-cache
 
 # In a container the API must listen on all interfaces; keys are then always required
 # (create one with: docker compose exec api shapesearch keys create --tenant NAME).

@@ -47,6 +47,7 @@ class IndexOptions(TypedDict):
     projected_dims: int
     hub_neighbours: int
     reciprocal: bool
+    cache_dir: Path | None
 
 
 class Settings(BaseSettings):
@@ -400,6 +401,18 @@ class Settings(BaseSettings):
         "index); more concurrent requests wait in line for them. With several API processes "
         "one each does best (README, Scale-out).",
     )
+    index_cache_dir: Path | None = Field(
+        default=None,
+        description="Directory where each API process saves the hub discount's "
+        "neighbourhoods (a file per tenant and descriptor version, 77 bytes a model: 77 MB "
+        "at 10^6) after its pass, every 10 minutes while parts change and on shutdown, and "
+        "restores them from at start-up instead of computing them again (at 10^6 models "
+        "about 17 minutes of a core per process, with slow similar queries meanwhile), "
+        "forgetting what changed since. Processes that share it share the pass: one "
+        "computes it, the others restore it. Unset: `index-cache` in "
+        "the data directory with the embedded SQLite database, none (always computed) "
+        "with another database URL (README, Restarts restore the pass).",
+    )
     index_rerank_factor: int = Field(
         default=2,
         ge=1,
@@ -535,7 +548,16 @@ class Settings(BaseSettings):
             projected_dims=self.index_projected_dims,
             hub_neighbours=self.search_hub_neighbours,
             reciprocal=self.search_reciprocal,
+            cache_dir=self.resolved_index_cache_dir,
         )
+
+    @property
+    def resolved_index_cache_dir(self) -> Path | None:
+        """``index_cache_dir``, defaulting to the data directory's with the embedded
+        database."""
+        if self.index_cache_dir is not None or self.database_url:
+            return self.index_cache_dir
+        return self.data_dir / "index-cache"
 
     @property
     def worker_count(self) -> int:

@@ -104,6 +104,21 @@ def test_the_database_lives_on_a_volume(compose: dict[str, Any]) -> None:
     assert any(v.endswith("/var/lib/postgresql/data") for v in volumes)
 
 
+def test_the_api_s_index_cache_lives_on_a_volume_its_user_can_write(
+    compose: dict[str, Any],
+) -> None:
+    api = compose["services"]["api"]
+    cache = api["environment"]["SHAPESEARCH_INDEX_CACHE_DIR"]
+    (volume,) = [v.split(":")[0] for v in api["volumes"] if v.endswith(":" + cache)]
+    assert volume in compose["volumes"]
+    # Made by the unprivileged user in the image: a named volume mounted there takes its
+    # owner (one Docker creates where nothing is would be root's).
+    _, _, final = dockerfile_stages()
+    workdir = [line.split()[1] for line in final if line.startswith("WORKDIR ")][-1]
+    made = final.index(f"RUN mkdir {Path(cache).relative_to(workdir)}")
+    assert made > max(i for i, line in enumerate(final) if line.startswith("USER "))
+
+
 def test_the_base_image_is_a_pinned_patch_release() -> None:
     preamble, *stages = dockerfile_stages()
     (argument,) = [line for line in preamble if line.startswith("ARG PYTHON_IMAGE=")]

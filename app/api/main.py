@@ -56,6 +56,10 @@ __all__ = ["create_app"]
 
 log = logging.getLogger("shapesearch.api")
 
+# Kept neighbourhoods are saved at most this often while parts change (and on shutdown): a
+# process that dies instead restores them as they were then, forgetting what changed since.
+_SAVE_EVERY = 600.0
+
 # Room for the multipart envelope and the form fields around the file itself.
 _FORM_OVERHEAD_BYTES = 64 * 1024
 
@@ -74,9 +78,11 @@ def _follow_feed(index: ShapeIndex, interval: float, stop: threading.Event) -> N
     """Sync when the feed's doorbell rings (a model became ready or went, in this process
     or in another: ``app.db.doorbells``) and at least every ``interval`` seconds; once a
     sync finds nothing new and the index wants its hub-discount neighbourhoods (after
-    start-up, or after a bulk change forgot them), compute them in the background
-    (``ShapeIndex.keep_neighbourhoods``)."""
+    start-up, or after a bulk change forgot them), restore or compute them in the
+    background (``ShapeIndex.keep_neighbourhoods``), and save them at most every
+    ``_SAVE_EVERY`` seconds while they change (``ShapeIndex.save_neighbourhoods``)."""
     keeper: threading.Thread | None = None
+    saved_at = time.monotonic()
     outage = Outage(log, "index sync: the change feed")
     while not stop.is_set():
         FEED.wait(interval)
@@ -91,15 +97,23 @@ def _follow_feed(index: ShapeIndex, interval: float, stop: threading.Event) -> N
             outage.report(error)
             continue
         quiet = index.changes == changes
-        if quiet and (keeper is None or not keeper.is_alive()) and index.wants_neighbourhoods():
-            keeper = threading.Thread(target=_keep_neighbourhoods, args=(index,),
-                                      name="index-neighbourhoods", daemon=True)
+        if not quiet or (keeper is not None and keeper.is_alive()):
+            continue
+        task = None
+        if index.wants_neighbourhoods():
+            task = _keep_neighbourhoods
+        elif time.monotonic() - saved_at >= _SAVE_EVERY:
+            task, saved_at = _save_neighbourhoods, time.monotonic()
+        if task is not None:
+            keeper = threading.Thread(target=task, args=(index,), name="index-neighbourhoods",
+                                      daemon=True)
             keeper.start()
 
 
 def _keep_neighbourhoods(index: ShapeIndex) -> None:
-    """Every model's hub-discount neighbourhood, computed in the background so that similar
-    queries find it kept (until then they compute their candidates' own)."""
+    """Every model's hub-discount neighbourhood, restored or computed (and then saved) in
+    the background so that similar queries find it kept (until then they compute their
+    candidates' own)."""
     started = time.perf_counter()
     try:
         kept = index.keep_neighbourhoods()
@@ -109,6 +123,15 @@ def _keep_neighbourhoods(index: ShapeIndex) -> None:
     log.info("hub-discount neighbourhoods of %d models kept in %.1f s", kept,
              time.perf_counter() - started)
     _observe(index)
+
+
+def _save_neighbourhoods(index: ShapeIndex) -> None:
+    """Save the kept neighbourhoods that changed (``ShapeIndex.save_neighbourhoods``), so
+    that a restart restores them."""
+    try:
+        index.save_neighbourhoods()
+    except Exception:  # a restart computes them instead
+        log.exception("saving the hub-discount neighbourhoods failed")
 
 
 def create_app(
@@ -180,6 +203,7 @@ def create_app(
             stop.set()
             FEED.ring()  # the follower sees the stop now
             follower.join()
+            _save_neighbourhoods(index)  # what the next start restores
             app.state.services.queries.shutdown()
             app.state.services.reader.dispose()
             engine.dispose()

@@ -58,6 +58,7 @@ import threading
 import uuid
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Iterator, Sequence
+from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
@@ -75,6 +76,14 @@ from app.search.index._neighbours import (
     neighbourhood_radii,
 )
 from app.search.index._partition import Partition
+from app.search.index._saved import (
+    SavedNeighbourhoods,
+    computing,
+    file_for,
+    load,
+    restore,
+    save,
+)
 from app.search.index._view_ids import (
     VIEW_ID_BASE,
     PartitionKey,
@@ -148,6 +157,9 @@ class ShapeIndex:
         k-reciprocally (``core.reciprocal``). The service's default is on
         (``SHAPESEARCH_SEARCH_RECIPROCAL``); off here, so that a bare index ranks by the
         discount alone.
+    cache_dir : Path, optional
+        Where the hub discount's neighbourhoods are saved (``save_neighbourhoods``) and
+        restored from when the index wants them (``keep_neighbourhoods``); None: neither.
     only : PartitionKey, optional
         Hold this partition alone, without its views: one tenant's descriptors of one
         version, read once (a duplicates job). None: every partition.
@@ -164,6 +176,7 @@ class ShapeIndex:
         projected_dims: int = 0,
         hub_neighbours: int = HUB_NEIGHBOURS,
         reciprocal: bool = False,
+        cache_dir: Path | None = None,
         only: PartitionKey | None = None,
     ) -> None:
         self.sessions = sessions
@@ -175,6 +188,7 @@ class ShapeIndex:
         self.projected_dims = projected_dims
         self.hub_neighbours = hub_neighbours
         self.reciprocal = reciprocal
+        self.cache_dir = cache_dir
         self.revision = 0  # last change-feed revision applied
         self.changes = 0  # moves on every applied change: answers cached before are stale
         self._partitions: dict[PartitionKey, Partition] = {}
@@ -186,6 +200,8 @@ class ShapeIndex:
         self._index_id_of: dict[int, int] = {}
         self._public_id_of: dict[int, int] = {}
         self._entry_neighbours = KeptEntryNeighbours()  # scan mode's, per partition pair
+        # The saved neighbourhoods' file each partition last tried to restore, by its stat.
+        self._restores_tried: dict[PartitionKey, tuple[int, int, int]] = {}
         self._sync_lock = threading.Lock()  # one writer of the maps at a time
 
     # --- reading ----------------------------------------------------------------------
@@ -328,14 +344,118 @@ class ShapeIndex:
         """Compute every model's hub-discount neighbourhood now, partition by partition
         (``_neighbours.keep_neighbourhoods``), so that similar queries find them kept
         instead of computing their candidates' (an API process runs this in the background
-        after ``rebuild``; changes wait for one block of it at a time); the count kept."""
+        after ``rebuild``; changes wait for one block of it at a time); the count kept.
+
+        With a ``cache_dir`` (``_saved``), a partition where no pass kept any first
+        restores those saved there (a restore that keeps half or more counts as its pass),
+        and a pass is computed by one process at a time and saved at its end: a process
+        that finds another computing leaves the partition for now (the index still wants
+        its neighbourhoods) and restores what the other saves."""
         if self.hub_neighbours < 1:
             return 0
-        kept = sum(keep_neighbourhoods(partition, self.hub_neighbours)
-                   for key, partition in list(self._partitions.items())
-                   if not holds_views(key))
+        kept = 0
+        for key, partition in list(self._partitions.items()):
+            if holds_views(key):
+                continue
+            if self.cache_dir is None:
+                kept += keep_neighbourhoods(partition, self.hub_neighbours)
+                continue
+            restored = self._restore_neighbourhoods(key, partition)
+            if restored is not None and partition.kept.passed:
+                kept += restored
+                continue
+            with computing(file_for(self.cache_dir, key, self.hub_neighbours)) as ours:
+                if ours:
+                    kept += keep_neighbourhoods(partition, self.hub_neighbours)
+                    self._save_neighbourhoods(key, partition)
+                else:
+                    kept += partition.kept.tabled
         trim_heap()  # the pass's blocks, freed: most of what it grew the process by
         return kept
+
+    def save_neighbourhoods(self) -> int:
+        """Save each partition's kept hub-discount neighbourhoods that changed since it
+        last saved them to ``cache_dir`` (``_saved``: a file per partition, written whole);
+        the count of files written. A directory that cannot be written is said in the log,
+        and nothing else happens."""
+        if self.cache_dir is None or self.hub_neighbours < 1:
+            return 0
+        return sum(self._save_neighbourhoods(key, partition)
+                   for key, partition in list(self._partitions.items()) if not holds_views(key))
+
+    def _save_neighbourhoods(self, key: PartitionKey, partition: Partition) -> bool:
+        """Save partition ``key``'s kept neighbourhoods if they changed since it last did;
+        whether it wrote them (a failure is said in the log)."""
+        assert self.cache_dir is not None
+        kept = partition.kept
+        with self._sync_lock:  # no change between the table, the revision and the probes
+            state = (kept.version, len(kept))
+            if kept.k != self.hub_neighbours or state == kept.saved_as:
+                return False
+            table = kept.saved()
+            if len(table.ids) == 0:
+                return False
+            saved = SavedNeighbourhoods.of(partition, key, kept.k, self.revision, table)
+        path = file_for(self.cache_dir, key, saved.k)
+        try:
+            save(path, saved)
+        except OSError as error:
+            log.warning("hub-discount neighbourhoods not saved to %s: %s", path, error)
+            return False
+        kept.saved_as = state
+        return True
+
+    def _restore_neighbourhoods(self, key: PartitionKey, partition: Partition) -> int | None:
+        """Restore partition ``key``'s saved neighbourhoods when no pass kept any there
+        (``_saved``; those queries computed meanwhile stay) and the file is not one tried
+        before; the count kept, or None."""
+        assert self.cache_dir is not None
+        k = self.hub_neighbours
+        path = file_for(self.cache_dir, key, k)
+        if self.sessions is None or partition.kept.tabled or not path.is_file():
+            return None
+        stamp = path.stat()
+        seen = (stamp.st_mtime_ns, stamp.st_size, stamp.st_ino)
+        if self._restores_tried.get(key) == seen:
+            return None
+        self._restores_tried[key] = seen
+        saved = load(path, key, k)
+        if saved is None:
+            return None
+        with self._sync_lock:  # the partition as of the revision
+            version, revision = partition.kept.version, self.revision
+        touched = self._touched(saved.revision, revision)
+        restored = None if touched is None else restore(partition, saved, touched, version)
+        if restored is None:
+            log.info("saved hub-discount neighbourhoods of %s (revision %d) not restored at "
+                     "revision %d", key, saved.revision, revision)
+        else:
+            log.info("hub-discount neighbourhoods of %d models of %s restored (revision %d, "
+                     "%d models changed since)", restored, key, saved.revision,
+                     0 if touched is None else len(touched))
+            kept = partition.kept  # no need to write back what the file holds
+            kept.saved_as = (kept.version, len(kept))
+        return restored
+
+    def _touched(self, after: int, through: int) -> np.ndarray | None:
+        """``(t,) int64``: the models that change-feed events after revision ``after`` up to
+        ``through`` name; None when some of them were pruned, or ``after`` is ahead."""
+        assert self.sessions is not None
+        if after > through:  # saved from a newer database than this one
+            return None
+        with self.sessions() as session:
+            touched = session.scalars(
+                select(IndexEvent.index_id)
+                .where(IndexEvent.revision > after, IndexEvent.revision <= through)
+                .distinct()
+            ).all()
+            # Read after the events, as ``_follow`` does.
+            pruned_through = session.execute(
+                select(FeedState.pruned_through).where(FeedState.id == 1)
+            ).scalar_one()
+        if pruned_through > after:
+            return None
+        return np.asarray(touched, dtype=np.int64)
 
     def wants_neighbourhoods(self) -> bool:
         """Whether ``keep_neighbourhoods`` would keep more: a partition large enough to keep

@@ -36,7 +36,7 @@ import faiss
 import numpy as np
 
 from app.search.index._kept import Neighbourhood
-from app.search.index._partition import Partition
+from app.search.index._partition import Partition, list_ids
 
 __all__ = [
     "NeighbourGraph",
@@ -231,9 +231,9 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
             if block is None:
                 kept.pass_version, kept.pass_stopped = version, False
                 break
-            rows, _, cosines = block
+            rows, neighbours, cosines = block
             complete = np.isfinite(cosines).all(axis=1)
-            kept.put_block(ids[rows][complete], cosines[complete])
+            kept.put_block(ids[rows][complete], cosines[complete], ids[neighbours[complete]])
     return int(kept.holding(ids).sum())
 
 
@@ -278,7 +278,7 @@ def _ivf_blocks(
     ivf = faiss.extract_index_ivf(partition.index)
     full = partition.full
     assert full is not None  # a compressed partition keeps its full vectors
-    members = [_list_ids(ivf.invlists, number) for number in range(ivf.nlist)]
+    members = [list_ids(ivf.invlists, number) for number in range(ivf.nlist)]
     ids = np.concatenate(members)
     starts = np.concatenate([[0], np.cumsum([len(m) for m in members])])
     probes = min(partition.nprobe, ivf.nlist)
@@ -307,14 +307,6 @@ def _ivf_blocks(
                 yield rows, *_nearest(columns[own], at[own], columns, at, k)
 
     return ids, blocks(), probes >= ivf.nlist
-
-
-def _list_ids(invlists: faiss.InvertedLists, number: int) -> np.ndarray:
-    """The ids held in inverted list ``number``."""
-    size = invlists.list_size(number)
-    if size == 0:
-        return np.zeros(0, dtype=np.int64)
-    return faiss.rev_swig_ptr(invlists.get_ids(number), size).astype(np.int64)
 
 
 def _nearest(

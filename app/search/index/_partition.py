@@ -27,7 +27,7 @@ from app.search.index._kept import KeptNeighbourhoods
 from app.search.index._lock import ReadWriteLock
 from app.search.index._projection import Projection
 
-__all__ = ["TRAIN_PER_LIST", "Partition"]
+__all__ = ["TRAIN_PER_LIST", "Partition", "list_ids"]
 
 TRAIN_PER_LIST = 16  # k-means training vectors per inverted list
 _TRAIN_ITERATIONS = 8
@@ -166,6 +166,14 @@ class Partition:
         if self.full is not None:
             self.full.drop(ids.tolist())
 
+    def ids(self) -> np.ndarray:
+        """``(n,) int64``: every id held, in no particular order."""
+        if not self.approximate:
+            return faiss.vector_to_array(self.index.id_map).astype(np.int64)
+        invlists = faiss.extract_index_ivf(self.index).invlists
+        return np.concatenate([np.zeros(0, dtype=np.int64)] + [
+            list_ids(invlists, number) for number in range(invlists.nlist)])
+
     def exact_vectors(self, ids: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         """``(m, dim) float32`` vectors of ``ids`` as added, and a ``(m,) bool`` mask of
         the ids held."""
@@ -202,6 +210,14 @@ class Partition:
             every = faiss.SearchParametersIVF(nprobe=self.index.nlist)
             squared, ids = self.index.search(coded, k, params=every)
         return squared, ids
+
+
+def list_ids(invlists: faiss.InvertedLists, number: int) -> np.ndarray:
+    """The ids held in inverted list ``number``."""
+    size = invlists.list_size(number)
+    if size == 0:
+        return np.zeros(0, dtype=np.int64)
+    return faiss.rev_swig_ptr(invlists.get_ids(number), size).astype(np.int64)
 
 
 def _varying_dimensions(sample: np.ndarray) -> np.ndarray | None:
