@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,7 @@ from sqlalchemy import delete, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.api.main import create_app
-from app.db.models import FeedState, Model
+from app.db.models import FeedState, IndexEvent, Model
 from app.search.index import ShapeIndex, _neighbours
 from app.search.index._saved import computing, file_for, load, restore, save
 from app.settings import Settings
@@ -128,13 +129,16 @@ def test_without_changes_everything_is_restored_and_saved_once(
 
 
 @pytest.mark.parametrize(
-    "fault", ["pruned", "other data", "a model gone unsaid", "corrupt", "too many changes"])
+    "fault",
+    ["pruned", "other data", "a model gone unsaid", "another history", "corrupt",
+     "too many changes"],
+)
 def test_a_file_that_cannot_be_trusted_is_not_used(
     sessions: sessionmaker[Session], tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
     caplog: pytest.LogCaptureFixture, fault: str,
 ) -> None:
     vectors = catalogue(sessions, 40, seed=33)
-    saved_index(sessions, tmp_path)
+    saved_at = saved_index(sessions, tmp_path).revision
     path = file_for(tmp_path, KEY, K)
     if fault == "pruned":  # events after the save were deleted: what they named is unknown
         delete_model(sessions, next(iter(vectors)))
@@ -147,6 +151,10 @@ def test_a_file_that_cannot_be_trusted_is_not_used(
     elif fault == "a model gone unsaid":  # not in the feed: the file is not of this data
         with sessions.begin() as session:
             session.execute(delete(Model).where(Model.index_id == next(iter(vectors))))
+    elif fault == "another history":  # restored from an older backup, then changed
+        with sessions.begin() as session:
+            session.execute(update(IndexEvent).where(IndexEvent.revision == saved_at).values(
+                created_at=datetime(2020, 1, 1, tzinfo=UTC)))
     elif fault == "corrupt":
         path.write_bytes(path.read_bytes()[:200])
     else:  # more changes than half the neighbourhoods survive

@@ -53,6 +53,7 @@ aside and swaps them in, so searches never wait for it.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import threading
 import uuid
@@ -395,7 +396,12 @@ class ShapeIndex:
             table = kept.saved()
             if len(table.ids) == 0:
                 return False
-            saved = SavedNeighbourhoods.of(partition, key, kept.k, self.revision, table)
+            revision = self.revision
+            saved = SavedNeighbourhoods.of(partition, key, kept.k, revision, "", table)
+        stamp = self._feed_stamp(revision)
+        if stamp is None:  # pruned already: no restore could recognise the file
+            return False
+        saved = dataclasses.replace(saved, stamp=stamp)
         path = file_for(self.cache_dir, key, saved.k)
         try:
             save(path, saved)
@@ -424,7 +430,9 @@ class ShapeIndex:
             return None
         with self._sync_lock:  # the partition as of the revision
             version, revision = partition.kept.version, self.revision
-        touched = self._touched(saved.revision, revision)
+        touched = None
+        if self._feed_stamp(saved.revision) == saved.stamp:  # this database's feed
+            touched = self._touched(saved.revision, revision)
         restored = None if touched is None else restore(partition, saved, touched, version)
         if restored is None:
             log.info("saved hub-discount neighbourhoods of %s (revision %d) not restored at "
@@ -436,6 +444,19 @@ class ShapeIndex:
             kept = partition.kept  # no need to write back what the file holds
             kept.saved_as = (kept.version, len(kept))
         return restored
+
+    def _feed_stamp(self, revision: int) -> str | None:
+        """The change-feed event at ``revision`` as text (model, kind, time; empty at 0),
+        or None when the feed holds none there."""
+        assert self.sessions is not None
+        if revision == 0:
+            return ""
+        with self.sessions() as session:
+            event = session.execute(
+                select(IndexEvent.index_id, IndexEvent.kind, IndexEvent.created_at)
+                .where(IndexEvent.revision == revision)
+            ).one_or_none()
+        return None if event is None else " ".join(str(value) for value in event)
 
     def _touched(self, after: int, through: int) -> np.ndarray | None:
         """``(t,) int64``: the models that change-feed events after revision ``after`` up to

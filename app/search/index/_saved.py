@@ -16,15 +16,17 @@ what the changes since have moved, as a running process does for each change (``
   ``FORGET_NEAREST`` nearest, as a change does).
 
 A file also holds a few of the partition's vectors, which must be bit for bit those the
-partition holds: a file of another database, or of this one restored from an older backup,
-is not used. Nor is one whose events were pruned since (``app.db.retention``), one of
-another ``k``, or one the partition changed too much since for it to keep half
-(``worth_restoring``). A file is written whole and renamed into place, so a reader never
-sees part of one, and processes that share the directory share the files (the last one
-saved wins; any is right for its revision). They share the work too: one process at a time
-computes a partition's (``computing``: a lock beside its file) and saves what it kept, and
-the others restore that instead of computing the same (two API processes on a host of two
-cores used to spend a core each on the same pass).
+partition holds, and the feed's event at its revision, which must be the database's: a file
+of another database, or of this one restored from an older backup, is not used. Nor is one
+whose events were pruned since (``app.db.retention``), one of another ``k``, or one the
+partition changed too much since for it to keep half (``worth_restoring``).
+
+A file is written whole and renamed into place, so a reader never sees part of one, and
+processes that share the directory share the files (the last one saved wins; any is right
+for its revision). They share the work too: one process at a time computes a partition's
+(``computing``: a lock beside its file) and saves what it kept, and the others restore that
+instead of computing the same (two API processes on a host of two cores used to spend a
+core each on the same pass).
 
 The IVF lists of a restarted process come from a new k-means training, so the
 neighbourhoods an approximate partition restores are those the saving process's lists
@@ -78,6 +80,10 @@ class SavedNeighbourhoods:
         The neighbourhoods' size.
     revision : int
         The change-feed revision the partition was at: every event up to it, none after.
+    stamp : str
+        The event at ``revision`` as the database holds it (model, kind, time; empty at
+        revision 0): a database whose feed went another way since (restored from a backup
+        older than the file, then changed) has another there.
     table : PassTable
         The neighbourhoods, every row held.
     probe_ids : (p,) int64
@@ -87,13 +93,15 @@ class SavedNeighbourhoods:
     key: PartitionKey
     k: int
     revision: int
+    stamp: str
     table: PassTable
     probe_ids: np.ndarray
     probe_vectors: np.ndarray
 
     @classmethod
     def of(
-        cls, partition: Partition, key: PartitionKey, k: int, revision: int, table: PassTable
+        cls, partition: Partition, key: PartitionKey, k: int, revision: int, stamp: str,
+        table: PassTable,
     ) -> SavedNeighbourhoods:
         """From ``partition``'s kept ``table`` at ``revision`` (call with no change
         running: the index's sync lock)."""
@@ -101,7 +109,7 @@ class SavedNeighbourhoods:
         probe_ids = table.ids[np.unique(picked)]
         with partition.lock.reading():
             vectors, _ = partition.exact_vectors(probe_ids.tolist())
-        return cls(key, k, revision, table, probe_ids, vectors)
+        return cls(key, k, revision, stamp, table, probe_ids, vectors)
 
 
 def file_for(directory: Path, key: PartitionKey, k: int) -> Path:
@@ -140,7 +148,7 @@ def save(path: Path, saved: SavedNeighbourhoods) -> None:
     """Write ``saved`` to ``path`` whole: a file beside it, then renamed over it."""
     path.parent.mkdir(parents=True, exist_ok=True)
     header = {"format": FORMAT, "key": list(saved.key), "k": saved.k,
-              "revision": saved.revision}
+              "revision": saved.revision, "stamp": saved.stamp}
     with _replacing(path) as stream:
         table = saved.table
         np.savez(stream, header=np.array(json.dumps(header)), ids=table.ids,
@@ -177,6 +185,7 @@ def load(path: Path, key: PartitionKey, k: int) -> SavedNeighbourhoods | None:
         n = len(ids)
         layout = (header.get("format") == FORMAT and tuple(header.get("key", ())) == key
                   and header.get("k") == k and isinstance(header.get("revision"), int)
+                  and isinstance(header.get("stamp"), str)
                   and ids.dtype == np.int64 and ids.shape == (n,)
                   and values.dtype == np.float64 and values.shape == (n, 3)
                   and members.dtype == np.uint32 and members.shape == (n, k + 1)
@@ -191,7 +200,8 @@ def load(path: Path, key: PartitionKey, k: int) -> SavedNeighbourhoods | None:
                     "not used", path, key, k, FORMAT)
         return None
     table = PassTable.of(ids, values, members)
-    return SavedNeighbourhoods(key, k, int(header["revision"]), table, probe_ids, probe_vectors)
+    return SavedNeighbourhoods(key, k, int(header["revision"]), header["stamp"], table,
+                               probe_ids, probe_vectors)
 
 
 def worth_restoring(k: int, touched: int, held: int) -> bool:
