@@ -120,8 +120,10 @@ def _keep_neighbourhoods(index: ShapeIndex) -> None:
     except Exception:  # the queries compute what they need instead
         log.exception("computing the hub-discount neighbourhoods failed")
         return
-    log.info("hub-discount neighbourhoods of %d models kept in %.1f s", kept,
-             time.perf_counter() - started)
+    # Said when done: a process waiting for another's pass looks again at each quiet sync.
+    level = logging.DEBUG if index.wants_neighbourhoods() else logging.INFO
+    log.log(level, "hub-discount neighbourhoods of %d models kept in %.1f s", kept,
+            time.perf_counter() - started)
     _observe(index)
 
 

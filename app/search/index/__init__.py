@@ -203,6 +203,7 @@ class ShapeIndex:
         self._entry_neighbours = KeptEntryNeighbours()  # scan mode's, per partition pair
         # The saved neighbourhoods' file each partition last tried to restore, by its stat.
         self._restores_tried: dict[PartitionKey, tuple[int, int, int]] = {}
+        self._waiting: set[PartitionKey] = set()  # for another process's pass (said once)
         self._sync_lock = threading.Lock()  # one writer of the maps at a time
 
     # --- reading ----------------------------------------------------------------------
@@ -367,9 +368,14 @@ class ShapeIndex:
                 continue
             with computing(file_for(self.cache_dir, key, self.hub_neighbours)) as ours:
                 if ours:
+                    self._waiting.discard(key)
                     kept += keep_neighbourhoods(partition, self.hub_neighbours)
                     self._save_neighbourhoods(key, partition)
                 else:
+                    if key not in self._waiting:
+                        log.info("another process computes the hub-discount neighbourhoods "
+                                 "of %s: restoring what it saves", key)
+                        self._waiting.add(key)
                     kept += partition.kept.tabled
         trim_heap()  # the pass's blocks, freed: most of what it grew the process by
         return kept
