@@ -21,6 +21,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.api.main import create_app
 from app.db.models import FeedState, IndexEvent, Model
 from app.search.index import ShapeIndex, _neighbours
+from app.search.index._kept import RESTORED_AS_PASS
 from app.search.index._saved import computing, file_for, load, restore, save
 from app.settings import Settings
 from tests.test_hub_search import KEY, hub_order, search
@@ -73,7 +74,7 @@ def near(vector: np.ndarray, seed: int) -> np.ndarray:
 def test_a_restart_restores_what_a_pass_over_the_changed_catalogue_keeps(
     sessions: sessionmaker[Session], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    vectors = catalogue(sessions, 60, seed=31)
+    vectors = catalogue(sessions, 120, seed=31)
     before = saved_index(sessions, tmp_path)
     kept = before._partitions[KEY].kept
     # Changes after the save: a model deleted (its vector gone with it), one re-described,
@@ -98,7 +99,7 @@ def test_a_restart_restores_what_a_pass_over_the_changed_catalogue_keeps(
     restored = after.keep_neighbourhoods()
     assert computed == []  # restored, not computed
     assert not after.wants_neighbourhoods()  # counts as a pass: the rest is the queries'
-    assert len(vectors) / 2 <= restored < len(vectors) - len(among)
+    assert len(vectors) * RESTORED_AS_PASS <= restored < len(vectors) - len(among)
     table = after._partitions[KEY].kept.saved()  # what the restore keeps, queries' aside
     restored_ids = table.ids.tolist()
     assert len(restored_ids) == restored
@@ -251,3 +252,27 @@ def test_one_process_computes_and_the_others_restore_what_it_saves(
     computed.clear()
     assert second.keep_neighbourhoods() == 30 and computed == []  # restored its file
     assert not second.wants_neighbourhoods()
+
+
+def test_a_restore_keeping_less_than_most_is_carried_on_by_a_pass(
+    sessions: sessionmaker[Session], tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # A file saved long after its pass: half the catalogue arrived one at a time since
+    # (each kept by no pass), so the file holds the older half only.
+    rows = unit_rows(60, 6, seed=38).astype(np.float32)
+    for row in rows[:30]:
+        add_ready(sessions, row)
+    index = saved_index(sessions, tmp_path)
+    for row in rows[30:]:
+        add_ready(sessions, row)
+        index.sync()  # one change per sync: each forgets the few it moves
+    assert index.save_neighbourhoods() == 1  # what its pass still keeps: under half
+    computed = counted_passes(monkeypatch)
+    after = ShapeIndex(sessions, hub_neighbours=K, cache_dir=tmp_path)
+    after.rebuild()
+    with caplog.at_level(logging.INFO, logger="shapesearch.index"):
+        assert after.keep_neighbourhoods() == 60  # restored, then the rest by a pass
+    assert "restored (" in caplog.text
+    assert computed and not after.wants_neighbourhoods()
+    assert after.neighbourhoods_kept() == 1.0

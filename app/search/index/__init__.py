@@ -349,7 +349,7 @@ class ShapeIndex:
         after ``rebuild``; changes wait for one block of it at a time); the count kept.
 
         With a ``cache_dir`` (``_saved``), a partition where no pass kept any first
-        restores those saved there (a restore that keeps half or more counts as its pass),
+        restores those saved there (a restore that keeps most counts as its pass),
         and a pass is computed by one process at a time and saved at its end: a process
         that finds another computing leaves the partition for now (the index still wants
         its neighbourhoods) and restores what the other saves."""
