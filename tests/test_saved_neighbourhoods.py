@@ -276,3 +276,28 @@ def test_a_restore_keeping_less_than_most_is_carried_on_by_a_pass(
     assert "restored (" in caplog.text
     assert computed and not after.wants_neighbourhoods()
     assert after.neighbourhoods_kept() == 1.0
+
+
+def test_a_process_that_restored_part_takes_the_whole_another_saves(
+    sessions: sessionmaker[Session], tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    rows = unit_rows(38, 6, seed=39).astype(np.float32)
+    for row in rows[:30]:
+        add_ready(sessions, row)
+    index = saved_index(sessions, tmp_path)
+    for row in rows[30:]:  # the file keeps under half: a pass must carry a restore on
+        add_ready(sessions, row)
+        index.sync()
+    assert index.save_neighbourhoods() == 1
+    computed = counted_passes(monkeypatch)
+    waiting, computing_one = (ShapeIndex(sessions, hub_neighbours=K, cache_dir=tmp_path)
+                              for _ in range(2))
+    waiting.rebuild()
+    computing_one.rebuild()
+    with computing(file_for(tmp_path, KEY, K)):  # another process's pass, under way
+        assert 0 < waiting.keep_neighbourhoods() < 38 * RESTORED_AS_PASS  # the file's part
+    assert computed == [] and waiting.wants_neighbourhoods()
+    assert computing_one.keep_neighbourhoods() == 38 and computed  # restored, carried on
+    computed.clear()
+    assert waiting.keep_neighbourhoods() == 38 and computed == []  # the whole, restored
+    assert not waiting.wants_neighbourhoods()

@@ -362,15 +362,19 @@ class ShapeIndex:
             if self.cache_dir is None:
                 kept += keep_neighbourhoods(partition, self.hub_neighbours)
                 continue
-            restored = self._restore_neighbourhoods(key, partition)
-            if restored is not None and partition.kept.passed:
-                kept += restored
+            self._restore_neighbourhoods(key, partition)
+            if partition.kept.passed:
+                kept += partition.kept.tabled
                 continue
             with computing(file_for(self.cache_dir, key, self.hub_neighbours)) as ours:
                 if ours:
                     self._waiting.discard(key)
-                    kept += keep_neighbourhoods(partition, self.hub_neighbours)
-                    self._save_neighbourhoods(key, partition)
+                    # The last holder may have saved its pass since the look above.
+                    self._restore_neighbourhoods(key, partition)
+                    if not partition.kept.passed:
+                        keep_neighbourhoods(partition, self.hub_neighbours)
+                        self._save_neighbourhoods(key, partition)
+                    kept += partition.kept.tabled
                 else:
                     if key not in self._waiting:
                         log.info("another process computes the hub-discount neighbourhoods "
@@ -418,13 +422,14 @@ class ShapeIndex:
         return True
 
     def _restore_neighbourhoods(self, key: PartitionKey, partition: Partition) -> int | None:
-        """Restore partition ``key``'s saved neighbourhoods when no pass kept any there
-        (``_saved``; those queries computed meanwhile stay) and the file is not one tried
-        before; the count kept, or None."""
+        """Restore partition ``key``'s saved neighbourhoods (``_saved``; those queries
+        computed meanwhile stay) when no pass went through it since its last change, the
+        file is not one tried before, and it keeps more than what the partition's passes
+        kept (a restore, or a pass stopped by a change); the count kept, or None."""
         assert self.cache_dir is not None
         k = self.hub_neighbours
         path = file_for(self.cache_dir, key, k)
-        if self.sessions is None or partition.kept.tabled or not path.is_file():
+        if self.sessions is None or partition.kept.passed or not path.is_file():
             return None
         stamp = path.stat()
         seen = (stamp.st_mtime_ns, stamp.st_size, stamp.st_ino)

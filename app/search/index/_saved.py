@@ -219,7 +219,8 @@ def restore(
     ``touched : (t,) int64`` since its revision moved; the count kept. None, keeping
     nothing, when it is not the partition's (its probes differ, or an untouched model of it
     is gone), when the partition changed since ``version`` (``kept.version``, read with the
-    partition at the revision the touched end at), or when not ``worth_restoring``."""
+    partition at the revision the touched end at), when not ``worth_restoring``, or when
+    it would keep no more than the partition's passes keep already."""
     table = saved.table
     touched = np.unique(np.asarray(touched, dtype=np.int64))
     with partition.lock.reading():
@@ -246,7 +247,7 @@ def restore(
             moved.extend(entered(partition, vectors, kept.lookup))
     kept = kept.without(np.isin(kept.ids, np.asarray(moved, dtype=np.int64)))
     with partition.lock.reading():
-        if partition.kept.version != version:
+        if partition.kept.version != version or len(kept.ids) <= partition.kept.tabled:
             return None
         partition.kept.use(saved.k)
         partition.kept.restore(kept, len(held_ids))
