@@ -11,13 +11,14 @@ tenant too: a tenant's newest revision tells whether its stored duplicates repor
 
 from __future__ import annotations
 
-from sqlalchemy import insert, update
+import numpy as np
+from sqlalchemy import insert, select, update
 from sqlalchemy.orm import Session
 
 from app.db.doorbells import FEED, announce
 from app.db.models import FeedState, IndexEvent
 
-__all__ = ["record_event"]
+__all__ = ["event_stamp", "models_touched", "record_event"]
 
 
 def record_event(session: Session, index_id: int, kind: str, tenant: str) -> int:
@@ -34,3 +35,35 @@ def record_event(session: Session, index_id: int, kind: str, tenant: str) -> int
     ))
     announce(session, FEED)
     return int(revision)
+
+
+def event_stamp(session: Session, revision: int) -> str | None:
+    """The event at ``revision`` as text (model, kind, time; empty at revision 0), or None
+    when the feed holds none there (pruned). Two databases whose feeds went different ways
+    after a common past have different ones."""
+    if revision == 0:
+        return ""
+    event = session.execute(
+        select(IndexEvent.index_id, IndexEvent.kind, IndexEvent.created_at)
+        .where(IndexEvent.revision == revision)
+    ).one_or_none()
+    return None if event is None else " ".join(str(value) for value in event)
+
+
+def models_touched(session: Session, after: int, through: int) -> np.ndarray | None:
+    """``(t,) int64``: the models that events after revision ``after`` up to ``through``
+    name; None when some of them were pruned (``app.db.retention``), or ``after`` is ahead
+    of ``through``."""
+    if after > through:
+        return None
+    touched = session.scalars(
+        select(IndexEvent.index_id)
+        .where(IndexEvent.revision > after, IndexEvent.revision <= through)
+        .distinct()
+    ).all()
+    # Read after the events: a pruning that deleted one of them before that read had
+    # committed, and so shows here.
+    pruned_through = session.execute(
+        select(FeedState.pruned_through).where(FeedState.id == 1)
+    ).scalar_one()
+    return None if pruned_through > after else np.asarray(touched, dtype=np.int64)

@@ -53,7 +53,6 @@ aside and swaps them in, so searches never wait for it.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import threading
 import uuid
@@ -66,6 +65,7 @@ import numpy as np
 from sqlalchemy import ColumnElement, func, null, select, true
 from sqlalchemy.orm import QueryableAttribute, Session, sessionmaker
 
+from app.db.feed import event_stamp, models_touched
 from app.db.models import FeedState, IndexEvent, Model
 from app.search.index._builder import Builder
 from app.search.index._entry_neighbours import KEPT_MODELS, KeptEntryNeighbours, nearest_models
@@ -348,11 +348,11 @@ class ShapeIndex:
         instead of computing their candidates' (an API process runs this in the background
         after ``rebuild``; changes wait for one block of it at a time); the count kept.
 
-        With a ``cache_dir`` (``_saved``), a partition where no pass kept any first
-        restores those saved there (a restore that keeps most counts as its pass),
-        and a pass is computed by one process at a time and saved at its end: a process
-        that finds another computing leaves the partition for now (the index still wants
-        its neighbourhoods) and restores what the other saves."""
+        With a ``cache_dir`` (``_saved``), a partition first restores those saved there
+        (a restore that keeps most counts as its pass), and a pass is computed by one
+        process at a time and saved at its end: a process that finds another computing
+        leaves the partition for now (the index still wants its neighbourhoods) and
+        restores what the other saves."""
         if self.hub_neighbours < 1:
             return 0
         kept = 0
@@ -397,7 +397,7 @@ class ShapeIndex:
     def _save_neighbourhoods(self, key: PartitionKey, partition: Partition) -> bool:
         """Save partition ``key``'s kept neighbourhoods if they changed since it last did;
         whether it wrote them (a failure is said in the log)."""
-        assert self.cache_dir is not None
+        assert self.cache_dir is not None and self.sessions is not None
         kept = partition.kept
         with self._sync_lock:  # no change between the table, the revision and the probes
             state = (kept.version, len(kept))
@@ -406,12 +406,11 @@ class ShapeIndex:
             table = kept.saved()
             if len(table.ids) == 0:
                 return False
-            revision = self.revision
-            saved = SavedNeighbourhoods.of(partition, key, kept.k, revision, "", table)
-        stamp = self._feed_stamp(revision)
-        if stamp is None:  # pruned already: no restore could recognise the file
-            return False
-        saved = dataclasses.replace(saved, stamp=stamp)
+            with self.sessions() as session:
+                stamp = event_stamp(session, self.revision)
+            if stamp is None:  # pruned already: no restore could recognise the file
+                return False
+            saved = SavedNeighbourhoods.of(partition, key, kept.k, self.revision, stamp, table)
         path = file_for(self.cache_dir, key, saved.k)
         try:
             save(path, saved)
@@ -441,9 +440,10 @@ class ShapeIndex:
             return None
         with self._sync_lock:  # the partition as of the revision
             version, revision = partition.kept.version, self.revision
-        touched = None
-        if self._feed_stamp(saved.revision) == saved.stamp:  # this database's feed
-            touched = self._touched(saved.revision, revision)
+        with self.sessions() as session:
+            touched = None
+            if event_stamp(session, saved.revision) == saved.stamp:  # this database's feed
+                touched = models_touched(session, saved.revision, revision)
         restored = None if touched is None else restore(partition, saved, touched, version)
         if restored is None:
             log.info("saved hub-discount neighbourhoods of %s (revision %d) not restored at "
@@ -455,39 +455,6 @@ class ShapeIndex:
             kept = partition.kept  # no need to write back what the file holds
             kept.saved_as = (kept.version, len(kept))
         return restored
-
-    def _feed_stamp(self, revision: int) -> str | None:
-        """The change-feed event at ``revision`` as text (model, kind, time; empty at 0),
-        or None when the feed holds none there."""
-        assert self.sessions is not None
-        if revision == 0:
-            return ""
-        with self.sessions() as session:
-            event = session.execute(
-                select(IndexEvent.index_id, IndexEvent.kind, IndexEvent.created_at)
-                .where(IndexEvent.revision == revision)
-            ).one_or_none()
-        return None if event is None else " ".join(str(value) for value in event)
-
-    def _touched(self, after: int, through: int) -> np.ndarray | None:
-        """``(t,) int64``: the models that change-feed events after revision ``after`` up to
-        ``through`` name; None when some of them were pruned, or ``after`` is ahead."""
-        assert self.sessions is not None
-        if after > through:  # saved from a newer database than this one
-            return None
-        with self.sessions() as session:
-            touched = session.scalars(
-                select(IndexEvent.index_id)
-                .where(IndexEvent.revision > after, IndexEvent.revision <= through)
-                .distinct()
-            ).all()
-            # Read after the events, as ``_follow`` does.
-            pruned_through = session.execute(
-                select(FeedState.pruned_through).where(FeedState.id == 1)
-            ).scalar_one()
-        if pruned_through > after:
-            return None
-        return np.asarray(touched, dtype=np.int64)
 
     def wants_neighbourhoods(self) -> bool:
         """Whether ``keep_neighbourhoods`` would keep more: a partition large enough to keep
