@@ -19,6 +19,7 @@ from sqlalchemy import delete, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.api.main import create_app
+from app.db.feed import record_event
 from app.db.models import FeedState, IndexEvent, Model
 from app.search.index import ShapeIndex, _neighbours
 from app.search.index._kept import RESTORED_AS_PASS
@@ -89,6 +90,12 @@ def test_a_restart_restores_what_a_pass_over_the_changed_catalogue_keeps(
     for seed, target in ((1, ids[20]), (2, ids[40])):
         vector = near(vectors[target], seed)
         vectors[add_ready(sessions, vector)] = vector
+    redescribed, vector = ids[30], near(vectors[ids[60]], 3)  # moved next to another
+    with sessions.begin() as session:
+        session.execute(update(Model).where(Model.index_id == redescribed).values(
+            descriptor=vector.tobytes()))
+        record_event(session, redescribed, "ready", "t")
+    vectors[redescribed] = vector
     computed = counted_passes(monkeypatch)
     after = ShapeIndex(sessions, hub_neighbours=K, cache_dir=tmp_path)
     after.rebuild()
