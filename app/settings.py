@@ -409,7 +409,9 @@ class Settings(BaseSettings):
         "restores them from at start-up instead of computing them again (at 10^6 models "
         "about 17 minutes of a core per process, with slow similar queries meanwhile), "
         "forgetting what changed since. Processes that share it share the pass: one "
-        "computes it, the others restore it. Unset: `index-cache` in "
+        "computes it, the others restore it. Files no partition reads any more (a "
+        "retired descriptor version, another k, a killed save) are removed a day after "
+        "they were last written. Unset: `index-cache` in "
         "the data directory with the embedded SQLite database, none (always computed) "
         "with another database URL (README, Restarts restore the pass).",
     )

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
 import time
 from datetime import UTC, datetime
 from pathlib import Path
@@ -23,7 +24,7 @@ from app.db.feed import record_event
 from app.db.models import FeedState, IndexEvent, Model
 from app.search.index import ShapeIndex, _neighbours
 from app.search.index._kept import RESTORED_AS_PASS
-from app.search.index._saved import computing, file_for, load, restore, save
+from app.search.index._saved import computing, file_for, load, restore, save, tidy
 from app.settings import Settings
 from tests.test_hub_search import KEY, hub_order, search
 from tests.test_hubness import unit_rows
@@ -308,3 +309,53 @@ def test_a_process_that_restored_part_takes_the_whole_another_saves(
     computed.clear()
     assert waiting.keep_neighbourhoods() == 38 and computed == []  # the whole, restored
     assert not waiting.wants_neighbourhoods()
+
+
+def aged(path: Path, days: float) -> Path:
+    """``path`` made (if it is not there) and last written ``days`` ago."""
+    path.touch()
+    stamp = time.time() - days * 86400
+    os.utime(path, (stamp, stamp))
+    return path
+
+
+def test_tidy_removes_what_no_partition_reads_once_a_day_old(tmp_path: Path) -> None:
+    read = aged(file_for(tmp_path, KEY, K), 3)  # a stable catalogue's: old, still read
+    read_lock = aged(read.with_suffix(".lock"), 3)
+    other_k = aged(file_for(tmp_path, KEY, K + 1), 2)
+    gone = aged(file_for(tmp_path, ("retired", "ss1"), K), 2)
+    gone_lock = aged(gone.with_suffix(".lock"), 2)
+    killed_save = aged(tmp_path / f".{read.name}.x1y2z3", 2)
+    recent = aged(file_for(tmp_path, ("rolling", "ss9"), K), 0.5)  # a deploy's older k
+    recent_save = aged(tmp_path / f".{gone.name}.a1b2c3", 0)
+    held = file_for(tmp_path, ("computing", "ss1"), K)
+    unrelated = aged(tmp_path / "notes.txt", 9)
+    with computing(held) as ours:  # another lock file, held while tidy looks
+        assert ours
+        aged(held.with_suffix(".lock"), 2)
+        removed = tidy(tmp_path, [read])
+    assert sorted(removed) == sorted([other_k, gone, gone_lock, killed_save])
+    assert all(not path.exists() for path in removed)
+    for path in (read, read_lock, recent, recent_save, held.with_suffix(".lock"), unrelated):
+        assert path.exists()
+    a_day_on = tidy(tmp_path, [read], now=time.time() + 86400)
+    assert sorted(a_day_on) == sorted([recent, recent_save, held.with_suffix(".lock")])
+    assert tidy(tmp_path / "absent", [read]) == []
+
+
+def test_saving_removes_the_files_of_a_partition_emptied_since(
+    sessions: sessionmaker[Session], tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    vectors = catalogue(sessions, 20, seed=37)
+    index = saved_index(sessions, tmp_path)
+    ours = aged(file_for(tmp_path, KEY, K), 2)
+    retired = aged(file_for(tmp_path, ("default", "ss0"), K), 2)
+    with caplog.at_level(logging.INFO, logger="shapesearch.index"):
+        index.save_neighbourhoods()
+    assert ours.is_file() and not retired.exists()
+    assert "removed 1 saved" in caplog.text
+    for own in vectors:
+        delete_model(sessions, own)
+    index.sync()
+    index.save_neighbourhoods()
+    assert not ours.exists()  # no model left reads it

@@ -84,6 +84,7 @@ from app.search.index._saved import (
     load,
     restore,
     save,
+    tidy,
 )
 from app.search.index._view_ids import (
     VIEW_ID_BASE,
@@ -386,13 +387,23 @@ class ShapeIndex:
 
     def save_neighbourhoods(self) -> int:
         """Save each partition's kept hub-discount neighbourhoods that changed since it
-        last saved them to ``cache_dir`` (``_saved``: a file per partition, written whole);
-        the count of files written. A directory that cannot be written is said in the log,
-        and nothing else happens."""
+        last saved them to ``cache_dir`` (``_saved``: a file per partition, written whole),
+        and remove the files there that no partition reads (``_saved.tidy``); the count of
+        files written. A directory that cannot be written is said in the log, and nothing
+        else happens."""
         if self.cache_dir is None or self.hub_neighbours < 1:
             return 0
-        return sum(self._save_neighbourhoods(key, partition)
-                   for key, partition in list(self._partitions.items()) if not holds_views(key))
+        partitions = [(key, partition) for key, partition in list(self._partitions.items())
+                      if not holds_views(key)]
+        written = sum(self._save_neighbourhoods(key, partition) for key, partition in partitions)
+        if self.only is None:  # it knows every partition: what none reads can go
+            read = [file_for(self.cache_dir, key, self.hub_neighbours)
+                    for key, partition in partitions if partition.index.ntotal > 0]
+            removed = tidy(self.cache_dir, read)
+            if removed:
+                log.info("removed %d saved hub-discount neighbourhood files no partition "
+                         "reads from %s", len(removed), self.cache_dir)
+        return written
 
     def _save_neighbourhoods(self, key: PartitionKey, partition: Partition) -> bool:
         """Save partition ``key``'s kept neighbourhoods if they changed since it last did;

@@ -28,6 +28,11 @@ for its revision). They share the work too: one process at a time computes a par
 instead of computing the same (two API processes on a host of two cores used to spend a
 core each on the same pass).
 
+Files no process reads any more are removed (``tidy``): those of a partition the database
+no longer holds (a retired descriptor version, a tenant's last model deleted) or of another
+``k``, once a day has passed since they were last written, and what a process killed while
+saving left (at 10^6 models each is 77 MB).
+
 The IVF lists of a restarted process come from a new k-means training, so the
 neighbourhoods an approximate partition restores are those the saving process's lists
 found: as approximate as its own pass's, not bit for bit the same.
@@ -42,7 +47,8 @@ import json
 import logging
 import os
 import tempfile
-from collections.abc import Iterator
+import time
+from collections.abc import Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
@@ -60,6 +66,7 @@ __all__ = [
     "load",
     "restore",
     "save",
+    "tidy",
     "worth_restoring",
 ]
 
@@ -68,6 +75,10 @@ log = logging.getLogger("shapesearch.index")
 FORMAT = 1  # the files' layout; another is not read
 PROBES = 8  # vectors a file holds to recognise its partition
 _ENTER_CHUNK = 256  # touched models checked per read lock (a change waits for one chunk)
+# A file no partition of this process reads is removed once it is this old (seconds): a
+# day covers a rolling deploy whose older processes read another ``k`` meanwhile, and a
+# save in flight (0.1 s at 10^6 models) is never that old.
+STALE_AFTER = 24 * 3600.0
 
 
 @dataclass(frozen=True)
@@ -142,6 +153,60 @@ def computing(path: Path) -> Iterator[bool]:
             yield True
         finally:
             fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def tidy(
+    directory: Path, read: Collection[Path], *, stale_after: float = STALE_AFTER,
+    now: float | None = None,
+) -> list[Path]:
+    """Remove from ``directory`` the saved neighbourhoods that no partition reads, the
+    ``read`` paths (``file_for`` each partition held, at this process's ``k``), written
+    more than ``stale_after`` seconds before ``now``: files and their locks, and the parts a
+    save left when its process was killed. A lock another process holds stays, and so does
+    what is not such a file. The paths removed; a failure is said in the log."""
+    now = time.time() if now is None else now
+    names = {path.name for path in read}
+    removed: list[Path] = []
+    for path in _saved_files(directory):
+        data = path.with_suffix(".npz").name if path.suffix == ".lock" else path.name
+        if data in names:
+            continue
+        try:
+            if now - path.stat().st_mtime <= stale_after:
+                continue
+            if path.suffix == ".lock":
+                if not _unlink_unheld(path):
+                    continue
+            else:
+                path.unlink()
+        except FileNotFoundError:  # another process of the directory removed it first
+            continue
+        except OSError as error:
+            log.warning("saved neighbourhoods %s not removed: %s", path, error)
+            continue
+        removed.append(path)
+    return removed
+
+
+def _saved_files(directory: Path) -> list[Path]:
+    """What ``save`` and ``computing`` write in ``directory``: files, locks and the
+    temporary files of saves."""
+    try:
+        return [path for path in directory.iterdir() if path.name.startswith(
+            ("neighbourhoods-", ".neighbourhoods-")) and path.is_file()]
+    except OSError:  # no such directory (nothing to remove), or not one (said at save)
+        return []
+
+
+def _unlink_unheld(lock_path: Path) -> bool:
+    """Remove the lock file at ``lock_path`` unless a process holds it; whether removed."""
+    with open(lock_path, "a+b") as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return False
+        lock_path.unlink()  # while held: no process takes it in between
+        return True
 
 
 def save(path: Path, saved: SavedNeighbourhoods) -> None:
