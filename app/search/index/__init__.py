@@ -364,26 +364,28 @@ class ShapeIndex:
                 kept += keep_neighbourhoods(partition, self.hub_neighbours)
                 continue
             self._restore_neighbourhoods(key, partition)
-            if partition.kept.passed:
-                kept += partition.kept.tabled
-                continue
-            with computing(file_for(self.cache_dir, key, self.hub_neighbours)) as ours:
-                if ours:
-                    self._waiting.discard(key)
-                    # The last holder may have saved its pass since the look above.
-                    self._restore_neighbourhoods(key, partition)
-                    if not partition.kept.passed:
-                        keep_neighbourhoods(partition, self.hub_neighbours)
-                        self._save_neighbourhoods(key, partition)
-                    kept += partition.kept.tabled
-                else:
-                    if key not in self._waiting:
-                        log.info("another process computes the hub-discount neighbourhoods "
-                                 "of %s: restoring what it saves", key)
-                        self._waiting.add(key)
-                    kept += partition.kept.tabled
+            if not partition.kept.passed:
+                self._compute_or_wait(key, partition)
+            kept += partition.kept.tabled
         trim_heap()  # the pass's blocks, freed: most of what it grew the process by
         return kept
+
+    def _compute_or_wait(self, key: PartitionKey, partition: Partition) -> None:
+        """Compute partition ``key``'s pass and save it, unless another process of the
+        cache directory is computing it (then this one restores what that one saves)."""
+        assert self.cache_dir is not None
+        with computing(file_for(self.cache_dir, key, self.hub_neighbours)) as ours:
+            if ours:
+                self._waiting.discard(key)
+                # The last holder may have saved its pass since the caller's look.
+                self._restore_neighbourhoods(key, partition)
+                if not partition.kept.passed:
+                    keep_neighbourhoods(partition, self.hub_neighbours)
+                    self._save_neighbourhoods(key, partition)
+            elif key not in self._waiting:
+                log.info("another process computes the hub-discount neighbourhoods of %s: "
+                         "restoring what it saves", key)
+                self._waiting.add(key)
 
     def save_neighbourhoods(self) -> int:
         """Save each partition's kept hub-discount neighbourhoods that changed since it
