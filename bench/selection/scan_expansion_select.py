@@ -222,8 +222,10 @@ def anchored_order(keys: np.ndarray, whole: np.ndarray, radii: np.ndarray, own: 
     keys = keys.copy()
     keys[own] = np.inf
     order = np.argsort(keys, kind="stable")
-    pool, anchor = order[:POOL], order[0]
-    rest = pool[1:]
+    # The scanned model is in no pool, even of a source smaller than the pool (capod's
+    # non-rigid classes, 30 models): its vector must not enter the neighbourhoods.
+    pool = order[:POOL][np.isfinite(keys[order[:POOL]])]
+    anchor, rest = pool[0], pool[1:]
     squared = np.sum((whole[rest] - whole[anchor]) ** 2, axis=1)
     if nearness == "service":
         near = pool_keys(whole[anchor], whole[rest], hub_keys(squared, radii[rest]))
@@ -232,7 +234,8 @@ def anchored_order(keys: np.ndarray, whole: np.ndarray, radii: np.ndarray, own: 
     else:
         near = squared
     blended = (1.0 - weight) * keys[rest] + weight * near
-    ranked = np.concatenate([pool[:1], rest[np.argsort(blended, kind="stable")], order[POOL:]])
+    ranked = np.concatenate([pool[:1], rest[np.argsort(blended, kind="stable")],
+                             order[len(pool):]])
     result = np.empty(len(keys))
     result[ranked] = np.arange(len(keys), dtype=float)
     result[own] = np.inf
