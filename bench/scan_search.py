@@ -3,16 +3,20 @@
 Scan mode (``find_similar(..., mode="scan")``) compares a scan with every model's whole
 descriptor and its virtual views; since the fifteenth session it re-orders the ``4 k``
 nearest models by scan mode's hub discount, whose radii cost a search of both partitions per
-entry, taken best bound first until the answer is certain, and since the sixteenth the rest
-of the pool after the first answer by ``core.hubness.expansion_keys``
-(``app.search.similarity._scan_hub_order``). This measures what that costs.
+entry, taken best bound first until the answer is certain; since the thirty-eighth the rest
+of the pool after the first answer follows that answer's shape-mode order (``core.scan_order``:
+the hub discount and the k-reciprocal re-rank, ``app.search.similarity._scan_hub_order``),
+before it by a blend of key and nearness to the first answer, whose radii were searched as
+the first's. This measures what that costs.
 
 A SQLite database is filled with ``--models`` ready models, each a synthetic descriptor
 (``search_scale.synthetic_chunk``: real descriptors mixed and noised, unit length) with
 ``--views`` views (the model's vector moved half-way towards other synthetic vectors, so a
 view is near its model and unlike its siblings, as real views are). One in-process
 ``ShapeIndex`` serves both orders: each query runs once in plain order
-(``hub_neighbours`` 0) and once with the discount, interleaved, the query a fresh synthetic
+(``hub_neighbours`` 0) and once with the discount and the service's default k-reciprocal
+re-rank (the shape-mode neighbourhoods kept by the pass an API process runs after a
+rebuild, ``ShapeIndex.keep_neighbourhoods``), interleaved, the query a fresh synthetic
 vector (an upload: no model left out), ``k`` 10. The index keeps the entry neighbours
 it searched while the catalogue stays as it is (``app/search/index/_entry_neighbours.py``),
 so later queries search only for entries no earlier query met; ``--cold`` forgets them
@@ -107,11 +111,14 @@ def main() -> None:
         print(f"filled {args.models} models x {args.views} views, d {real.shape[1]}: "
               f"{time.perf_counter() - started:.0f} s")
         engine = make_engine(url)
-        index = ShapeIndex(make_session_factory(engine))
+        index = ShapeIndex(make_session_factory(engine), reciprocal=True)
         started = time.perf_counter()
         index.rebuild()
         print(f"index built in {time.perf_counter() - started:.0f} s: models "
               f"{index.describe(KEY)}, views {index.describe(views_key(KEY))}")
+        started = time.perf_counter()
+        kept = index.keep_neighbourhoods()
+        print(f"{kept} shape-mode neighbourhoods kept in {time.perf_counter() - started:.0f} s")
         seconds: dict[str, list[float]] = {"plain": [], "discount": []}
         same_first = 0
         for query in queries(real, args.queries, 0.08, batch=3):

@@ -23,13 +23,7 @@ the mean over its ``SCAN_HUB_NEIGHBOURS`` most alike other models of its largest
 any of their entries (``model_radii``), weight ``SCAN_HUB_WEIGHT``; a model's key is its
 best entry's ``hub_keys``. Chosen by ``bench/selection/scan_hubs_select.py`` (+0.006 mAP
 of single-view scans left out over seven sources, every pre-registered test passed;
-docs/results.md). After its first answer, scan mode orders the rest of its pool by
-``expansion_keys``: a partial scan is far from every whole model, but its first answer is a
-whole model, and whole models find their kind well, so each candidate's key blends in its
-nearness to the first answer's whole descriptor (query expansion for scans, weight
-``SCAN_EXPANSION_WEIGHT``; ``scan_ranking`` over a whole catalogue). Chosen by
-``bench/selection/scan_expansion_select.py`` (+0.073 mAP of single-view scans left out over
-seven sources, every pre-registered test passed; docs/results.md).
+docs/results.md). It places scan mode's first answer; ``core.scan_order`` orders the rest.
 """
 
 from __future__ import annotations
@@ -41,10 +35,8 @@ __all__ = [
     "HUB_RERANK_FACTOR",
     "HUB_WEIGHT",
     "SAME_DESCRIPTOR",
-    "SCAN_EXPANSION_WEIGHT",
     "SCAN_HUB_NEIGHBOURS",
     "SCAN_HUB_WEIGHT",
-    "expansion_keys",
     "hub_discounted_keys",
     "hub_keys",
     "model_radii",
@@ -52,8 +44,6 @@ __all__ = [
     "neighbourhood_radii",
     "rerank_depth",
     "scan_hub_keys",
-    "scan_mode_positions",
-    "scan_ranking",
 ]
 
 #: ``k`` and ``weight`` of the rule's choice (bench/selection/hubness_select.py, round 1).
@@ -71,11 +61,6 @@ SAME_DESCRIPTOR = 1e-4
 #: entry of the other models, the smallest ``k`` and ``weight`` of its grid).
 SCAN_HUB_NEIGHBOURS = 5
 SCAN_HUB_WEIGHT = 0.5
-#: Scan mode's expansion weight (bench/selection/scan_expansion_select.py: one anchor, the
-#: first answer; the largest weight of its grid).
-SCAN_EXPANSION_WEIGHT = 0.75
-
-
 def rerank_depth(k: int) -> int:
     """How many plain nearest candidates a search re-orders for ``k`` results."""
     return HUB_RERANK_FACTOR * k
@@ -209,77 +194,6 @@ def scan_hub_keys(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
     for model in range(models):
         keys[:, model] = entry_keys[:, owners == model].min(axis=1)
     return keys
-
-
-def expansion_keys(keys: np.ndarray, spread: np.ndarray,
-                   weight: float = SCAN_EXPANSION_WEIGHT) -> np.ndarray:
-    """Scan mode's keys after its first answer, lower first: ``(1 - weight) keys +
-    weight spread``, ``keys`` the candidates' ``scan_hub_keys`` and ``spread`` their squared
-    distances from the first answer's whole descriptor (same shapes). Increasing in
-    ``keys``, so a lower bound of a key gives one of its expansion key."""
-    return (1.0 - weight) * np.asarray(keys) + weight * np.asarray(spread)
-
-
-def scan_ranking(keys: np.ndarray, whole: np.ndarray, depth: int,
-                 weight: float = SCAN_EXPANSION_WEIGHT) -> np.ndarray:
-    """Scan mode's order of a whole catalogue for one query: the first answer (least key)
-    first, the rest of the ``depth`` least keys by ``expansion_keys``, the others after them
-    by key. The search service orders its pool so, with ``depth = rerank_depth(k)``; its
-    pool is the nearest by plain best entry rather than by key, which changes the first 10
-    of a few scans in ten at equal mAP (``bench/selection/scan_expansion_pool_check.py``).
-
-    Parameters
-    ----------
-    keys : (m,) float
-        ``scan_hub_keys`` of every model (``inf`` for a model left out).
-    whole : (m, d) float
-        Each model's whole descriptor (unit rows).
-    depth : int
-        The pool re-ordered.
-
-    Returns
-    -------
-    positions : (m,) float
-        Each model's place in the answer, lower first (``inf`` where ``keys`` is).
-    """
-    keys = np.asarray(keys, dtype=float)
-    order = np.argsort(keys, kind="stable")
-    pool, rest = order[:depth], order[depth:]
-    if len(pool) > 1 and weight > 0:
-        spread = np.sum((whole[pool[1:]] - whole[pool[0]]) ** 2, axis=1)
-        pool = np.concatenate([pool[:1], pool[1:][np.argsort(
-            expansion_keys(keys[pool[1:]], spread, weight), kind="stable")]])
-    positions = np.empty(len(keys))
-    positions[np.concatenate([pool, rest])] = np.arange(len(keys), dtype=float)
-    positions[~np.isfinite(keys)] = np.inf
-    return positions
-
-
-def scan_mode_positions(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
-                        left_out: np.ndarray, whole: np.ndarray,
-                        depth: int | None = None) -> np.ndarray:
-    """Each query's ``scan_ranking`` over a whole catalogue, as the search service answers
-    10 results (``depth`` ``rerank_depth(10)`` unless given): ``scan_hub_keys`` with the
-    left-out model last, then the first answer and its pool by ``expansion_keys``.
-
-    Parameters
-    ----------
-    queries, entries, owners, left_out
-        As ``scan_hub_keys`` (``left_out`` -1: none).
-    whole : (m, d) float
-        Each model's whole descriptor.
-
-    Returns
-    -------
-    positions : (q, m) float
-        Lower first; ``inf`` for each query's left-out model.
-    """
-    keys = scan_hub_keys(queries, entries, owners, left_out)
-    left_out = np.asarray(left_out)
-    rows = np.flatnonzero(left_out >= 0)
-    keys[rows, left_out[rows]] = np.inf
-    pool = rerank_depth(10) if depth is None else depth
-    return np.array([scan_ranking(row, whole, pool) for row in keys])
 
 
 def _best_per_model(entries: np.ndarray, owners: np.ndarray,

@@ -8,14 +8,11 @@ import pytest
 
 from core.evaluation.metrics import pairwise_distances
 from core.hubness import (
-    expansion_keys,
     hub_discounted_keys,
     model_radii,
     model_radii_among,
     neighbourhood_radii,
     scan_hub_keys,
-    scan_mode_positions,
-    scan_ranking,
 )
 
 
@@ -177,48 +174,3 @@ def test_scan_hub_keys_are_each_models_best_discounted_entry_without_the_left_ou
                 key = float(np.sum((entries[entry] - query) ** 2)) + 0.5 * np.mean(best)
                 expected = min(expected, key)
             assert keys[row, model] == pytest.approx(expected)
-
-
-def test_scan_ranking_keeps_the_first_answer_and_orders_its_pool_by_expansion_keys() -> None:
-    rng = np.random.default_rng(4)
-    whole = rng.normal(size=(30, 6))
-    whole /= np.linalg.norm(whole, axis=1, keepdims=True)
-    keys = rng.uniform(0.5, 2.0, size=30)
-    keys[7] = np.inf  # left out
-    positions = scan_ranking(keys, whole, depth=12, weight=0.75)
-    ranked = [int(i) for i in np.argsort(positions, kind="stable") if np.isfinite(positions[i])]
-    by_key = [int(i) for i in np.argsort(keys, kind="stable") if np.isfinite(keys[i])]
-    assert ranked[0] == by_key[0] and 7 not in ranked and positions[7] == np.inf
-    spread = np.sum((whole - whole[by_key[0]]) ** 2, axis=1)
-    blend = {i: 0.25 * keys[i] + 0.75 * spread[i] for i in by_key[1:12]}
-    assert ranked[1:12] == sorted(blend, key=lambda i: blend[i])
-    assert ranked[12:] == by_key[12:]  # beyond the pool: by key
-    assert ranked[1:12] != by_key[1:12]  # the expansion moved something
-    # Weight 0 is the keys' own order.
-    plain = scan_ranking(keys, whole, depth=12, weight=0.0)
-    assert [int(i) for i in np.argsort(plain, kind="stable")][:29] == by_key
-
-
-def test_expansion_keys_grow_with_the_key_so_bounds_stay_bounds() -> None:
-    keys = np.array([0.2, 0.5, 0.9])
-    spread = np.array([1.0, 0.1, 0.4])
-    blended = expansion_keys(keys, spread, 0.75)
-    np.testing.assert_allclose(blended, 0.25 * keys + 0.75 * spread)
-    assert np.all(expansion_keys(keys - 0.1, spread, 0.75) < blended)
-
-
-def test_scan_mode_positions_rank_each_query_without_its_own_model() -> None:
-    entries = unit_rows(24, 5, seed=6)
-    owners = np.repeat(np.arange(8), 3)
-    whole = entries[::3]
-    queries = unit_rows(4, 5, seed=7)
-    left_out = np.array([2, -1, 5, 0])
-    positions = scan_mode_positions(queries, entries, owners, left_out, whole, depth=5)
-    keys = scan_hub_keys(queries, entries, owners, left_out)
-    for row, model in enumerate(left_out):
-        expected_keys = keys[row].copy()
-        if model >= 0:
-            expected_keys[model] = np.inf
-            assert positions[row, model] == np.inf
-        np.testing.assert_array_equal(positions[row], scan_ranking(expected_keys, whole, 5))
-    assert np.isfinite(positions[1]).all()

@@ -34,12 +34,15 @@ from app.search.index import VIEW_ID_BASE, ShapeIndex, view_id, view_of, views_k
 from app.search.similarity import find_similar, score_of
 from app.settings import engine_settings
 from core.hubness import (
-    SCAN_EXPANSION_WEIGHT,
+    HUB_NEIGHBOURS,
     SCAN_HUB_NEIGHBOURS,
     SCAN_HUB_WEIGHT,
+    hub_keys,
+    neighbourhood_radii,
     rerank_depth,
 )
 from core.pipeline import describe_points, scan_weights
+from core.reciprocal import pool_keys, reciprocal_depth
 from core.settings import EngineSettings, ViewSettings
 from core.views import (
     frame_directions,
@@ -347,16 +350,18 @@ def test_a_filter_that_few_models_pass_widens_the_search_in_rounds(
 
 
 def hub_keys_of(
-    entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None
+    entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None,
+    depth: int | None = None,
 ) -> dict[int, float]:
     """Scan mode's hub discount computed directly over the whole catalogue: the
-    ``rerank_depth(k)`` nearest models by best entry, each keyed by its least
+    ``depth`` (``rerank_depth(k)`` unless given) nearest models by best entry, each keyed
+    by its least
     ``|q - e|^2 + SCAN_HUB_WEIGHT r(e)``, ``r(e)`` the mean over the 5 other models (not
     ``exclude``) most alike ``e`` of ``e``'s largest cosine to their entries."""
     catalogue_ids = [i for i in entries if i != exclude]
     plain = [i for i, _ in brute_force({i: entries[i] for i in catalogue_ids}, query)]
     keys = {}
-    for model in plain[: rerank_depth(k)]:
+    for model in plain[: rerank_depth(k) if depth is None else depth]:
         entry_keys = []
         for entry in entries[model]:
             others = [other for other in catalogue_ids if other != model]
@@ -377,33 +382,42 @@ def discounted_order(
 
 
 def scan_order(
-    entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None
+    entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None,
+    reciprocal: bool = False,
 ) -> list[int]:
-    """Scan mode's order computed directly: the least hub key first, then the rest of the
-    pool by ``(1 - w) key + w |x - x_first|^2`` (``x`` a model's whole descriptor, ``w``
-    ``SCAN_EXPANSION_WEIGHT``)."""
-    keys = hub_keys_of(entries, query, k, exclude)
+    """Scan mode's order computed directly: of the pool (the plain nearest
+    ``reciprocal_depth(k)``, or ``rerank_depth(k)`` without the re-rank) the least hub key
+    first, then the rest of the pool as a shape query for the first answer's whole
+    descriptor ``a`` orders them: ``|x - a|^2 + r_10(x)``, ``r_10`` over every whole
+    descriptor but ``exclude``'s, then (``reciprocal``) ``pool_keys`` among them."""
+    depth = reciprocal_depth(k) if reciprocal else rerank_depth(k)
+    keys = hub_keys_of(entries, query, k, exclude, depth)
     first = min(keys, key=lambda i: (keys[i], i))
-    whole = entries[first][0].astype(np.float64)
-    blended = {
-        i: (1 - SCAN_EXPANSION_WEIGHT) * keys[i]
-        + SCAN_EXPANSION_WEIGHT * float(np.sum((entries[i][0] - whole) ** 2))
-        for i in keys if i != first
-    }
-    return [first, *sorted(blended, key=lambda i: (blended[i], i))][:k]
+    anchor = entries[first][0].astype(np.float64)
+    ids = [i for i in entries if i != exclude]
+    radii = dict(zip(ids, neighbourhood_radii(np.array([entries[i][0] for i in ids]),
+                                              HUB_NEIGHBOURS), strict=True))
+    rest = [i for i in keys if i != first]
+    squared = np.array([float(np.sum((entries[i][0] - anchor) ** 2)) for i in rest])
+    near = hub_keys(squared, np.array([radii[i] for i in rest]))
+    if reciprocal:
+        near = pool_keys(anchor, np.array([entries[i][0] for i in rest]), near)
+    order = sorted(range(len(rest)), key=lambda j: (near[j], rest[j]))
+    return [first, *(rest[j] for j in order)][:k]
 
 
+@pytest.mark.parametrize("reciprocal", [False, True])
 def test_scan_mode_orders_as_a_direct_computation(
-    sessions: sessionmaker[Session],
+    sessions: sessionmaker[Session], reciprocal: bool,
 ) -> None:
-    entries = catalogue(sessions, 40, views=3, seed=5)
-    index = ShapeIndex(sessions)
+    entries = catalogue(sessions, 60, views=3, seed=5)
+    index = ShapeIndex(sessions, reciprocal=reciprocal)
     index.rebuild()
     rng = np.random.default_rng(7)
-    moved = expanded = 0
+    moved = reordered = 0
     for _ in range(6):
         query = unit(rng.normal(size=8))
-        expected = scan_order(entries, query, 7)
+        expected = scan_order(entries, query, 7, reciprocal=reciprocal)
         found = scan_search(index, sessions, query, k=7)
         assert [m.model.index_id for m in found] == expected
         # Distances and scores stay the plain best entry's.
@@ -412,14 +426,16 @@ def test_scan_mode_orders_as_a_direct_computation(
             assert match.distance == pytest.approx(plain[match.model.index_id], abs=1e-5)
         moved += discounted_order(entries, query, 7) != [
             i for i, _ in brute_force(entries, query)[:7]]
-        expanded += expected != discounted_order(entries, query, 7)
-    # The discount and the expansion each changed some answers, or this test shows nothing.
-    assert moved > 0 and expanded > 0
+        reordered += expected[1:] != discounted_order(entries, query, 7)[1:]
+    # The discount and the first answer's order each changed some answers, or this test
+    # shows nothing.
+    assert moved > 0 and reordered > 0
     # A query by model id: that model is in no radius and no answer.
     own = list(entries)[3]
-    expected = scan_order(entries, entries[own][0], 5, exclude=own)
+    expected = scan_order(entries, entries[own][0], 5, exclude=own, reciprocal=reciprocal)
     found = scan_search(index, sessions, entries[own][0], k=5, exclude=own)
     assert [m.model.index_id for m in found] == expected
+    assert own not in expected
 
 
 def test_after_the_first_answer_its_kind_comes_before_views_as_near_the_scan(
@@ -427,8 +443,8 @@ def test_after_the_first_answer_its_kind_comes_before_views_as_near_the_scan(
 ) -> None:
     """A scan meets one part's view best; other parts of that kind are whole much like it
     but were seen from elsewhere, while parts of another kind have views a little nearer
-    the scan. Plain order puts the other kind second; scan mode's expansion puts the first
-    answer's kind there."""
+    the scan. Plain order puts the other kind second; scan mode puts the first answer's
+    kind there (the rest follows the first answer's own shape-mode order)."""
     d = 16
     basis = np.eye(d)
     query = basis[0]

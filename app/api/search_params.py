@@ -53,10 +53,10 @@ ORDER_HELP = (
     "nearest include the query comes earlier), the discount's first answer kept first "
     "(SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain "
     "similarity, need not fall along the list; a model with the query's own descriptor "
-    "stays first. With mode=scan, of the 4k nearest models by best entry the one of least "
-    "key comes first, key the best entry's distance^2 + r/2, r that entry's mean best "
-    "cosine to the 5 other models most alike it; the others follow by key/4 + 3/4 of their "
-    "whole descriptor's squared distance from the first answer's, so the first answer's "
+    "stays first. With mode=scan, of the max(4k, 40) nearest models by best entry the one "
+    "of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean "
+    "best cosine to the 5 other models most alike it; the others follow in the order "
+    "mode=shape gives them for the first answer's whole descriptor, so the first answer's "
     "kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0)."
 )
 ModeQuery = Annotated[

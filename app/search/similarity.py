@@ -45,15 +45,16 @@ Then, without a size term, those candidates are re-ranked k-reciprocally among t
 kept first (the re-rank alone moved right first answers down). A candidate with the query's
 own descriptor stays first. ``distance`` and ``score`` stay plain (``min_score``, the
 calibration and the duplicates report keep their meaning). Scan mode has a discount of its
-own (``core.hubness.model_radii``): the ``4 k`` nearest models by best entry, re-ordered by
-their best entry's ``d^2 + 0.5 r``, ``r`` the entry's mean best cosine to the 5 other models
-most alike it (+0.006 mAP of single-view scans left out over seven sources); after the
-model of least key, the others follow by ``core.hubness.expansion_keys``, which blend in
-their whole descriptor's distance from that first answer's (a partial scan is far from every
-whole model, whole models find their kind well: +0.073 mAP of single-view scans left out
-over seven sources). An entry's radius costs a search, so entries are taken best bound first
-(``_scan_hub_order``) and the index keeps what it searched while the catalogue stays as it
-is.
+own (``core.hubness.model_radii``): of the ``max(4 k, 40)`` nearest models by best entry
+(``4 k`` without the re-rank), the one whose best entry has the least ``d^2 + 0.5 r``, ``r``
+the entry's mean best cosine to the 5 other models most alike it, comes first (+0.006 mAP
+of single-view scans left out over seven sources); the others follow in the order a shape
+query for that first answer's whole descriptor gives them (``core.scan_order``: a partial
+scan is far from every whole model, whole models find their kind well; +0.015 mAP of
+single-view scans left out over seven sources against the blend it replaced, itself +0.073
+over the discount alone). An entry's radius costs a search, so entries are taken best bound
+first (``_scan_hub_order``) and the index keeps what it searched while the catalogue stays
+as it is.
 """
 
 from __future__ import annotations
@@ -97,7 +98,6 @@ from core.hubness import (
     SAME_DESCRIPTOR,
     SCAN_HUB_NEIGHBOURS,
     SCAN_HUB_WEIGHT,
-    expansion_keys,
     hub_keys,
     model_radii,
     model_radii_among,
@@ -620,7 +620,7 @@ def _best_entries(
     # Views per model (on average): a model's views tend to be near the query together.
     per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
     discounted = index.hub_neighbours > 0 and size.weight == 0
-    depth = rerank_depth(k) if discounted else k
+    depth = (reciprocal_depth(k) if index.reciprocal else rerank_depth(k)) if discounted else k
     filtered = bool(filters) or bool(ranges) or size.filters
     fetch = (depth + 1 if exclude is not None else depth) * (
         4 if filtered and allowed is None else 1)
@@ -670,20 +670,20 @@ def _scan_hub_order(
     exclude: int | None,
     k: int,
 ) -> list[Match]:
-    """The first ``k`` of ``matches`` in scan mode's order: first the model of least hub
-    key (``core.hubness.model_radii``: a model's key is the least
+    """The first ``k`` of ``matches`` in scan mode's order (``core.scan_order``): first
+    the model of least hub key (``core.hubness.model_radii``: a model's key is the least
     ``|q - e|^2 + SCAN_HUB_WEIGHT r(e)`` over its entries ``e``, ``r(e)`` the mean over the
     ``SCAN_HUB_NEIGHBOURS`` other models most alike ``e`` (not the query model ``exclude``)
-    of ``e``'s largest cosine to their entries), then the others by ``expansion_keys`` of
-    their hub keys and their squared distances from that first answer's whole descriptor
-    (``core.hubness.scan_ranking``). Ties in upload order; ``distance``, ``score`` and
-    ``view`` stay the plain ones.
+    of ``e``'s largest cosine to their entries), then the others in the order a shape query
+    for that first answer's whole descriptor gives them (``_hub_order``: the hub discount
+    and the k-reciprocal re-rank among them). Ties in upload order; ``distance``, ``score``
+    and ``view`` stay the plain ones.
 
     An entry's radius costs a search, so entries are taken best bound first: each starts
     at the key its radius among the candidates gives (``model_radii_among``, a lower bound),
     and gets its searched radius only when it comes first; a model whose best entry comes
-    first with its searched key is placed. The order is the one every radius would give, at
-    a few searches per result rather than one per entry.
+    first with its searched key is placed. The first answer is the one every radius would
+    give, at a few searches rather than one per entry.
     """
     if not matches:
         return matches
@@ -697,46 +697,31 @@ def _scan_hub_order(
     radii = bounds.copy()
     # The query's own descriptor: its key does not depend on a radius.
     searched = squared <= SAME_DESCRIPTOR**2
-
-    def place(count: int, spread: np.ndarray | None, placed: list[int]) -> None:
-        """Append the next ``count`` models in order of their least entry key (hub keys,
-        or their ``expansion_keys`` with ``spread`` per entry), searching radii lazily."""
-        def keys_of(entry: np.ndarray | int) -> np.ndarray:
-            hub = hub_keys(squared[entry], radii[entry], SCAN_HUB_WEIGHT)
-            return hub if spread is None else expansion_keys(hub, spread[entry])
-
-        keys = keys_of(np.arange(len(owners)))
-        heap = [(float(keys[e]), not searched[e], int(owners[e]), e)
-                for e in range(len(owners)) if int(owners[e]) not in placed]
-        heapq.heapify(heap)
-        wanted = len(placed) + count
-        while heap and len(placed) < wanted:
-            _, bound_only, owner, entry = heapq.heappop(heap)
-            if owner in placed:
-                continue
-            if not bound_only:
-                placed.append(owner)
-                continue
-            radius = _entry_radii(index, key, stacked[entry : entry + 1], [entry_ids[entry]],
-                                  owners[entry : entry + 1], exclude)[0]
-            # An approximate partition's radius may fall below the bound the exact vectors
-            # give.
-            radii[entry] = max(radius, float(bounds[entry]))
-            searched[entry] = True
-            heapq.heappush(heap, (float(keys_of(entry)), False, owner, entry))
-
-    placed: list[int] = []
-    place(1, None, placed)
-    if placed and k > 1:
-        # Each entry carries its model's squared distance from the first answer, whole to
-        # whole (a model's descriptor is its first entry).
-        first = entries[placed[0]][0].astype(np.float64)
-        spread_of = {i: float(np.sum((entries[i][0].astype(np.float64) - first) ** 2))
-                     for i in ids}
-        spread = np.array([spread_of[int(owner)] for owner in owners])
-        place(k - 1, spread, placed)
+    heap = [(float(hub_keys(squared[e], radii[e], SCAN_HUB_WEIGHT)), not searched[e],
+             int(owners[e]), e) for e in range(len(owners))]
+    heapq.heapify(heap)
+    while True:
+        _, bound_only, first, entry = heapq.heappop(heap)
+        if not bound_only:
+            break
+        radius = _entry_radii(index, key, stacked[entry : entry + 1], [entry_ids[entry]],
+                              owners[entry : entry + 1], exclude)[0]
+        # An approximate partition's radius may fall below the bound the exact vectors give.
+        radii[entry] = max(radius, float(bounds[entry]))
+        heapq.heappush(heap, (float(hub_keys(squared[entry], radii[entry], SCAN_HUB_WEIGHT)),
+                              False, first, entry))
+    rest = [i for i in ids if i != first]
     by_id = {match.model.index_id: match for match in matches}
-    return [by_id[i] for i in placed]
+    if k == 1 or not rest:
+        return [by_id[first]]
+    # The first answer's whole descriptor (a model's first entry) queries the rest as shape
+    # mode would: plain distances from it, its vectors already read.
+    anchor = entries[first][0].astype(np.float64)
+    whole = {i: entries[i][0] for i in rest}
+    distances = [float(np.sqrt(np.sum((whole[i].astype(np.float64) - anchor) ** 2)))
+                 for i in rest]
+    order = _hub_order(index, key, rest, distances, exclude, query=anchor, read=whole)
+    return [by_id[i] for i in [first, *order[: k - 1]]]
 
 
 def _entry_radii(

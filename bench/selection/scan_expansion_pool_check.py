@@ -1,4 +1,4 @@
-"""Does the search service's pool change scan mode's expansion? (a check, chooses nothing)
+"""Does the search service's pool change scan mode's order? (a check, chooses nothing)
 
 ``scan_expansion_select.py`` scored its candidates with the pool taken as the 40 models of
 least scan-mode key over the whole catalogue. The service takes the ``rerank_depth(k)``
@@ -12,6 +12,11 @@ the same. ``scan_hubs_service_check.py`` checks the service itself against the e
 py-gearworks 0.971, as the emulation at pool 40 says).
 
     .venv/bin/python bench/selection/scan_expansion_pool_check.py /work/scanrev
+
+Since the thirty-eighth session scan mode orders the rest of its pool as a shape query for
+the first answer (``core.scan_order``, ``scan_expansion_select.py --round 2``): the
+emulation and the study's order are that one; the sixteenth session's result below is of
+the expansion it replaced.
 
 **Result** (2026-11-27, sixteenth session): at pool 40 the service's order scores the
 study's mAP within 0.003 on all eight sources; its first 10 are the study's for 0.85 (MCAD)
@@ -37,7 +42,8 @@ from scan_hubs_select import Catalogue, load_catalogue  # noqa: E402
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
 from core.evaluation.scan_retrieval import best_entry_distances  # noqa: E402
-from core.hubness import expansion_keys, scan_hub_keys, scan_ranking  # noqa: E402
+from core.hubness import HUB_NEIGHBOURS, neighbourhood_radii, scan_hub_keys  # noqa: E402
+from core.scan_order import scan_ranking  # noqa: E402
 
 SOURCES = ("madcad", "gearworks", "vslot", "mcad", "generated", "bendable", "capod", "bosl2")
 STUDY_DEPTH = 40
@@ -45,17 +51,17 @@ DEPTHS = (40, 80, 160)
 
 
 def service_positions(keys: np.ndarray, plain: np.ndarray, whole: np.ndarray,
-                      depth: int) -> np.ndarray:
-    """The service's order for one query: pool by ``plain`` distance, first by key, the
-    rest of the pool by ``expansion_keys``, the others by key (``inf`` stays last)."""
+                      radii: np.ndarray, depth: int) -> np.ndarray:
+    """The service's order for one query: pool by ``plain`` distance, in it the first by
+    key and the rest in the first answer's shape-mode order (``scan_ranking`` of the pool
+    alone), the others by key (``inf`` stays last)."""
     pool = np.argsort(plain, kind="stable")[:depth]
-    pool = pool[np.argsort(keys[pool], kind="stable")]
-    rest = pool[1:]
-    spread = np.sum((whole[rest] - whole[pool[0]]) ** 2, axis=1)
-    rest = rest[np.argsort(expansion_keys(keys[rest], spread), kind="stable")]
-    inside = set(pool.tolist())
-    beyond = [i for i in np.argsort(keys, kind="stable") if i not in inside]
-    order = np.concatenate([pool[:1], rest, beyond]).astype(int)
+    pool_keys = np.full(len(keys), np.inf)
+    pool_keys[pool] = keys[pool]
+    inside = scan_ranking(pool_keys, whole, depth, radii)
+    ordered = [int(i) for i in np.argsort(inside, kind="stable") if np.isfinite(inside[i])]
+    beyond = [i for i in np.argsort(keys, kind="stable") if i not in set(ordered)]
+    order = np.concatenate([ordered, beyond]).astype(int)
     positions = np.empty(len(keys))
     positions[order] = np.arange(len(keys), dtype=float)
     positions[~np.isfinite(keys)] = np.inf
@@ -68,18 +74,21 @@ def check(catalogue: Catalogue) -> dict[str, float]:
     own = catalogue.query_models["single+sor"]
     models = len(catalogue.models)
     keys = scan_hub_keys(queries, catalogue.entries, catalogue.owners, own)
-    whole = catalogue.entries[~catalogue.is_view]
+    whole = catalogue.entries[~catalogue.is_view].astype(np.float64)
+    radii = neighbourhood_radii(whole, HUB_NEIGHBOURS, exclude=own[:, None] == np.arange(
+        models)[None])
     plain = best_entry_distances(queries, catalogue.entries, catalogue.owners, models)
     exclude = own[:, None] == np.arange(models)[None, :]
     labels = [catalogue.labels[m] for m in own]
     for rows in (keys, plain):
         rows[np.arange(len(own)), own] = np.inf
-    study = np.array([scan_ranking(row, whole, STUDY_DEPTH) for row in keys])
+    study = np.array([scan_ranking(row, whole, STUDY_DEPTH, r)
+                      for row, r in zip(keys, radii, strict=True)])
     result = {"study": score_rankings(ranked_relevance(study, labels, catalogue.labels,
                                                        exclude))["map"]}
     for depth in DEPTHS:
-        service = np.array([service_positions(k, p, whole, depth)
-                            for k, p in zip(keys, plain, strict=True)])
+        service = np.array([service_positions(k, p, whole, r, depth)
+                            for k, p, r in zip(keys, plain, radii, strict=True)])
         result[f"service {depth}"] = score_rankings(
             ranked_relevance(service, labels, catalogue.labels, exclude))["map"]
         result[f"first10 {depth}"] = float(np.mean([

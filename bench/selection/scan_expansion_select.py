@@ -180,6 +180,36 @@ def expanded_order(keys: np.ndarray, whole: np.ndarray, own: int, anchors: int,
     return result
 
 
+def round_one_ranking(keys: np.ndarray, whole: np.ndarray, depth: int = POOL) -> np.ndarray:
+    """Round 1's choice, the service's scan order from the sixteenth to the thirty-seventh
+    session (the reference of ``scan_first_select.py`` and ``scan_frame_select.py``): one
+    query's places ``(models,)``, lower first (``inf`` where ``keys`` is): the least key
+    first, the rest of the ``depth`` least keys by ``(1 - 0.75) key + 0.75 |x - x_first|^2``,
+    the others after them by key."""
+    keys = np.asarray(keys, dtype=float)
+    order = np.argsort(keys, kind="stable")
+    pool, beyond = order[:depth], order[depth:]
+    if len(pool) > 1:
+        spread = np.sum((whole[pool[1:]] - whole[pool[0]]) ** 2, axis=1)
+        blended = (1.0 - SHIPPED_WEIGHT) * keys[pool[1:]] + SHIPPED_WEIGHT * spread
+        pool = np.concatenate([pool[:1], pool[1:][np.argsort(blended, kind="stable")]])
+    positions = np.empty(len(keys))
+    positions[np.concatenate([pool, beyond])] = np.arange(len(keys), dtype=float)
+    positions[~np.isfinite(keys)] = np.inf
+    return positions
+
+
+def round_one_positions(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
+                        left_out: np.ndarray, whole: np.ndarray) -> np.ndarray:
+    """``round_one_ranking`` of each query (``(q, models)``) over a whole catalogue, its
+    ``left_out`` model (``core.hubness.scan_hub_keys``'s) last."""
+    keys = scan_hub_keys(queries, entries, owners, left_out)
+    left_out = np.asarray(left_out)
+    rows = np.flatnonzero(left_out >= 0)
+    keys[rows, left_out[rows]] = np.inf
+    return np.array([round_one_ranking(row, whole) for row in keys])
+
+
 def candidate_scores(catalogue: Catalogue, kind: str
                      ) -> dict[str, tuple[dict[str, float], np.ndarray]]:
     """Every candidate's scores and per-query average precision for the ``kind`` queries."""

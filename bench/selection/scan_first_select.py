@@ -14,10 +14,10 @@ right lone match. Nothing is fitted.
 
 Candidates, written before any score of them was seen (5):
 
-- ``shipped`` (the reference): scan mode as it ships (``core.hubness.scan_ranking``): the
-  first answer is the least key ``s`` (``scan_hub_keys``), the rest of the pool (the
-  ``D`` = 40 least keys, ``rerank_depth(10)``) by ``expansion_keys`` from it, the others by
-  ``s``;
+- ``shipped`` (the reference): scan mode as it shipped then
+  (``scan_expansion_select.round_one_ranking``): the first answer is the least key ``s``
+  (``scan_hub_keys``), the rest of the pool (the ``D`` = 40 least keys,
+  ``rerank_depth(10)``) by the expansion keys from it, the others by ``s``;
 - ``vote m<m> l<l>``: among the pool, each model ``p`` gets ``s(p) + l * mean s(n)`` over its
   ``m`` nearest other pool models ``n`` by whole descriptor; the least of these is the first
   answer; the rest of the pool by ``expansion_keys`` from that first answer (``s`` unchanged),
@@ -66,7 +66,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from profile_block_select import Table  # noqa: E402
-from scan_expansion_select import whole_rows  # noqa: E402
+from scan_expansion_select import round_one_ranking, whole_rows  # noqa: E402
 from scan_hubs_select import (  # noqa: E402
     RULE_SOURCES,
     Scores,
@@ -77,7 +77,7 @@ from scan_hubs_select import (  # noqa: E402
     tabulate,
 )
 
-from core.hubness import rerank_depth, scan_hub_keys, scan_ranking  # noqa: E402
+from core.hubness import rerank_depth, scan_hub_keys  # noqa: E402
 
 SHIPPED = "shipped"
 NEIGHBOURS = (3, 5)
@@ -96,8 +96,8 @@ def candidates() -> dict[str, tuple[int, float]]:
 def voted_positions(keys: np.ndarray, whole: np.ndarray, depth: int, neighbours: int,
                     weight: float) -> np.ndarray:
     """One query's places ``(models,)``, lower first (``inf`` where ``keys`` is): the first
-    answer by the pool's vote (``neighbours`` 0: the least key, as shipped), then
-    ``core.hubness.scan_ranking`` from it."""
+    answer by the pool's vote (``neighbours`` 0: the least key, as shipped), then the
+    order shipped then from it (``scan_expansion_select.round_one_ranking``)."""
     if neighbours:
         pool = np.argsort(keys, kind="stable")[:depth]
         gaps = np.sum((whole[pool][:, None, :] - whole[pool][None]) ** 2, axis=2)
@@ -107,7 +107,7 @@ def voted_positions(keys: np.ndarray, whole: np.ndarray, depth: int, neighbours:
         # The voted model leads (a key below the least); everyone else's keys are unchanged.
         keys = keys.copy()
         keys[pool[int(np.argmin(votes))]] = keys[pool[0]] - 1.0
-    return scan_ranking(keys, whole, depth)
+    return round_one_ranking(keys, whole, depth)
 
 
 def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str

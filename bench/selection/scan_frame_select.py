@@ -21,9 +21,9 @@ Candidates, written before any score of them was seen (3):
   candidate). ``deg`` in {20, 45}.
 
 Every candidate's catalogue is each model whole and its 3 views of that candidate; scored in
-the search service's scan-mode order (``core.hubness.scan_mode_positions``: the hub
-discount among entries, the first answer's expansion), leave-one-out as everywhere (a
-query is a scan of one model, whose entries leave the catalogue for it).
+the search service's scan-mode order of the time (the hub discount among entries, the first
+answer's expansion: ``scan_expansion_select.round_one_positions``), leave-one-out as
+everywhere (a query is a scan of one model, whose entries leave the catalogue for it).
 
 The rule and the four ship tests are ``scan_hubs_select.rule_and_tests`` (as the scan hub,
 revolve and expansion studies): single-view scan mAP per source, the mean over the seven
@@ -70,7 +70,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from profile_block_select import Table  # noqa: E402
-from scan_expansion_select import whole_rows  # noqa: E402
+from scan_expansion_select import round_one_positions, whole_rows  # noqa: E402
 from scan_hubs_select import (  # noqa: E402
     VIEWS,
     ranked_scores,
@@ -79,8 +79,6 @@ from scan_hubs_select import (  # noqa: E402
     study_arguments,
     tabulate,
 )
-
-from core.hubness import scan_mode_positions  # noqa: E402
 
 REFERENCE = "box"
 TILTS = (20, 45)
@@ -99,7 +97,7 @@ def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
     """Every candidate on every source for the ``kind`` queries, in scan mode's order."""
     def scored(source: str, views: tuple[str, ...]) -> tuple[dict[str, float], np.ndarray]:
         catalogue = source_catalogue(root, source, descriptor, kinds=(kind,), views=views)
-        return ranked_scores(catalogue, kind, scan_mode_positions(
+        return ranked_scores(catalogue, kind, round_one_positions(
             catalogue.queries[kind], catalogue.entries, catalogue.owners,
             catalogue.query_models[kind], whole_rows(catalogue)))
 

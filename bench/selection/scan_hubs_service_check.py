@@ -31,6 +31,11 @@ then the whole catalogue (the study's pool is 40), so it is not the study's figu
 Sixteenth session: first 10 as the study's order for BOSL2 0.958, MCAD 0.852, bd-vslot
 0.979, pymadcad 0.925, py-gearworks 0.971 of queries: the pools differ at their edge (plain
 distance against key), at equal mAP (``scan_expansion_pool_check.py``); the depth stays.
+
+Since the thirty-eighth session the rest of the pool follows the first answer's shape-mode
+order (``core.scan_order``, ``scan_expansion_select.py --round 2``), and the pool is
+``reciprocal_depth(k)`` (at least 40) as in shape mode; the service is asked with its
+default k-reciprocal re-rank on.
 """
 
 from __future__ import annotations
@@ -51,7 +56,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from scan_hubs_select import load_catalogue  # noqa: E402
 
 from core.evaluation.metrics import average_precision  # noqa: E402
-from core.hubness import rerank_depth, scan_hub_keys, scan_ranking  # noqa: E402
+from core.hubness import HUB_NEIGHBOURS, neighbourhood_radii, scan_hub_keys  # noqa: E402
+from core.reciprocal import reciprocal_depth  # noqa: E402
+from core.scan_order import scan_ranking  # noqa: E402
 
 KEY = ("default", "check")
 
@@ -65,7 +72,6 @@ def check(folder: Path) -> dict[str, tuple[float, float]]:
     from app.db.session import make_engine, make_session_factory
     from app.search.index import ShapeIndex
     from app.search.similarity import find_similar
-    from core.hubness import HUB_NEIGHBOURS
 
     catalogue = load_catalogue(folder, "default")
     with tempfile.TemporaryDirectory() as directory:
@@ -85,7 +91,7 @@ def check(folder: Path) -> dict[str, tuple[float, float]]:
                 record_event(session, row.index_id, "ready", KEY[0])
                 index_ids.append(row.index_id)
         label_of = dict(zip(index_ids, catalogue.labels, strict=True))
-        index = ShapeIndex(sessions)
+        index = ShapeIndex(sessions, reciprocal=True)  # the service's default order
         index.rebuild()
         scores = {}
         for order, neighbours in (("plain", 0), ("discount", HUB_NEIGHBOURS)):
@@ -105,15 +111,18 @@ def check(folder: Path) -> dict[str, tuple[float, float]]:
         all_keys = scan_hub_keys(queries, catalogue.entries, catalogue.owners,
                                  catalogue.query_models["single+sor"])
         whole = catalogue.entries[~catalogue.is_view][np.argsort(
-            catalogue.owners[~catalogue.is_view])]
+            catalogue.owners[~catalogue.is_view])].astype(np.float64)
+        left_out = catalogue.query_models["single+sor"]
+        radii = neighbourhood_radii(whole, HUB_NEIGHBOURS,
+                                    exclude=left_out[:, None] == np.arange(len(whole))[None])
         same = []
         for row, (query, model) in enumerate(
                 zip(queries, catalogue.query_models["single+sor"], strict=True)):
             keys = all_keys[row].copy()
             keys[model] = np.inf
-            # The study's order for 10 results (sixteenth session: with the expansion after
-            # the first answer, core.hubness.scan_ranking).
-            positions = scan_ranking(keys, whole, rerank_depth(10))
+            # The study's order for 10 results (since the thirty-eighth session the rest
+            # after the first answer in that answer's shape-mode order, core.scan_order).
+            positions = scan_ranking(keys, whole, reciprocal_depth(10), radii[row])
             expected = [index_ids[m] for m in np.lexsort((np.arange(len(keys)), positions))[:10]]
             with engine.connect() as connection:
                 found = find_similar(index, connection, KEY, query, mode="scan", k=10,

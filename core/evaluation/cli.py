@@ -53,7 +53,6 @@ from core.hubness import (
     HUB_NEIGHBOURS,
     HUB_WEIGHT,
     hub_discounted_keys,
-    scan_mode_positions,
 )
 from core.reciprocal import (
     BLEND,
@@ -62,6 +61,7 @@ from core.reciprocal import (
     reciprocal_keys,
     rescaled_rows,
 )
+from core.scan_order import scan_mode_positions
 from core.settings import EngineSettings
 
 __all__ = ["evaluate", "run"]
@@ -192,8 +192,8 @@ def score_scan_mode(
     """Leave-one-out scores of scans ``queries`` in the search service's scan mode: each
     model of ``database`` is an entry whole and one per ``views`` (its virtual views that
     could be described); a scan ranks the models as the service answers 10 results, the hub
-    discount among entries and the expansion after the first answer
-    (``core.hubness.scan_ranking``), or (``discounted`` False) by best entry."""
+    discount among entries for the first answer and that answer's shape-mode order for the
+    rest (``core.scan_order.scan_ranking``), or (``discounted`` False) by best entry."""
     names = sorted(database)
     index = {name: position for position, name in enumerate(names)}
     rows, owners = [], []

@@ -207,12 +207,12 @@ def sync_detailed(
     themselves (a model whose own nearest include the query comes earlier), the discount's first answer
     kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain
     similarity, need not fall along the list; a model with the query's own descriptor stays first. With
-    mode=scan, of the 4k nearest models by best entry the one of least key comes first, key the best
-    entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it; the
-    others follow by key/4 + 3/4 of their whole descriptor's squared distance from the first answer's,
-    so the first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric
-    metadata: `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the
-    range. Size (sizes compare in millimetres where the models' units are known, as given otherwise):
+    mode=scan, of the max(4k, 40) nearest models by best entry the one of least key comes first, key the
+    best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it;
+    the others follow in the order mode=shape gives them for the first answer's whole descriptor, so the
+    first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
+    `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
+    Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
     before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within +-10% of
     the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over
@@ -322,12 +322,12 @@ def sync(
     themselves (a model whose own nearest include the query comes earlier), the discount's first answer
     kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain
     similarity, need not fall along the list; a model with the query's own descriptor stays first. With
-    mode=scan, of the 4k nearest models by best entry the one of least key comes first, key the best
-    entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it; the
-    others follow by key/4 + 3/4 of their whole descriptor's squared distance from the first answer's,
-    so the first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric
-    metadata: `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the
-    range. Size (sizes compare in millimetres where the models' units are known, as given otherwise):
+    mode=scan, of the max(4k, 40) nearest models by best entry the one of least key comes first, key the
+    best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it;
+    the others follow in the order mode=shape gives them for the first answer's whole descriptor, so the
+    first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
+    `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
+    Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
     before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within +-10% of
     the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over
@@ -432,12 +432,12 @@ async def asyncio_detailed(
     themselves (a model whose own nearest include the query comes earlier), the discount's first answer
     kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain
     similarity, need not fall along the list; a model with the query's own descriptor stays first. With
-    mode=scan, of the 4k nearest models by best entry the one of least key comes first, key the best
-    entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it; the
-    others follow by key/4 + 3/4 of their whole descriptor's squared distance from the first answer's,
-    so the first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric
-    metadata: `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the
-    range. Size (sizes compare in millimetres where the models' units are known, as given otherwise):
+    mode=scan, of the max(4k, 40) nearest models by best entry the one of least key comes first, key the
+    best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it;
+    the others follow in the order mode=shape gives them for the first answer's whole descriptor, so the
+    first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
+    `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
+    Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
     before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within +-10% of
     the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over
@@ -547,12 +547,12 @@ async def asyncio(
     themselves (a model whose own nearest include the query comes earlier), the discount's first answer
     kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps the discount's order); score, the plain
     similarity, need not fall along the list; a model with the query's own descriptor stays first. With
-    mode=scan, of the 4k nearest models by best entry the one of least key comes first, key the best
-    entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it; the
-    others follow by key/4 + 3/4 of their whole descriptor's squared distance from the first answer's,
-    so the first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric
-    metadata: `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the
-    range. Size (sizes compare in millimetres where the models' units are known, as given otherwise):
+    mode=scan, of the max(4k, 40) nearest models by best entry the one of least key comes first, key the
+    best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it;
+    the others follow in the order mode=shape gives them for the first answer's whole descriptor, so the
+    first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
+    `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
+    Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
     before the top-k cut; `size_tolerance=0.1` keeps models whose three extents are each within +-10% of
     the query's; `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over

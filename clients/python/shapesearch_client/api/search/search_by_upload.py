@@ -225,10 +225,10 @@ def sync_detailed(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, of the 4k nearest models by best entry the one
-    of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best cosine to
-    the 5 other models most alike it; the others follow by key/4 + 3/4 of their whole descriptor's
-    squared distance from the first answer's, so the first answer's kind comes next (off with
+    query's own descriptor stays first. With mode=scan, of the max(4k, 40) nearest models by best entry
+    the one of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best
+    cosine to the 5 other models most alike it; the others follow in the order mode=shape gives them for
+    the first answer's whole descriptor, so the first answer's kind comes next (off with
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
@@ -340,10 +340,10 @@ def sync(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, of the 4k nearest models by best entry the one
-    of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best cosine to
-    the 5 other models most alike it; the others follow by key/4 + 3/4 of their whole descriptor's
-    squared distance from the first answer's, so the first answer's kind comes next (off with
+    query's own descriptor stays first. With mode=scan, of the max(4k, 40) nearest models by best entry
+    the one of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best
+    cosine to the 5 other models most alike it; the others follow in the order mode=shape gives them for
+    the first answer's whole descriptor, so the first answer's kind comes next (off with
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
@@ -450,10 +450,10 @@ async def asyncio_detailed(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, of the 4k nearest models by best entry the one
-    of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best cosine to
-    the 5 other models most alike it; the others follow by key/4 + 3/4 of their whole descriptor's
-    squared distance from the first answer's, so the first answer's kind comes next (off with
+    query's own descriptor stays first. With mode=scan, of the max(4k, 40) nearest models by best entry
+    the one of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best
+    cosine to the 5 other models most alike it; the others follow in the order mode=shape gives them for
+    the first answer's whole descriptor, so the first answer's kind comes next (off with
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
@@ -565,10 +565,10 @@ async def asyncio(
     and then re-ranked k-reciprocally among themselves (a model whose own nearest include the query
     comes earlier), the discount's first answer kept first (SHAPESEARCH_SEARCH_RECIPROCAL=false keeps
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
-    query's own descriptor stays first. With mode=scan, of the 4k nearest models by best entry the one
-    of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best cosine to
-    the 5 other models most alike it; the others follow by key/4 + 3/4 of their whole descriptor's
-    squared distance from the first answer's, so the first answer's kind comes next (off with
+    query's own descriptor stays first. With mode=scan, of the max(4k, 40) nearest models by best entry
+    the one of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best
+    cosine to the 5 other models most alike it; the others follow in the order mode=shape gives them for
+    the first answer's whole descriptor, so the first answer's kind comes next (off with
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,

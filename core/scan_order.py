@@ -1,0 +1,96 @@
+"""Scan mode's order: the first answer by scan mode's hub discount, the rest as that answer's
+own shape-mode answer.
+
+A partial scan is far from every whole model, but its first answer is a whole model, and a
+whole model finds its kind well: in shape mode, by the hub discount (``core.hubness``) and
+the k-reciprocal re-rank over it (``core.reciprocal``). So scan mode places its first answer
+by ``core.hubness.scan_hub_keys`` (each model's best entry, whole or a virtual view,
+discounted among the other models' entries), and orders the rest of its pool as the search
+service orders the candidates of a shape query for that first answer's whole descriptor:
+hub keys ``|x - a|^2 + r_10(x)``, then ``core.reciprocal.pool_keys`` among the pool. The
+scan's own keys no longer order the rest; they choose the pool and the first answer.
+
+Chosen by ``bench/selection/scan_expansion_select.py --round 2`` (thirty-eighth session):
+single-view scans +0.015 mAP left out over seven sources (95 % +0.010 .. +0.021) against
+the round-1 order it replaces (the rest by ``(1 - 0.75) key + 0.75 |x - a|^2``), with
+merged scans, clean queries, BOSL2 (no choice saw it) and the ``bendable`` family up, and
+chosen again on a second draw of every scan (docs/results.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from core.hubness import HUB_NEIGHBOURS, hub_keys, neighbourhood_radii, scan_hub_keys
+from core.reciprocal import pool_keys, reciprocal_depth
+
+__all__ = ["scan_mode_positions", "scan_ranking"]
+
+
+def scan_ranking(keys: np.ndarray, whole: np.ndarray, depth: int,
+                 radii: np.ndarray) -> np.ndarray:
+    """Scan mode's order of a whole catalogue for one query: the first answer (least key)
+    first, the rest of the ``depth`` least keys in the first answer's shape-mode order among
+    them, the others after them by key. The search service orders its pool so, with
+    ``depth = reciprocal_depth(k)``; its pool is the nearest by plain best entry rather than
+    by key (``bench/selection/scan_expansion_pool_check.py``).
+
+    Parameters
+    ----------
+    keys : (m,) float
+        ``scan_hub_keys`` of every model (``inf`` for a model left out: it is in no pool).
+    whole : (m, d) float
+        Each model's whole descriptor (unit rows).
+    depth : int
+        The pool re-ordered.
+    radii : (m,) float
+        Each model's shape-mode ``r_10`` (``core.hubness.neighbourhood_radii`` over the
+        whole descriptors, the left-out model in no neighbourhood).
+
+    Returns
+    -------
+    positions : (m,) float
+        Each model's place in the answer, lower first (``inf`` where ``keys`` is).
+    """
+    keys = np.asarray(keys, dtype=float)
+    order = np.argsort(keys, kind="stable")
+    order = order[np.isfinite(keys[order])]
+    pool, beyond = order[:depth], order[depth:]
+    if len(pool) > 1:
+        anchor, rest = pool[0], pool[1:]
+        squared = np.sum((whole[rest] - whole[anchor]) ** 2, axis=1)
+        near = pool_keys(whole[anchor], whole[rest], hub_keys(squared, radii[rest]))
+        pool = np.concatenate([pool[:1], rest[np.argsort(near, kind="stable")]])
+    positions = np.full(len(keys), np.inf)
+    positions[np.concatenate([pool, beyond])] = np.arange(len(order), dtype=float)
+    return positions
+
+
+def scan_mode_positions(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
+                        left_out: np.ndarray, whole: np.ndarray,
+                        depth: int | None = None) -> np.ndarray:
+    """Each query's ``scan_ranking`` over a whole catalogue, as the search service answers
+    10 results (``depth`` ``reciprocal_depth(10)`` unless given).
+
+    Parameters
+    ----------
+    queries, entries, owners, left_out
+        As ``core.hubness.scan_hub_keys`` (``left_out`` -1: none).
+    whole : (m, d) float
+        Each model's whole descriptor (unit rows).
+
+    Returns
+    -------
+    positions : (q, m) float
+        Lower first; ``inf`` for each query's left-out model.
+    """
+    keys = scan_hub_keys(queries, entries, owners, left_out)
+    left_out = np.asarray(left_out)
+    whole = np.asarray(whole, dtype=np.float64)
+    rows = np.flatnonzero(left_out >= 0)
+    keys[rows, left_out[rows]] = np.inf
+    excluded = left_out[:, None] == np.arange(len(whole))[None, :]
+    radii = neighbourhood_radii(whole, HUB_NEIGHBOURS, exclude=excluded)
+    pool = reciprocal_depth(10) if depth is None else depth
+    return np.array([scan_ranking(row, whole, pool, row_radii)
+                     for row, row_radii in zip(keys, radii, strict=True)])
