@@ -102,6 +102,19 @@ query (shape mode's re-rank of 40 candidates, measured at 1.4-1.6x the discount'
 
     .venv/bin/python bench/selection/scan_expansion_select.py /work/scanrev --round 2 \\
         --json /work/scanrev/expansion_round2.json
+
+**Round 2 result** (2026-12-05, thirty-eighth session; docs/results.md, "The rest of a
+scan's answers in its first answer's own order"): the rule chose ``service w1`` on the seven
+and without each of them; single-view scans left out +0.0154 (95 % +0.0104 .. +0.0210)
+against ``shipped`` (mean of seven 0.6905 -> 0.7059); merged scans 0.7486 -> 0.7677, clean
+queries 0.8421 -> 0.8647; BOSL2 0.696 -> 0.721; the ``bendable`` family 0.8203 -> 0.8332:
+the four tests pass. The fifth, on the second draw (``/work/scanrev2``, this script
+unchanged): ``service w1`` again, +0.0118 (+0.0068 .. +0.0172), the four tests pass there
+(merged 0.7407 -> 0.7563, clean 0.8423 -> 0.8647, BOSL2 0.703 -> 0.720, family 0.8533 ->
+0.8774). Ships: ``core.scan_order``. Disclosed: after the first run the scanned model was
+left out of a pool larger than its source (capod's non-rigid classes, 30 models), whose
+vector had entered ``service w1``'s neighbourhoods; only the family figure moved (0.8315 ->
+0.8332).
 """
 
 from __future__ import annotations
