@@ -24,6 +24,10 @@ before every query (a catalogue that changes between any two queries). Printed: 
 seconds, median and p90 seconds per order and the ratio of medians, with the machine's load.
 
     nice -n 10 .venv/bin/python bench/scan_search.py [--models 20000] [--queries 100] [--cold]
+        [--scan-pools 40 160]
+
+``--scan-pools`` times scan mode's order at each pool size (``core.scan_order.SCAN_POOL``),
+each query in every one, interleaved.
 """
 
 from __future__ import annotations
@@ -95,8 +99,12 @@ def main() -> None:
     parser.add_argument("--real", type=int, default=40, help="real models to describe")
     parser.add_argument("--cold", action="store_true",
                         help="forget the kept entry neighbours before every query")
+    parser.add_argument("--scan-pools", type=int, nargs="+",
+                        help="scan mode's pool sizes (core.scan_order.SCAN_POOL) to time, "
+                        "each query in every one (default: the shipped one)")
     args = parser.parse_args()
 
+    import core.scan_order
     from app.db.session import make_engine, make_session_factory
     from app.search.index import ShapeIndex, views_key
     from app.search.index._entry_neighbours import KeptEntryNeighbours
@@ -119,12 +127,16 @@ def main() -> None:
         started = time.perf_counter()
         kept = index.keep_neighbourhoods()
         print(f"{kept} shape-mode neighbourhoods kept in {time.perf_counter() - started:.0f} s")
-        seconds: dict[str, list[float]] = {"plain": [], "discount": []}
+        pools = args.scan_pools or [core.scan_order.SCAN_POOL]
+        orders = [("plain", 0, pools[0])] + [
+            (f"discount, pool {pool}", HUB_NEIGHBOURS, pool) for pool in pools]
+        seconds: dict[str, list[float]] = {order: [] for order, _, _ in orders}
         same_first = 0
         for query in queries(real, args.queries, 0.08, batch=3):
             answers = {}
-            for order, neighbours in (("plain", 0), ("discount", HUB_NEIGHBOURS)):
+            for order, neighbours, pool in orders:
                 index.hub_neighbours = neighbours
+                core.scan_order.SCAN_POOL = pool
                 if args.cold:
                     index._entry_neighbours = KeptEntryNeighbours()
                 t0 = time.perf_counter()
@@ -133,14 +145,16 @@ def main() -> None:
                                                   mode="scan")
                 seconds[order].append(time.perf_counter() - t0)
             same_first += (answers["plain"][0].model.index_id
-                           == answers["discount"][0].model.index_id)
+                           == answers[orders[1][0]][0].model.index_id)
         medians = {order: statistics.median(times) for order, times in seconds.items()}
         for order, times in seconds.items():
             p90 = float(np.percentile(times, 90))
-            print(f"{order:8s} median {1000 * medians[order]:.1f} ms, p90 {1000 * p90:.1f} ms")
-        print(f"discount / plain: {medians['discount'] / medians['plain']:.2f}x; the same "
-              f"first answer for {same_first} of {args.queries} queries; entries kept "
-              f"{len(index._entry_neighbours)}; load {load_average()}")
+            ratio = medians[order] / medians["plain"]
+            print(f"{order:20s} median {1000 * medians[order]:.1f} ms, p90 {1000 * p90:.1f} "
+                  f"ms, {ratio:.2f}x plain")
+        print(f"the same first answer (plain, pool {pools[0]}) for {same_first} of "
+              f"{args.queries} queries; entries kept {len(index._entry_neighbours)}; load "
+              f"{load_average()}")
         engine.dispose()
 
 

@@ -21,10 +21,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from core.hubness import HUB_NEIGHBOURS, hub_keys, neighbourhood_radii, scan_hub_keys
-from core.reciprocal import pool_keys, reciprocal_depth
+from core.hubness import (
+    HUB_NEIGHBOURS,
+    hub_keys,
+    neighbourhood_radii,
+    rerank_depth,
+    scan_hub_keys,
+)
+from core.reciprocal import pool_keys
 
-__all__ = ["scan_mode_positions", "scan_ranking"]
+__all__ = ["SCAN_POOL", "scan_depth", "scan_mode_positions", "scan_ranking"]
+
+#: The fewest models nearest by plain best entry that scan mode re-orders.
+SCAN_POOL = 40
+
+
+def scan_depth(k: int) -> int:
+    """How many models nearest by plain best entry scan mode re-orders for ``k`` results:
+    ``max(4 k, SCAN_POOL)``."""
+    return max(rerank_depth(k), SCAN_POOL)
 
 
 def scan_ranking(keys: np.ndarray, whole: np.ndarray, depth: int,
@@ -32,8 +47,8 @@ def scan_ranking(keys: np.ndarray, whole: np.ndarray, depth: int,
     """Scan mode's order of a whole catalogue for one query: the first answer (least key)
     first, the rest of the ``depth`` least keys in the first answer's shape-mode order among
     them, the others after them by key. The search service orders its pool so, with
-    ``depth = reciprocal_depth(k)``; its pool is the nearest by plain best entry rather than
-    by key (``bench/selection/scan_expansion_pool_check.py``).
+    ``depth = scan_depth(k)``; its pool is the nearest by plain best entry rather than by
+    key (``bench/selection/scan_expansion_pool_check.py``).
 
     Parameters
     ----------
@@ -70,7 +85,7 @@ def scan_mode_positions(queries: np.ndarray, entries: np.ndarray, owners: np.nda
                         left_out: np.ndarray, whole: np.ndarray,
                         depth: int | None = None) -> np.ndarray:
     """Each query's ``scan_ranking`` over a whole catalogue, as the search service answers
-    10 results (``depth`` ``reciprocal_depth(10)`` unless given).
+    10 results (``depth`` ``scan_depth(10)`` unless given).
 
     Parameters
     ----------
@@ -91,6 +106,6 @@ def scan_mode_positions(queries: np.ndarray, entries: np.ndarray, owners: np.nda
     keys[rows, left_out[rows]] = np.inf
     excluded = left_out[:, None] == np.arange(len(whole))[None, :]
     radii = neighbourhood_radii(whole, HUB_NEIGHBOURS, exclude=excluded)
-    pool = reciprocal_depth(10) if depth is None else depth
+    pool = scan_depth(10) if depth is None else depth
     return np.array([scan_ranking(row, whole, pool, row_radii)
                      for row, row_radii in zip(keys, radii, strict=True)])

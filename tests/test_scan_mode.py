@@ -42,7 +42,8 @@ from core.hubness import (
     rerank_depth,
 )
 from core.pipeline import describe_points, scan_weights
-from core.reciprocal import pool_keys, reciprocal_depth
+from core.reciprocal import pool_keys
+from core.scan_order import scan_depth
 from core.settings import EngineSettings, ViewSettings
 from core.views import (
     frame_directions,
@@ -386,12 +387,11 @@ def scan_order(
     reciprocal: bool = False,
 ) -> list[int]:
     """Scan mode's order computed directly: of the pool (the plain nearest
-    ``reciprocal_depth(k)``, or ``rerank_depth(k)`` without the re-rank) the least hub key
-    first, then the rest of the pool as a shape query for the first answer's whole
-    descriptor ``a`` orders them: ``|x - a|^2 + r_10(x)``, ``r_10`` over every whole
-    descriptor but ``exclude``'s, then (``reciprocal``) ``pool_keys`` among them."""
-    depth = reciprocal_depth(k) if reciprocal else rerank_depth(k)
-    keys = hub_keys_of(entries, query, k, exclude, depth)
+    ``scan_depth(k)``) the least hub key first, then the rest of the pool as a shape query
+    for the first answer's whole descriptor ``a`` orders them: ``|x - a|^2 + r_10(x)``,
+    ``r_10`` over every whole descriptor but ``exclude``'s, then (``reciprocal``)
+    ``pool_keys`` among them."""
+    keys = hub_keys_of(entries, query, k, exclude, scan_depth(k))
     first = min(keys, key=lambda i: (keys[i], i))
     anchor = entries[first][0].astype(np.float64)
     ids = [i for i in entries if i != exclude]

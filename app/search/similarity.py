@@ -104,6 +104,7 @@ from core.hubness import (
     rerank_depth,
 )
 from core.reciprocal import pool_keys, reciprocal_depth
+from core.scan_order import scan_depth
 from core.size import SIZE_FIELDS, ShapeSize
 
 __all__ = [
@@ -614,13 +615,13 @@ def _best_entries(
     ranges: Ranges,
 ) -> list[Match]:
     """Scan mode's ``find_similar``: the ``k`` models whose best entry is nearest, or, with
-    the index's hub discount and no size term, the ``rerank_depth(k)`` nearest re-ordered
+    the index's hub discount and no size term, the ``scan_depth(k)`` nearest re-ordered
     by scan mode's discount (``_scan_hub_order``)."""
     sizes = (index.partition_size(key), index.partition_size(views_key(key)))
     # Views per model (on average): a model's views tend to be near the query together.
     per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
     discounted = index.hub_neighbours > 0 and size.weight == 0
-    depth = (reciprocal_depth(k) if index.reciprocal else rerank_depth(k)) if discounted else k
+    depth = scan_depth(k) if discounted else k
     filtered = bool(filters) or bool(ranges) or size.filters
     fetch = (depth + 1 if exclude is not None else depth) * (
         4 if filtered and allowed is None else 1)

@@ -29,6 +29,17 @@ reported beside it (its figures were seen; it decides nothing).
         --json /work/scanrev2/pool.json
     .venv/bin/python bench/selection/scan_pool_select.py /work/scanrev \\
         --json /work/scanrev/pool.json
+
+**Result** (2026-12-05, thirty-eighth session; docs/results.md, "Scan mode's pool"):
+declined by its cost test. On the second draw the rule chose ``pool 160`` (mean of seven
+0.6981, ``pool 80`` 0.6960, ``pool 40`` 0.6897; without MCAD it chose ``pool 80``): left out
++0.0066 (95 % +0.0029 .. +0.0107); merged scans 0.7561 -> 0.7615, clean queries 0.8640 ->
+0.8707, BOSL2 0.719 -> 0.734, the ``bendable`` family 0.8774 -> 0.8769: tests 1 to 4 pass.
+The first draw (seen) chose ``pool 80``, +0.0114 (+0.0062 .. +0.0174). Test 5 fails:
+``nice -n 10 .venv/bin/python bench/scan_search.py --models 100000 --queries 100 --cold
+--scan-pools 40 80 160`` (2-core Intel Xeon, load 1.0) gives medians 43.0 ms at pool 40,
+76.4 ms at 80 (1.78x) and 159.3 ms at 160 (3.70x), against the 1.5x allowed. The pool stays
+40 (``core.scan_order.SCAN_POOL``).
 """
 
 from __future__ import annotations
