@@ -45,9 +45,9 @@ Then, without a size term, those candidates are re-ranked k-reciprocally among t
 kept first (the re-rank alone moved right first answers down). A candidate with the query's
 own descriptor stays first. ``distance`` and ``score`` stay plain (``min_score``, the
 calibration and the duplicates report keep their meaning). Scan mode has a discount of its
-own (``core.hubness.model_radii``): of the ``max(4 k, 40)`` nearest models by best entry
-(``4 k`` without the re-rank), the one whose best entry has the least ``d^2 + 0.5 r``, ``r``
-the entry's mean best cosine to the 5 other models most alike it, comes first (+0.006 mAP
+own (``core.hubness.model_radii``): of the ``core.scan_order.scan_depth(k)`` (``max(4 k,
+40)``) nearest models by best entry, the one whose best entry has the least ``d^2 + 0.5 r``,
+``r`` the entry's mean best cosine to the 5 other models most alike it, comes first (+0.006 mAP
 of single-view scans left out over seven sources); the others follow in the order a shape
 query for that first answer's whole descriptor gives them (``core.scan_order``: a partial
 scan is far from every whole model, whole models find their kind well; +0.015 mAP of
