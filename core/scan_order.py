@@ -32,7 +32,9 @@ from core.reciprocal import pool_keys
 
 __all__ = ["SCAN_POOL", "scan_depth", "scan_mode_positions", "scan_ranking"]
 
-#: The fewest models nearest by plain best entry that scan mode re-orders.
+#: The fewest models nearest by plain best entry that scan mode re-orders: shape mode's pool
+#: size. 80 or 160 lift single views a little (+0.007 left out) at 1.8-3.7x the search, more
+#: than the 1.5x allowed (``bench/selection/scan_pool_select.py``).
 SCAN_POOL = 40
 
 
