@@ -57,6 +57,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from profile_block_select import Table  # noqa: E402
 from scan_expansion_pool_check import service_positions  # noqa: E402
+from scan_expansion_select import whole_rows  # noqa: E402
 from scan_hubs_select import (  # noqa: E402
     Catalogue,
     ranked_scores,
@@ -84,8 +85,7 @@ def pool_scores(catalogue: Catalogue, kind: str
     plain = best_entry_distances(queries, catalogue.entries, catalogue.owners, models)
     for rows in (keys, plain):
         rows[np.arange(len(own)), own] = np.inf
-    whole = np.empty((models, catalogue.entries.shape[1]))
-    whole[catalogue.owners[~catalogue.is_view]] = catalogue.entries[~catalogue.is_view]
+    whole = whole_rows(catalogue)
     radii = neighbourhood_radii(whole, HUB_NEIGHBOURS,
                                 exclude=own[:, None] == np.arange(models)[None])
     return {f"pool {depth}": ranked_scores(catalogue, kind, np.array([
