@@ -60,7 +60,8 @@ def service_positions(keys: np.ndarray, plain: np.ndarray, whole: np.ndarray,
     pool_keys[pool] = keys[pool]
     inside = scan_ranking(pool_keys, whole, depth, radii)
     ordered = [int(i) for i in np.argsort(inside, kind="stable") if np.isfinite(inside[i])]
-    beyond = [i for i in np.argsort(keys, kind="stable") if i not in set(ordered)]
+    placed = set(ordered)
+    beyond = [i for i in np.argsort(keys, kind="stable") if i not in placed]
     order = np.concatenate([ordered, beyond]).astype(int)
     positions = np.empty(len(keys))
     positions[order] = np.arange(len(keys), dtype=float)

@@ -171,12 +171,14 @@ def whole_rows(catalogue: Catalogue) -> np.ndarray:
     return rows
 
 
-def expanded_order(keys: np.ndarray, whole: np.ndarray, own: int, anchors: int,
+def expanded_order(keys: np.ndarray, whole: np.ndarray, own: int | None, anchors: int,
                    weight: float) -> np.ndarray:
     """Ranking keys ``(models,)`` (lower first) of one query: ``keys`` re-ordered within the
-    pool as the candidate says; ``own`` (the query's model) is left last."""
-    keys = keys.copy()
-    keys[own] = np.inf
+    pool as the candidate says; ``own`` (the query's model, if not already ``inf`` in
+    ``keys``) and every model of infinite key are left last, at ``inf``."""
+    keys = np.array(keys, dtype=float)
+    if own is not None:
+        keys[own] = np.inf
     order = np.argsort(keys, kind="stable")
     if anchors == 0:
         return keys
@@ -189,27 +191,17 @@ def expanded_order(keys: np.ndarray, whole: np.ndarray, own: int, anchors: int,
     ranked = np.concatenate([pool[:1], rest, order[POOL:]])
     result = np.empty(len(keys))
     result[ranked] = np.arange(len(keys), dtype=float)
-    result[own] = np.inf
+    result[~np.isfinite(keys)] = np.inf
     return result
 
 
-def round_one_ranking(keys: np.ndarray, whole: np.ndarray, depth: int = POOL) -> np.ndarray:
+def round_one_ranking(keys: np.ndarray, whole: np.ndarray) -> np.ndarray:
     """Round 1's choice, the service's scan order from the sixteenth to the thirty-seventh
     session (the reference of ``scan_first_select.py`` and ``scan_frame_select.py``): one
     query's places ``(models,)``, lower first (``inf`` where ``keys`` is): the least key
-    first, the rest of the ``depth`` least keys by ``(1 - 0.75) key + 0.75 |x - x_first|^2``,
-    the others after them by key."""
-    keys = np.asarray(keys, dtype=float)
-    order = np.argsort(keys, kind="stable")
-    pool, beyond = order[:depth], order[depth:]
-    if len(pool) > 1:
-        spread = np.sum((whole[pool[1:]] - whole[pool[0]]) ** 2, axis=1)
-        blended = (1.0 - SHIPPED_WEIGHT) * keys[pool[1:]] + SHIPPED_WEIGHT * spread
-        pool = np.concatenate([pool[:1], pool[1:][np.argsort(blended, kind="stable")]])
-    positions = np.empty(len(keys))
-    positions[np.concatenate([pool, beyond])] = np.arange(len(keys), dtype=float)
-    positions[~np.isfinite(keys)] = np.inf
-    return positions
+    first, the rest of the ``POOL`` least keys by ``(1 - 0.75) key + 0.75 |x - x_first|^2``,
+    the others after them by key (``expanded_order``'s ``m1 w0.75``)."""
+    return expanded_order(keys, whole, None, 1, SHIPPED_WEIGHT)
 
 
 def round_one_positions(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,

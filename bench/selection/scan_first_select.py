@@ -107,7 +107,7 @@ def voted_positions(keys: np.ndarray, whole: np.ndarray, depth: int, neighbours:
         # The voted model leads (a key below the least); everyone else's keys are unchanged.
         keys = keys.copy()
         keys[pool[int(np.argmin(votes))]] = keys[pool[0]] - 1.0
-    return round_one_ranking(keys, whole, depth)
+    return round_one_ranking(keys, whole)
 
 
 def score_all(root: Path, descriptor: str, sources: tuple[str, ...], kind: str
