@@ -1,13 +1,16 @@
 """Benchmark: scan-mode search at catalogue scale, plain order against the hub discount.
 
 Scan mode (``find_similar(..., mode="scan")``) compares a scan with every model's whole
-descriptor and its virtual views; since the fifteenth session it re-orders the ``4 k``
-nearest models by scan mode's hub discount, whose radii cost a search of both partitions per
-entry, taken best bound first until the answer is certain; since the thirty-eighth the rest
-of the pool after the first answer follows that answer's shape-mode order (``core.scan_order``:
-the hub discount and the k-reciprocal re-rank, ``app.search.similarity._scan_hub_order``),
-before it by a blend of key and nearness to the first answer, whose radii were searched as
-the first's. This measures what that costs.
+descriptor and its virtual views; since the fifteenth session it re-orders the
+``core.scan_order.scan_depth(k)`` nearest models by scan mode's hub discount, whose radii
+cost a search of both partitions per entry, taken best bound first until the answer is
+certain; since the thirty-eighth the rest of the pool after the first answer follows that
+answer's shape-mode order (``core.scan_order``: the hub discount and the k-reciprocal
+re-rank, ``app.search.similarity._scan_hub_order``), before it by a blend of key and
+nearness to the first answer, whose radii were searched as the first's; since the
+thirty-ninth the pool is ordered from the index's own vectors and the database reads the
+answers' rows alone (``_scan_hub_answer``), where it read every candidate's descriptors
+first. This measures what that costs.
 
 A SQLite database is filled with ``--models`` ready models, each a synthetic descriptor
 (``search_scale.synthetic_chunk``: real descriptors mixed and noised, unit length) with
@@ -17,7 +20,7 @@ view is near its model and unlike its siblings, as real views are). One in-proce
 (``hub_neighbours`` 0) and once with the discount and the service's default k-reciprocal
 re-rank (the shape-mode neighbourhoods kept by the pass an API process runs after a
 rebuild, ``ShapeIndex.keep_neighbourhoods``), interleaved, the query a fresh synthetic
-vector (an upload: no model left out), ``k`` 10. The index keeps the entry neighbours
+vector (an upload: no model left out), ``k`` 10 (``--k``). The index keeps the entry neighbours
 it searched while the catalogue stays as it is (``app/search/index/_entry_neighbours.py``),
 so later queries search only for entries no earlier query met; ``--cold`` forgets them
 before every query (a catalogue that changes between any two queries). Printed: build
@@ -27,12 +30,15 @@ seconds, median and p90 seconds per order and the ratio of medians, with the mac
         [--scan-pools 40 160]
 
 ``--scan-pools`` times scan mode's order at each pool size (``core.scan_order.SCAN_POOL``),
-each query in every one, interleaved.
+each query in every one, interleaved. ``--answers FILE`` writes every order's answers (ids,
+distances, views) as JSON, so two versions of the code can be compared on one catalogue (the
+catalogue and queries are seeded; run the older one with ``PYTHONPATH`` set to a worktree).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
 import sys
@@ -55,7 +61,6 @@ from search_scale import (  # noqa: E402
     synthetic_chunk,
 )
 
-K = 10
 KEY = ("default", "bench")
 
 
@@ -102,6 +107,8 @@ def main() -> None:
     parser.add_argument("--scan-pools", type=int, nargs="+",
                         help="scan mode's pool sizes (core.scan_order.SCAN_POOL) to time, "
                         "each query in every one (default: the shipped one)")
+    parser.add_argument("--answers", type=Path, help="write every order's answers as JSON")
+    parser.add_argument("--k", type=int, default=10, help="results per query")
     args = parser.parse_args()
 
     import core.scan_order
@@ -132,6 +139,8 @@ def main() -> None:
             (f"discount, pool {pool}", HUB_NEIGHBOURS, pool) for pool in pools]
         seconds: dict[str, list[float]] = {order: [] for order, _, _ in orders}
         same_first = 0
+        written: dict[str, list[list[tuple[int, float, int | None]]]] = {
+            order: [] for order, _, _ in orders}
         for query in queries(real, args.queries, 0.08, batch=3):
             answers = {}
             for order, neighbours, pool in orders:
@@ -141,9 +150,11 @@ def main() -> None:
                     index._entry_neighbours = KeptEntryNeighbours()
                 t0 = time.perf_counter()
                 with engine.connect() as connection:
-                    answers[order] = find_similar(index, connection, KEY, query, k=K,
+                    answers[order] = find_similar(index, connection, KEY, query, k=args.k,
                                                   mode="scan")
                 seconds[order].append(time.perf_counter() - t0)
+                written[order].append([(m.model.index_id, m.distance, m.view)
+                                       for m in answers[order]])
             same_first += (answers["plain"][0].model.index_id
                            == answers[orders[1][0]][0].model.index_id)
         medians = {order: statistics.median(times) for order, times in seconds.items()}
@@ -155,6 +166,8 @@ def main() -> None:
         print(f"the same first answer (plain, pool {pools[0]}) for {same_first} of "
               f"{args.queries} queries; entries kept {len(index._entry_neighbours)}; load "
               f"{load_average()}")
+        if args.answers:
+            args.answers.write_text(json.dumps(written))
         engine.dispose()
 
 

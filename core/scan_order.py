@@ -33,8 +33,9 @@ from core.reciprocal import pool_keys
 __all__ = ["SCAN_POOL", "scan_depth", "scan_mode_positions", "scan_ranking"]
 
 #: The fewest models nearest by plain best entry that scan mode re-orders: shape mode's pool
-#: size. 80 or 160 lift single views a little (+0.007 left out) at 1.8-3.7x the search, more
-#: than the 1.5x allowed (``bench/selection/scan_pool_select.py``).
+#: size. 160 lifts single views a little (+0.007 left out) at 2.5x the search (3.7x before
+#: the pool was ordered from the index's vectors), more than the 1.5x allowed
+#: (``bench/selection/scan_pool_select.py``).
 SCAN_POOL = 40
 
 

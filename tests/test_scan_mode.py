@@ -352,15 +352,17 @@ def test_a_filter_that_few_models_pass_widens_the_search_in_rounds(
 
 def hub_keys_of(
     entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None,
-    depth: int | None = None,
+    depth: int | None = None, gone: frozenset[int] = frozenset(),
 ) -> dict[int, float]:
     """Scan mode's hub discount computed directly over the whole catalogue: the
-    ``depth`` (``rerank_depth(k)`` unless given) nearest models by best entry, each keyed
+    ``depth`` (``rerank_depth(k)`` unless given) nearest models by best entry (not those
+    ``gone``: deleted since the index synced, still in every radius), each keyed
     by its least
     ``|q - e|^2 + SCAN_HUB_WEIGHT r(e)``, ``r(e)`` the mean over the 5 other models (not
     ``exclude``) most alike ``e`` of ``e``'s largest cosine to their entries."""
     catalogue_ids = [i for i in entries if i != exclude]
-    plain = [i for i, _ in brute_force({i: entries[i] for i in catalogue_ids}, query)]
+    plain = [i for i, _ in brute_force({i: entries[i] for i in catalogue_ids}, query)
+             if i not in gone]
     keys = {}
     for model in plain[: rerank_depth(k) if depth is None else depth]:
         entry_keys = []
@@ -384,14 +386,15 @@ def discounted_order(
 
 def scan_order(
     entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None,
-    reciprocal: bool = False,
+    reciprocal: bool = False, gone: frozenset[int] = frozenset(),
 ) -> list[int]:
     """Scan mode's order computed directly: of the pool (the plain nearest
     ``scan_depth(k)``) the least hub key first, then the rest of the pool as a shape query
     for the first answer's whole descriptor ``a`` orders them: ``|x - a|^2 + r_10(x)``,
     ``r_10`` over every whole descriptor but ``exclude``'s, then (``reciprocal``)
-    ``pool_keys`` among them."""
-    keys = hub_keys_of(entries, query, k, exclude, scan_depth(k))
+    ``pool_keys`` among them. Models ``gone`` are in no pool and in every radius (deleted
+    since the index synced)."""
+    keys = hub_keys_of(entries, query, k, exclude, scan_depth(k), gone)
     first = min(keys, key=lambda i: (keys[i], i))
     anchor = entries[first][0].astype(np.float64)
     ids = [i for i in entries if i != exclude]
@@ -436,6 +439,32 @@ def test_scan_mode_orders_as_a_direct_computation(
     found = scan_search(index, sessions, entries[own][0], k=5, exclude=own)
     assert [m.model.index_id for m in found] == expected
     assert own not in expected
+
+
+def test_a_model_deleted_since_the_index_synced_is_never_an_answer(
+    sessions: sessionmaker[Session],
+) -> None:
+    """Scan mode orders its pool from the index's own vectors, then confirms answers in the
+    database in that order: a model deleted a moment ago (the index not synced) is passed
+    over for the next in the order. When it would be the first answer, which orders the
+    rest, the general search (every candidate confirmed first) answers: its pool holds the
+    ready models alone, the index's radii still count the deleted one."""
+    entries = catalogue(sessions, 60, views=3, seed=5)
+    index = ShapeIndex(sessions, reciprocal=True)
+    index.rebuild()
+    query = unit(np.random.default_rng(9).normal(size=8))
+    expected = scan_order(entries, query, 8, reciprocal=True)
+    later = expected[3]
+    delete_model(sessions, later)
+    found = [m.model.index_id for m in scan_search(index, sessions, query, k=7)]
+    assert found == [i for i in expected if i != later][:7]
+    first = expected[0]
+    delete_model(sessions, first)
+    found = [m.model.index_id for m in scan_search(index, sessions, query, k=7)]
+    without = scan_order(entries, query, 7, reciprocal=True, gone=frozenset({first, later}))
+    assert found == without
+    # Had the rest been ordered from the deleted first answer, it would read otherwise.
+    assert found != [i for i in expected if i not in (first, later)][:7]
 
 
 def test_after_the_first_answer_its_kind_comes_before_views_as_near_the_scan(
@@ -585,6 +614,14 @@ def test_scan_mode_on_compressed_partitions_agrees_with_a_direct_computation(
     assert [m.model.index_id for m in found] == [i for i, _ in expected]
     for match, (_, distance) in zip(found, expected, strict=True):
         assert match.distance == pytest.approx(distance, abs=1e-5)  # exact, not the estimate
+    # Scan mode's own order takes its distances from the index's full vectors: exact too.
+    ordered = ShapeIndex(sessions, exact_max=100, reciprocal=True)
+    ordered.rebuild()
+    plain = dict(brute_force(entries, query))
+    found = scan_search(ordered, sessions, query, k=5)
+    assert [m.model.index_id for m in found] == scan_order(entries, query, 5, reciprocal=True)
+    for match in found:
+        assert match.distance == pytest.approx(plain[match.model.index_id], abs=1e-6)
 
 
 def test_a_partial_scan_finds_its_model_first_by_its_best_view(

@@ -29,10 +29,11 @@ both ways agree exactly.
 
 Two modes (``SearchMode``): ``shape`` compares the query with each model's descriptor;
 ``scan``, for partial scans, also with the descriptors of each model's virtual partial views
-(``app.search.index.views_key``). A model's distance is then that of its best entry (the whole
-model or one view), recomputed exactly from the stored descriptors, and each model is one
-result. Both partitions are searched for more and more candidates until ``k`` of them are
-certain: no model not yet seen can be nearer than the last hit of a partition not exhausted.
+(``app.search.index.views_key``). A model's distance is then that of its best entry (the
+whole model or one view), computed exactly from the index's vectors as added (a compressed
+partition's full vectors, as in shape mode), and each model is one result. Both partitions
+are searched for more and more candidates until ``k`` of them are certain: no model not yet
+seen can be nearer than the last hit of a partition not exhausted.
 
 Order: shape mode ranks with a hub discount (cross-domain similarity local scaling,
 ``core.hubness``): the ``4 k`` nearest candidates are re-ordered by ``d^2 + r_k``, ``r_k`` a
@@ -92,7 +93,7 @@ from sqlalchemy import (
 from sqlalchemy.dialects.postgresql import ARRAY, JSONB
 
 from app.db.models import Model
-from app.search.index import PartitionKey, ShapeIndex, view_id, views_key
+from app.search.index import VIEW_ID_BASE, PartitionKey, ShapeIndex, view_id, views_key
 from app.search.sizing import SizeQuery
 from core.hubness import (
     SAME_DESCRIPTOR,
@@ -617,12 +618,17 @@ def _best_entries(
     """Scan mode's ``find_similar``: the ``k`` models whose best entry is nearest, or, with
     the index's hub discount and no size term, the ``scan_depth(k)`` nearest re-ordered
     by scan mode's discount (``_scan_hub_order``)."""
-    sizes = (index.partition_size(key), index.partition_size(views_key(key)))
-    # Views per model (on average): a model's views tend to be near the query together.
-    per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
     discounted = index.hub_neighbours > 0 and size.weight == 0
     depth = scan_depth(k) if discounted else k
     filtered = bool(filters) or bool(ranges) or size.filters
+    if discounted and (allowed is not None or not filtered):
+        answer = _scan_hub_answer(index, connection, key, vector, k, depth, min_score,
+                                  exclude, allowed,
+                                  lambda row: _passes(row, filters, ranges, size))
+        if answer is not None:
+            return answer
+    sizes = (index.partition_size(key), index.partition_size(views_key(key)))
+    per_model = _views_per_model(index, key)
     fetch = (depth + 1 if exclude is not None else depth) * (
         4 if filtered and allowed is None else 1)
     # Estimated distances in either partition: a margin of candidates.
@@ -637,18 +643,12 @@ def _best_entries(
         found = [i for i, _ in model_hits] + [i for i, _, _ in view_hits]
         fresh = [i for i in dict.fromkeys(found) if i not in seen and i != exclude]
         seen.update(found)
-        for row, distance, view, rows in _confirmed_best(connection, key[0], fresh, vector):
+        for row, distance, view, rows in _confirmed_best(connection, index, key, fresh, vector):
             if _passes(row, filters, ranges, size):
                 distance = size.distance(distance, row)
                 matches[row.index_id] = Match(_candidate(row), distance, score_of(distance), view)
                 entries[row.index_id] = rows
-        # A model not seen yet is no nearer than the last hit of each partition not yet
-        # exhausted (inf when both are): matches up to that bound are certain.
-        bound = float("inf")
-        hit_distances = ([d for _, d in model_hits], [d for _, _, d in view_hits])
-        for hits, asked, held in zip(hit_distances, wanted, sizes, strict=True):
-            if len(hits) == asked and asked < held:
-                bound = min(bound, hits[-1])
+        bound = _certainty_bound(model_hits, view_hits, wanted, sizes)
         ranked = sorted(matches.values(), key=lambda m: (m.distance, m.model.index_id))
         if min_score is not None:
             ranked = [m for m in ranked if m.score >= min_score]
@@ -658,27 +658,176 @@ def _best_entries(
         if len(certain) >= depth or bound == float("inf") or past_min:
             if not discounted:
                 return certain[:k]
-            return _scan_hub_order(index, key, vector, certain[:depth], entries, exclude, k)
+            by_id = {m.model.index_id: m for m in certain[:depth]}
+            order = _scan_hub_order(index, key, vector, list(by_id), entries, exclude, k)
+            return [by_id[i] for i in order[:k]]
         fetch *= 4
+
+
+def _views_per_model(index: ShapeIndex, key: PartitionKey) -> int:
+    """Views per model of partition ``key``, on average (at least 1): a model's views tend
+    to be near a query together, so a views search asks this many times more hits."""
+    sizes = (index.partition_size(key), index.partition_size(views_key(key)))
+    return max(1, -(-sizes[1] // max(sizes[0], 1)))
+
+
+def _certainty_bound(model_hits: list[tuple[int, float]],
+                     view_hits: list[tuple[int, int, float]], wanted: tuple[int, int],
+                     sizes: tuple[int, int]) -> float:
+    """No model not seen yet is nearer than the last hit of each partition not yet
+    exhausted (inf when both are): matches up to this distance are certain."""
+    bound = float("inf")
+    hit_distances = ([d for _, d in model_hits], [d for _, _, d in view_hits])
+    for hits, asked, held in zip(hit_distances, wanted, sizes, strict=True):
+        if len(hits) == asked and asked < held:
+            bound = min(bound, hits[-1])
+    return bound
+
+
+def _scan_hub_answer(
+    index: ShapeIndex,
+    connection: Connection,
+    key: PartitionKey,
+    vector: np.ndarray,
+    k: int,
+    depth: int,
+    min_score: float | None,
+    exclude: int | None,
+    allowed: list[int] | None,
+    passes: Callable[[Row[Any]], bool],
+) -> list[Match] | None:
+    """Scan mode's ``_hub_answer``: ordered from the index alone, then confirmed. Each
+    model's distance is its nearest hit's or its descriptor's, exact from the index's
+    vectors as added; the ``depth`` nearest certain models, all their entries read
+    (``_index_entries``), go in scan mode's order (``_scan_hub_order``); the database
+    confirms them in that order, as many as the answer takes. So a query reads each hit's
+    vector, the pool's entries and about ``k`` rows, where confirming every candidate
+    first read every entry of seven models or so per model of the pool (12 KB an entry):
+    3.2-3.7x a plain search at a pool of 40, 2.2-2.4x now (``bench/scan_search.py``). None
+    when the first answer (which orders the rest) or fewer than ``k`` were confirmed while
+    models beyond the pool may qualify: ``_best_entries``' general search, which confirms
+    every candidate, answers instead.
+
+    A model is certain when its nearest hit is no farther than the last hit of each
+    partition not exhausted: an entry of it that was no hit is then no nearer (to within an
+    approximate partition's estimates, as in the general search)."""
+    sizes = (index.partition_size(key), index.partition_size(views_key(key)))
+    per_model = _views_per_model(index, key)
+    wanted_models = depth + 1 if exclude is not None else depth
+    fetch = max(index.rerank_candidates(key, wanted_models),
+                index.rerank_candidates(views_key(key), wanted_models))
+    nearest_hit: dict[int, float] = {}  # model -> its nearest hit entry's exact distance
+    measured: set[int] = set()  # the entries whose exact distances are in nearest_hit
+    while True:
+        wanted = (fetch, fetch * per_model)
+        model_hits = index.search(key, vector, wanted[0], allowed=allowed)
+        view_hits = index.search_views(key, vector, wanted[1], allowed=allowed)
+        # Each hit, and each model's own descriptor: an approximate partition may miss a
+        # model's descriptor whose view it finds (its best entry then read all the same).
+        hits = [(i, i) for i, _ in model_hits] + [
+            entry for i, v, _ in view_hits for entry in ((view_id(i, v), i), (i, i))]
+        fresh = [(entry, model) for entry, model in dict(hits).items()
+                 if entry not in measured and model != exclude]
+        measured.update(entry for entry, _ in hits)
+        for model, distance in _entry_distances(index, key, vector, fresh):
+            nearest_hit[model] = min(distance, nearest_hit.get(model, float("inf")))
+        bound = _certainty_bound(model_hits, view_hits, wanted, sizes)
+        ranked = sorted(nearest_hit, key=lambda i: (nearest_hit[i], i))
+        if min_score is not None:
+            ranked = [i for i in ranked if score_of(nearest_hit[i]) >= min_score]
+        # Exact distances against the index's float32 ones: allow for rounding.
+        certain = [i for i in ranked if nearest_hit[i] <= bound + 1e-5]
+        past_min = min_score is not None and score_of(bound) < min_score
+        if len(certain) >= depth or bound == float("inf") or past_min:
+            break
+        fetch *= 4
+    entries = _index_entries(index, key, certain[:depth])
+    # model -> its best entry's distance and view
+    best = {model: _best_entry(stacked, vector) for model, stacked in entries.items()}
+    order = _scan_hub_order(index, key, vector, sorted(best, key=lambda i: (best[i][0], i)),
+                            entries, exclude, k)
+    matches: list[Match] = []
+    for start in range(0, len(order), k):
+        chunk = order[start : start + k]
+        rows = {row.index_id: row for row in _ready_candidates(connection, key[0], chunk)
+                if passes(row)}
+        if start == 0 and order[0] not in rows:
+            return None
+        matches += [Match(_candidate(rows[i]), best[i][0], score_of(best[i][0]), best[i][1])
+                    for i in chunk if i in rows]
+        if len(matches) >= k:
+            return matches[:k]
+    beyond = len(certain) > depth or (bound < float("inf") and not past_min)
+    return None if beyond else matches
+
+
+def _entry_distances(index: ShapeIndex, key: PartitionKey, vector: np.ndarray,
+                     entries: list[tuple[int, int]]) -> list[tuple[int, float]]:
+    """``(model, exact distance)`` of each ``(entry id, model)`` of ``entries`` that
+    partition ``key`` (a model's descriptor) or its views (a ``view_id``) still holds."""
+    out: list[tuple[int, float]] = []
+    for partition, ids in ((key, [e for e in entries if e[0] < VIEW_ID_BASE]),
+                           (views_key(key), [e for e in entries if e[0] >= VIEW_ID_BASE])):
+        found = index.exact_vectors(partition, [entry for entry, _ in ids]) if ids else None
+        if found is None:
+            continue
+        distances = np.linalg.norm(found[0] - vector, axis=1).tolist()
+        out += [(model, distance) for (_, model), distance, held
+                in zip(ids, distances, found[1].tolist(), strict=True) if held]
+    return out
+
+
+def _index_entries(index: ShapeIndex, key: PartitionKey, ids: list[int]
+                   ) -> dict[int, np.ndarray]:
+    """The entries of each of ``ids`` as partition ``key`` and its views hold them (as
+    added): ``(1 + v, d) float32``, the model's descriptor first, its views ``0 .. v - 1``
+    after it (up to the first the index no longer holds: replaced a moment ago). An id
+    whose descriptor the index no longer holds is left out."""
+    found = index.exact_vectors(key, ids) if ids else None
+    if found is None:
+        return {}
+    wholes, held = found
+    counts = [index.views_held(i) for i in ids]
+    viewed = index.exact_vectors(views_key(key), [
+        view_id(i, v) for i, count in zip(ids, counts, strict=True) for v in range(count)])
+    entries = {}
+    start = 0
+    for index_id, whole, is_held, count in zip(ids, wholes, held.tolist(), counts,
+                                                strict=True):
+        rows, start = slice(start, start + count), start + count
+        if not is_held:
+            continue
+        if viewed is not None:
+            count = int(np.cumprod(viewed[1][rows]).sum())  # held views before a gap
+        views = viewed[0][rows][:count] if viewed is not None else wholes[:0]
+        entries[index_id] = np.concatenate([whole[None], views])
+    return entries
+
+
+#: The pool's models nearest by best entry whose entries bound every entry's radius in scan
+#: mode's order (``model_radii_among``): the bound costs entries times theirs, and the
+#: nearest are the ones that bound it most.
+RADIUS_BOUND_MODELS = 40
 
 
 def _scan_hub_order(
     index: ShapeIndex,
     key: PartitionKey,
     vector: np.ndarray,
-    matches: list[Match],
+    ids: list[int],
     entries: dict[int, np.ndarray],
     exclude: int | None,
     k: int,
-) -> list[Match]:
-    """The first ``k`` of ``matches`` in scan mode's order (``core.scan_order``): first
+) -> list[int]:
+    """``ids`` (the pool, nearest by best entry first) in scan mode's order
+    (``core.scan_order``), from their ``entries`` (``(1 + v, d) float32``, the model's
+    descriptor first, its views in order after it); the first alone for ``k`` 1: first
     the model of least hub key (``core.hubness.model_radii``: a model's key is the least
     ``|q - e|^2 + SCAN_HUB_WEIGHT r(e)`` over its entries ``e``, ``r(e)`` the mean over the
     ``SCAN_HUB_NEIGHBOURS`` other models most alike ``e`` (not the query model ``exclude``)
     of ``e``'s largest cosine to their entries), then the others in the order a shape query
     for that first answer's whole descriptor gives them (``_hub_order``: the hub discount
-    and the k-reciprocal re-rank among them). Ties in upload order; ``distance``, ``score``
-    and ``view`` stay the plain ones.
+    and the k-reciprocal re-rank among them). Ties in upload order.
 
     An entry's radius costs a search, so entries are taken best bound first: each starts
     at the key its radius among the candidates gives (``model_radii_among``, a lower bound),
@@ -686,43 +835,51 @@ def _scan_hub_order(
     first with its searched key is placed. The first answer is the one every radius would
     give, at a few searches rather than one per entry.
     """
-    if not matches:
-        return matches
-    ids = [match.model.index_id for match in matches]
+    if not ids:
+        return ids
     stacked = np.concatenate([entries[i] for i in ids]).astype(np.float32)
     owners = np.repeat(ids, [len(entries[i]) for i in ids])
     # A model's whole descriptor is entry index_id, its view v entry view_id(index_id, v).
     entry_ids = [e for i in ids for e in (i, *(view_id(i, v) for v in range(len(entries[i]) - 1)))]
-    squared = np.sum((stacked.astype(np.float64) - vector) ** 2, axis=1)
-    bounds = model_radii_among(stacked, owners, SCAN_HUB_NEIGHBOURS)
+    as_float64 = stacked.astype(np.float64)
+    squared = np.sum((as_float64 - vector) ** 2, axis=1)
+    # Keys start from each entry's radius among the nearest models' entries (cheap), take
+    # the bound among the whole pool's when they come first (the bound an approximate
+    # partition's searched radius is held to), then their searched radius.
+    bounds = model_radii_among(as_float64, owners, SCAN_HUB_NEIGHBOURS,
+                               among=np.isin(owners, ids[:RADIUS_BOUND_MODELS]))
     radii = bounds.copy()
+    searched, near_bound = 0, 2  # what an entry's key rests on (1: the pool's bound)
     # The query's own descriptor: its key does not depend on a radius.
-    searched = squared <= SAME_DESCRIPTOR**2
-    heap = [(float(hub_keys(squared[e], radii[e], SCAN_HUB_WEIGHT)), not searched[e],
-             int(owners[e]), e) for e in range(len(owners))]
+    stage = np.where(squared <= SAME_DESCRIPTOR**2, searched, near_bound)
+    heap = list(zip(hub_keys(squared, radii, SCAN_HUB_WEIGHT).tolist(), stage.tolist(),
+                    owners.tolist(), range(len(owners)), strict=True))
     heapq.heapify(heap)
     while True:
-        _, bound_only, first, entry = heapq.heappop(heap)
-        if not bound_only:
+        _, rests_on, first, entry = heapq.heappop(heap)
+        if rests_on == searched:
             break
-        radius = _entry_radii(index, key, stacked[entry : entry + 1], [entry_ids[entry]],
-                              owners[entry : entry + 1], exclude)[0]
-        # An approximate partition's radius may fall below the bound the exact vectors give.
-        radii[entry] = max(radius, float(bounds[entry]))
+        if rests_on == near_bound:
+            bounds[entry] = model_radii_among(as_float64, owners, SCAN_HUB_NEIGHBOURS,
+                                              rows=np.array([entry]))[0]
+            radii[entry] = bounds[entry]
+        else:
+            radius = _entry_radii(index, key, stacked[entry : entry + 1], [entry_ids[entry]],
+                                  owners[entry : entry + 1], exclude)[0]
+            # An approximate partition's radius may fall below the bound exact vectors give.
+            radii[entry] = max(radius, float(bounds[entry]))
         heapq.heappush(heap, (float(hub_keys(squared[entry], radii[entry], SCAN_HUB_WEIGHT)),
-                              False, first, entry))
+                              rests_on - 1, first, entry))
     rest = [i for i in ids if i != first]
-    by_id = {match.model.index_id: match for match in matches}
     if k == 1 or not rest:
-        return [by_id[first]]
+        return [first]
     # The first answer's whole descriptor (a model's first entry) queries the rest as shape
     # mode would: plain distances from it, its vectors already read.
     anchor = entries[first][0].astype(np.float64)
     whole = {i: entries[i][0] for i in rest}
-    distances = [float(np.sqrt(np.sum((whole[i].astype(np.float64) - anchor) ** 2)))
-                 for i in rest]
-    order = _hub_order(index, key, rest, distances, exclude, query=anchor, read=whole)
-    return [by_id[i] for i in [first, *order[: k - 1]]]
+    rows = np.array([whole[i] for i in rest], dtype=np.float64)
+    distances = np.sqrt(np.sum((rows - anchor) ** 2, axis=1)).tolist()
+    return [first, *_hub_order(index, key, rest, distances, exclude, query=anchor, read=whole)]
 
 
 def _entry_radii(
@@ -743,24 +900,23 @@ def _entry_radii(
 
 
 def _confirmed_best(
-    connection: Connection, tenant: str, ids: list[int], query: np.ndarray
+    connection: Connection, index: ShapeIndex, key: PartitionKey, ids: list[int],
+    query: np.ndarray,
 ) -> list[tuple[Row[Any], float, int | None, np.ndarray]]:
     """The candidates still ready in the database, each with the exact distance of its
-    best entry (read from the stored descriptors), which one it is (None: the model) and
-    its entries ``(1 + views, d) float32``, the model's descriptor first."""
+    best entry, which one it is (None: the model) and its entries ``(1 + views, d)
+    float32``, the model's descriptor first, as the index holds them (``_index_entries``)."""
+    held = _index_entries(index, key, ids)
     confirmed = []
-    for row in _ready_candidates(connection, tenant, ids, "descriptor", "view_descriptors"):
-        if row.descriptor is None:
-            continue
-        entries = [np.frombuffer(row.descriptor, dtype=np.float32)]
-        if row.view_descriptors:
-            entries += list(
-                np.frombuffer(row.view_descriptors, np.float32).reshape(-1, len(entries[0]))
-            )
-        if len(entries[0]) != len(query):
-            continue
-        stacked = np.stack(entries)
-        distances = np.linalg.norm(stacked - query, axis=1)
-        best = int(np.argmin(distances))
-        confirmed.append((row, float(distances[best]), None if best == 0 else best - 1, stacked))
+    for row in _ready_candidates(connection, key[0], list(held)):
+        distance, view = _best_entry(held[row.index_id], query)
+        confirmed.append((row, distance, view, held[row.index_id]))
     return confirmed
+
+
+def _best_entry(entries: np.ndarray, query: np.ndarray) -> tuple[float, int | None]:
+    """The distance from ``query`` of the nearest of a model's ``entries : (1 + v, d)`` and
+    which it is: None for the model's descriptor (the first row), else its view."""
+    distances = np.linalg.norm(entries - query, axis=1)
+    nearest = int(np.argmin(distances))
+    return float(distances[nearest]), None if nearest == 0 else nearest - 1
