@@ -148,6 +148,15 @@ def test_radii_among_some_entries_bound_the_radii_among_all_from_below() -> None
     assert (bounds <= everything[some] + 1e-12).all() and (bounds < everything[some]).any()
     # Too few other models for a bound: -1, the least a mean cosine can be.
     assert (model_radii_among(entries[:12], owners[:12], neighbours=3) == -1.0).all()
+    # The same entries, looking at some of them only (``among``): every entry bounded, the
+    # bound looser; and the bounds of a few entries alone (``rows``) are theirs among all.
+    looser = model_radii_among(entries, owners, neighbours=3, among=some)
+    assert (looser <= everything + 1e-12).all() and (looser < everything - 1e-6).any()
+    assert looser[some] == pytest.approx(bounds, abs=1e-12)
+    rows = np.array([0, 17, 39])
+    assert model_radii_among(entries, owners, neighbours=3, rows=rows) == pytest.approx(
+        everything[rows], abs=1e-12)
+    assert (model_radii_among(entries, owners, neighbours=3, among=owners < 3) == -1.0).all()
 
 
 @pytest.mark.parametrize(("models", "k"), [(8, 3), (4, 5)])  # (4, 5): fewer models than k
