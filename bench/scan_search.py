@@ -33,6 +33,8 @@ seconds, median and p90 seconds per order and the ratio of medians, with the mac
 each query in every one, interleaved. ``--answers FILE`` writes every order's answers (ids,
 distances, views) as JSON, so two versions of the code can be compared on one catalogue (the
 catalogue and queries are seeded; run the older one with ``PYTHONPATH`` set to a worktree).
+``--url`` fills an empty database of one's own (PostgreSQL) in place of a temporary SQLite
+file.
 """
 
 from __future__ import annotations
@@ -109,6 +111,8 @@ def main() -> None:
                         "each query in every one (default: the shipped one)")
     parser.add_argument("--answers", type=Path, help="write every order's answers as JSON")
     parser.add_argument("--k", type=int, default=10, help="results per query")
+    parser.add_argument("--url", help="an empty database to fill (e.g. PostgreSQL) in place "
+                        "of a temporary SQLite file")
     args = parser.parse_args()
 
     import core.scan_order
@@ -120,7 +124,7 @@ def main() -> None:
 
     real = real_descriptors(args.real, 3000)
     with tempfile.TemporaryDirectory() as folder:
-        url = f"sqlite:///{folder}/bench.db"
+        url = args.url or f"sqlite:///{folder}/bench.db"
         started = time.perf_counter()
         fill(url, real, args.models, args.views)
         print(f"filled {args.models} models x {args.views} views, d {real.shape[1]}: "
