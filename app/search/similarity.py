@@ -627,8 +627,8 @@ def _best_entries(
                                   lambda row: _passes(row, filters, ranges, size))
         if answer is not None:
             return answer
-    sizes = (index.partition_size(key), index.partition_size(views_key(key)))
-    per_model = _views_per_model(index, key)
+    sizes = _partition_sizes(index, key)
+    per_model = _views_per_model(sizes)
     fetch = (depth + 1 if exclude is not None else depth) * (
         4 if filtered and allowed is None else 1)
     # Estimated distances in either partition: a margin of candidates.
@@ -664,10 +664,14 @@ def _best_entries(
         fetch *= 4
 
 
-def _views_per_model(index: ShapeIndex, key: PartitionKey) -> int:
-    """Views per model of partition ``key``, on average (at least 1): a model's views tend
-    to be near a query together, so a views search asks this many times more hits."""
-    sizes = (index.partition_size(key), index.partition_size(views_key(key)))
+def _partition_sizes(index: ShapeIndex, key: PartitionKey) -> tuple[int, int]:
+    """How many models partition ``key`` holds, and how many views its views partition."""
+    return index.partition_size(key), index.partition_size(views_key(key))
+
+
+def _views_per_model(sizes: tuple[int, int]) -> int:
+    """Views per model on average (at least 1), from ``_partition_sizes``: a model's views
+    tend to be near a query together, so a views search asks this many times more hits."""
     return max(1, -(-sizes[1] // max(sizes[0], 1)))
 
 
@@ -711,8 +715,8 @@ def _scan_hub_answer(
     A model is certain when its nearest hit is no farther than the last hit of each
     partition not exhausted: an entry of it that was no hit is then no nearer (to within an
     approximate partition's estimates, as in the general search)."""
-    sizes = (index.partition_size(key), index.partition_size(views_key(key)))
-    per_model = _views_per_model(index, key)
+    sizes = _partition_sizes(index, key)
+    per_model = _views_per_model(sizes)
     wanted_models = depth + 1 if exclude is not None else depth
     fetch = max(index.rerank_candidates(key, wanted_models),
                 index.rerank_candidates(views_key(key), wanted_models))
