@@ -17,6 +17,11 @@ def _run(connection: Connection) -> None:
         connection=connection,
         target_metadata=target_metadata,
         render_as_batch=connection.dialect.name == "sqlite",  # SQLite cannot ALTER much
+        # SQLite's DDL is transactional, but Alembic does not assume it and commits after
+        # each migration: a second process starting meanwhile took the lock between two,
+        # ran the next migrations itself, and the first then ran them again and failed
+        # (tests/test_migrations.py). One transaction for the whole upgrade, as on PostgreSQL.
+        transactional_ddl=True,
     )
     with context.begin_transaction():
         context.run_migrations()

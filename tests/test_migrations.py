@@ -96,3 +96,82 @@ def test_two_processes_starting_at_once_on_one_sqlite_file_both_migrate_it(
         assert is_at_head(engine)
     finally:
         engine.dispose()
+
+
+# The first process of two: it pauses after its first statement (so the second can start)
+# and after each commit (so the second could take the lock between two migrations, had the
+# first let it go in between).
+_FIRST_PAUSES = """
+import sys, time
+from pathlib import Path
+from sqlalchemy import event
+from app.db.migrate import upgrade
+from app.db.session import make_engine
+engine = make_engine(sys.argv[1])
+
+@event.listens_for(engine, "after_cursor_execute")
+def _started(*_args):
+    marker = Path(sys.argv[2])
+    if not marker.exists():
+        marker.touch()
+        time.sleep(0.5)
+
+commit = engine.dialect.do_commit
+
+def _commit_then_pause(dbapi_connection):
+    commit(dbapi_connection)
+    time.sleep(1.0)
+
+engine.dialect.do_commit = _commit_then_pause
+upgrade(engine)
+print("migrated")
+"""
+
+
+# The second process: imported and waiting before the first starts, it migrates as soon as
+# the first has run a statement.
+_SECOND_WAITS = """
+import sys, time
+from pathlib import Path
+from app.db.migrate import upgrade
+from app.db.session import make_engine
+engine = make_engine(sys.argv[1])
+Path(sys.argv[3]).touch()
+while not Path(sys.argv[2]).exists():
+    time.sleep(0.005)
+upgrade(engine)
+print("migrated")
+"""
+
+
+def _wait_for(path: Path, process: subprocess.Popen[str]) -> None:
+    deadline = time.monotonic() + 60
+    while not path.exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert path.exists(), process.communicate()
+
+
+def test_a_process_starting_while_another_migrates_waits_for_its_whole_upgrade(
+    tmp_path: Path,
+) -> None:
+    """Alembic commits after each migration on SQLite (it does not count SQLite's DDL as
+    transactional), so a second process could take the lock between two of the first's
+    migrations, read the revision reached so far and run the next ones itself; the first
+    then ran them again ("No such constraint: 'uq_jobs_model_id'", once in CI). The whole
+    upgrade is now one transaction: the second process waits for all of it."""
+    url = f"sqlite:///{tmp_path / 'shapesearch.db'}"
+    started, ready = tmp_path / "first-statement-ran", tmp_path / "second-ready"
+    root = Path(__file__).parents[1]
+    second = subprocess.Popen(
+        [sys.executable, "-c", _SECOND_WAITS, url, str(started), str(ready)],
+        cwd=root, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    _wait_for(ready, second)
+    first = subprocess.Popen([sys.executable, "-c", _FIRST_PAUSES, url, str(started)],
+                             cwd=root, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    outputs = [process.communicate(timeout=120) for process in (first, second)]
+    assert [first.returncode, second.returncode] == [0, 0], outputs
+    engine = make_engine(url)
+    try:
+        assert is_at_head(engine)
+    finally:
+        engine.dispose()

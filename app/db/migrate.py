@@ -4,7 +4,8 @@ Run at start-up by every process; concurrent start-ups take turns instead of rac
 create the same tables: on PostgreSQL by an advisory lock, on SQLite by taking the write lock
 at the migration's BEGIN (Alembic reads the schema before it writes, and on SQLite a
 transaction that read first cannot take the lock once another process committed: of two
-processes started at once after an upgrade, one died with "database is locked").
+processes started at once after an upgrade, one died with "database is locked"), and
+holding it to the end: the whole upgrade is one transaction (``migrations/env.py``).
 """
 
 from __future__ import annotations
