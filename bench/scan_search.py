@@ -34,7 +34,11 @@ each query in every one, interleaved. ``--answers FILE`` writes every order's an
 distances, views) as JSON, so two versions of the code can be compared on one catalogue (the
 catalogue and queries are seeded; run the older one with ``PYTHONPATH`` set to a worktree).
 ``--url`` fills an empty database of one's own (PostgreSQL) in place of a temporary SQLite
-file.
+file. ``--filters`` also times scan mode's order under two metadata filters, each query in
+each: every model carries ``family`` (one of ten values) and ``stock`` (``yes`` for three
+models in four); ``family=f3`` is selective (SQL hands the index the matching ids,
+``app.search.similarity.matching_ids``), ``stock=yes`` is not (more than ``PUSHDOWN_MAX``
+match: the general search asks the index for more and filters the rows).
 """
 
 from __future__ import annotations
@@ -66,6 +70,15 @@ from search_scale import (  # noqa: E402
 KEY = ("default", "bench")
 
 
+# The metadata filters ``--filters`` times: a selective one and a common one.
+FILTERS = {"family filter": {"family": "f3"}, "stock filter": {"stock": "yes"}}
+
+
+def metadata_of(number: int) -> dict[str, str]:
+    """Model ``number``'s metadata: ``FILTERS``' selective and common keys."""
+    return {"family": f"f{number % 10}", "stock": "no" if number % 4 == 0 else "yes"}
+
+
 def fill(url: str, real: np.ndarray, models: int, views: int) -> None:
     """``models`` ready models with ``views`` view descriptors each."""
     from sqlalchemy import insert
@@ -88,7 +101,8 @@ def fill(url: str, real: np.ndarray, models: int, views: int) -> None:
                 entries = np.stack([vector + other[offset] for other in others])
                 entries /= np.linalg.norm(entries, axis=1, keepdims=True)
                 rows.append({
-                    "id": uuid.uuid4(), "tenant": KEY[0], "metadata": {}, "status": "ready",
+                    "id": uuid.uuid4(), "tenant": KEY[0], "status": "ready",
+                    "metadata": metadata_of(start + offset),
                     "file_name": "part.stl", "file_size": 1, "file_sha256": "0" * 64,
                     "file_format": "stl", "descriptor": vector.tobytes(),
                     "view_descriptors": entries.astype(np.float32).tobytes(),
@@ -113,6 +127,8 @@ def main() -> None:
     parser.add_argument("--k", type=int, default=10, help="results per query")
     parser.add_argument("--url", help="an empty database to fill (e.g. PostgreSQL) in place "
                         "of a temporary SQLite file")
+    parser.add_argument("--filters", action="store_true",
+                        help="time scan mode's order under a selective and a common filter")
     args = parser.parse_args()
 
     import core.scan_order
@@ -141,6 +157,8 @@ def main() -> None:
         pools = args.scan_pools or [core.scan_order.SCAN_POOL]
         orders = [("plain", 0, pools[0])] + [
             (f"discount, pool {pool}", HUB_NEIGHBOURS, pool) for pool in pools]
+        if args.filters:
+            orders += [(name, HUB_NEIGHBOURS, pools[0]) for name in FILTERS]
         seconds: dict[str, list[float]] = {order: [] for order, _, _ in orders}
         same_first = 0
         written: dict[str, list[list[tuple[int, float, int | None]]]] = {
@@ -155,7 +173,7 @@ def main() -> None:
                 t0 = time.perf_counter()
                 with engine.connect() as connection:
                     answers[order] = find_similar(index, connection, KEY, query, k=args.k,
-                                                  mode="scan")
+                                                  mode="scan", filters=FILTERS.get(order))
                 seconds[order].append(time.perf_counter() - t0)
                 written[order].append([(m.model.index_id, m.distance, m.view)
                                        for m in answers[order]])

@@ -178,6 +178,11 @@ def test_a_selective_filter_is_pushed_down_and_still_returns_k(
         assert (
             matching_ids(session.connection(), KEY, {"family": "common"}, limit=10) is None
         )  # broad
+        # The limit is inclusive: as many as it, pushed down; one more, not.
+        at_limit = matching_ids(session.connection(), KEY, {"family": "rare"}, limit=len(rare))
+        assert sorted(at_limit or []) == rare
+        assert matching_ids(session.connection(), KEY, {"family": "rare"},
+                            limit=len(rare) - 1) is None
         assert matching_ids(session.connection(), KEY, {"family": "7"}, limit=10) == [numeric]
         assert (
             matching_ids(session.connection(), KEY, {"qty": "3", "family": "rare"}, limit=10) == []
@@ -234,10 +239,13 @@ def test_a_query_by_model_id_from_the_index_answers_as_the_database_would(
     assert index.locate("other-tenant", public_id(sessions, query_id)) is None
 
 
+@pytest.mark.parametrize("pushdown_max", [10_000, 0], ids=["sql-ids", "rows-screened"])
 def test_a_query_model_gone_from_the_database_is_not_answered_from_the_index(
-    sessions: sessionmaker[Session],
+    sessions: sessionmaker[Session], pushdown_max: int,
 ) -> None:
-    ids = [add_ready(sessions, unit(i, D)) for i in range(20)]
+    # A filter every model passes: with pushdown_max 0 SQL hands over no ids, and the hub
+    # answer reads the candidates' rows before ordering them, the query's row apart.
+    ids = [add_ready(sessions, unit(i, D), meta={"kind": "part"}) for i in range(20)]
     index = ShapeIndex(sessions)
     index.rebuild()
     gone, changed = ids[0], ids[1]
@@ -256,6 +264,8 @@ def test_a_query_model_gone_from_the_database_is_not_answered_from_the_index(
                 k=5,
                 exclude=index_id,
                 indexed_query=True,
+                filters={"kind": "part"},
+                pushdown_max=pushdown_max,
             )
     index.sync()
     assert index.locate("t", model_ids[gone]) is None

@@ -467,6 +467,38 @@ def test_a_model_deleted_since_the_index_synced_is_never_an_answer(
     assert found != [i for i in expected if i not in (first, later)][:7]
 
 
+@pytest.mark.parametrize("pushdown", [10_000, 0])
+def test_a_filtered_scan_orders_the_models_that_pass_as_a_direct_computation(
+    sessions: sessionmaker[Session], pushdown: int,
+) -> None:
+    """Filters narrow the pool, not the neighbourhoods: with a filter, scan mode's order is
+    the direct computation with every model that fails it in no pool and in every radius,
+    whether SQL hands the index the ids that pass (``pushdown_max`` 10,000) or too many
+    pass for that (0: the certain candidates' rows are read nearest first until the pool
+    is full)."""
+    entries = catalogue(sessions, 120, views=3, seed=9)
+    index = ShapeIndex(sessions, reciprocal=True)
+    index.rebuild()
+    odd = frozenset(i for number, i in enumerate(entries) if number % 2)
+    assert len(entries) - len(odd) > scan_depth(7)  # the pool is a choice among them
+    rng = np.random.default_rng(10)
+    unfiltered_differs = 0
+    for _ in range(4):
+        query = unit(rng.normal(size=8))
+        expected = scan_order(entries, query, 7, reciprocal=True, gone=odd)
+        found = scan_search(index, sessions, query, k=7, filters={"even": "True"},
+                            pushdown_max=pushdown)
+        assert [m.model.index_id for m in found] == expected
+        plain = dict(brute_force(entries, query))
+        for match in found:
+            assert match.distance == pytest.approx(plain[match.model.index_id], abs=1e-5)
+        unfiltered = scan_order(entries, query, 7, reciprocal=True)
+        unfiltered_differs += [i for i in unfiltered if i not in odd] != expected
+    # Leaving the failing models out of the pool changes the order of those that pass, or
+    # this test could not tell a filtered pool from a filtered answer.
+    assert unfiltered_differs > 0
+
+
 def test_after_the_first_answer_its_kind_comes_before_views_as_near_the_scan(
     sessions: sessionmaker[Session],
 ) -> None:

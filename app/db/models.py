@@ -103,6 +103,9 @@ class Model(Base):
         UniqueConstraint("tenant", "external_id", name="uq_models_tenant_external_id"),
         Index("ix_models_tenant_created", "tenant", "created_at", "id"),
         Index("ix_models_status", "status"),
+        # A model's partition: a metadata filter's ids are checked against it from the
+        # index alone (revision 0016), not from rows whose blobs come first.
+        Index("ix_models_partition", "tenant", "descriptor_version", "status"),
         Index("ix_models_size", "units", "size_length", "size_width", "size_height",
               "size_area", "size_volume", "tenant", "descriptor_version", "status"),
     )
