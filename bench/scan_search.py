@@ -109,6 +109,9 @@ def fill(url: str, real: np.ndarray, models: int, views: int) -> None:
                     "descriptor_version": KEY[1], "created_at": now, "updated_at": now,
                 })
             connection.execute(insert(Model.__table__), rows)
+    if engine.dialect.name == "postgresql":
+        with engine.begin() as connection:  # statistics, as autovacuum would gather them
+            connection.exec_driver_sql("ANALYZE models")
     engine.dispose()
 
 

@@ -19,7 +19,9 @@ Metadata filters, two ways, and either way "k results whenever k matching models
   searched (a FAISS ``IDSelectorBatch``);
 * otherwise the index is searched for more and more candidates (x4 each round) until ``k``
   of them pass the filters or the partition is exhausted; matches are then common, so few
-  rounds are needed.
+  rounds are needed. With the hub discount the nearest candidates' rows are read first,
+  a few at a time, until the pool the discount orders is full of models that pass
+  (``_screened``).
 
 Numeric ranges on metadata (``metadata.KEY.gte=``, ``.lte=``, ``metadata_ranges``) work the
 same way: a value passes when it is a JSON number (not a boolean) within the range.
