@@ -760,7 +760,7 @@ def _scan_hub_answer(
     ``screen``: filters that SQL could not narrow to ids (too many models pass them). The
     certain models' rows are then read nearest first, a few at a time, until ``depth`` of
     them pass: the pool holds models that pass, and its rows are the answer's, where the
-    general search read every entry of four times the candidates (125 -> 40 ms for a filter
+    general search read every entry of four times the candidates (125 -> 32 ms for a filter
     three models in four pass, 2 x 10^4 models, ``bench/scan_search.py --filters``)."""
     sizes = _partition_sizes(index, key)
     per_model = _views_per_model(sizes)
