@@ -831,12 +831,8 @@ def _entry_distances(index: ShapeIndex, key: PartitionKey, vector: np.ndarray,
     out: list[tuple[int, float]] = []
     for partition, ids in ((key, [e for e in entries if e[0] < VIEW_ID_BASE]),
                            (views_key(key), [e for e in entries if e[0] >= VIEW_ID_BASE])):
-        found = index.exact_vectors(partition, [entry for entry, _ in ids]) if ids else None
-        if found is None:
-            continue
-        distances = np.linalg.norm(found[0] - vector, axis=1).tolist()
-        out += [(model, distance) for (_, model), distance, held
-                in zip(ids, distances, found[1].tolist(), strict=True) if held]
+        distances = _exact_distances(index, partition, [entry for entry, _ in ids], vector)
+        out += [(model, distances[entry]) for entry, model in ids if entry in distances]
     return out
 
 
