@@ -27,10 +27,13 @@ before every query (a catalogue that changes between any two queries). Printed: 
 seconds, median and p90 seconds per order and the ratio of medians, with the machine's load.
 
     nice -n 10 .venv/bin/python bench/scan_search.py [--models 20000] [--queries 100] [--cold]
-        [--scan-pools 40 160]
+        [--scan-pools 40 160] [--anchor-neighbours 0 120]
 
 ``--scan-pools`` times scan mode's order at each pool size (``core.scan_order.SCAN_POOL``),
-each query in every one, interleaved. ``--answers FILE`` writes every order's answers (ids,
+and ``--anchor-neighbours`` with each number of the first answer's nearest models joined to
+the pool (``core.scan_order.ANCHOR_NEIGHBOURS``; 0: none, the order before the forty-first
+session), each query in every combination, interleaved; the filters' rows take the first
+of each. ``--answers FILE`` writes every order's answers (ids,
 distances, views) as JSON, so two versions of the code can be compared on one catalogue (the
 catalogue and queries are seeded; run the older one with ``PYTHONPATH`` set to a worktree).
 ``--url`` fills an empty database of one's own (PostgreSQL) in place of a temporary SQLite
@@ -126,6 +129,9 @@ def main() -> None:
     parser.add_argument("--scan-pools", type=int, nargs="+",
                         help="scan mode's pool sizes (core.scan_order.SCAN_POOL) to time, "
                         "each query in every one (default: the shipped one)")
+    parser.add_argument("--anchor-neighbours", type=int, nargs="+",
+                        help="numbers of the first answer's nearest joined to scan mode's pool "
+                        "(core.scan_order.ANCHOR_NEIGHBOURS) to time (default: the shipped one)")
     parser.add_argument("--answers", type=Path, help="write every order's answers as JSON")
     parser.add_argument("--k", type=int, default=10, help="results per query")
     parser.add_argument("--url", help="an empty database to fill (e.g. PostgreSQL) in place "
@@ -158,19 +164,22 @@ def main() -> None:
         kept = index.keep_neighbourhoods()
         print(f"{kept} shape-mode neighbourhoods kept in {time.perf_counter() - started:.0f} s")
         pools = args.scan_pools or [core.scan_order.SCAN_POOL]
-        orders = [("plain", 0, pools[0])] + [
-            (f"discount, pool {pool}", HUB_NEIGHBOURS, pool) for pool in pools]
+        joins = args.anchor_neighbours or [core.scan_order.ANCHOR_NEIGHBOURS]
+        orders = [("plain", 0, pools[0], joins[0])] + [
+            (f"discount, pool {pool}" + (f", joined {join}" if len(joins) > 1 else ""),
+             HUB_NEIGHBOURS, pool, join) for pool in pools for join in joins]
         if args.filters:
-            orders += [(name, HUB_NEIGHBOURS, pools[0]) for name in FILTERS]
-        seconds: dict[str, list[float]] = {order: [] for order, _, _ in orders}
+            orders += [(name, HUB_NEIGHBOURS, pools[0], joins[0]) for name in FILTERS]
+        seconds: dict[str, list[float]] = {order: [] for order, *_ in orders}
         same_first = 0
         written: dict[str, list[list[tuple[int, float, int | None]]]] = {
-            order: [] for order, _, _ in orders}
+            order: [] for order, *_ in orders}
         for query in queries(real, args.queries, 0.08, batch=3):
             answers = {}
-            for order, neighbours, pool in orders:
+            for order, neighbours, pool, join in orders:
                 index.hub_neighbours = neighbours
                 core.scan_order.SCAN_POOL = pool
+                core.scan_order.ANCHOR_NEIGHBOURS = join
                 if args.cold:
                     index._entry_neighbours = KeptEntryNeighbours()
                 t0 = time.perf_counter()
@@ -186,7 +195,7 @@ def main() -> None:
         for order, times in seconds.items():
             p90 = float(np.percentile(times, 90))
             ratio = medians[order] / medians["plain"]
-            print(f"{order:20s} median {1000 * medians[order]:.1f} ms, p90 {1000 * p90:.1f} "
+            print(f"{order:30s} median {1000 * medians[order]:.1f} ms, p90 {1000 * p90:.1f} "
                   f"ms, {ratio:.2f}x plain")
         print(f"the same first answer (plain, pool {pools[0]}) for {same_first} of "
               f"{args.queries} queries; entries kept {len(index._entry_neighbours)}; load "

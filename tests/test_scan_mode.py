@@ -24,6 +24,7 @@ from shapes import fibonacci_sphere_points, plate_points, torus_points
 from sqlalchemy import inspect, update
 from sqlalchemy.orm import Session, sessionmaker
 
+import core.scan_order
 from app.api.main import create_app
 from app.db.feed import record_event
 from app.db.migrate import alembic_config, upgrade
@@ -387,20 +388,27 @@ def discounted_order(
 def scan_order(
     entries: dict[int, np.ndarray], query: np.ndarray, k: int, exclude: int | None = None,
     reciprocal: bool = False, gone: frozenset[int] = frozenset(),
+    neighbours: int | None = None,
 ) -> list[int]:
     """Scan mode's order computed directly: of the pool (the plain nearest
-    ``scan_depth(k)``) the least hub key first, then the rest of the pool as a shape query
-    for the first answer's whole descriptor ``a`` orders them: ``|x - a|^2 + r_10(x)``,
-    ``r_10`` over every whole descriptor but ``exclude``'s, then (``reciprocal``)
-    ``pool_keys`` among them. Models ``gone`` are in no pool and in every radius (deleted
-    since the index synced)."""
+    ``scan_depth(k)``) the least hub key first, then the rest of the pool joined with the
+    ``neighbours`` (``ANCHOR_NEIGHBOURS`` unless given) models nearest the first answer's
+    whole descriptor ``a`` (not ``exclude``), as a shape query for ``a`` orders them:
+    ``|x - a|^2 + r_10(x)``, ``r_10`` over every whole descriptor but ``exclude``'s, then
+    (``reciprocal``) ``pool_keys`` among them. Models ``gone`` are in no pool and in every
+    radius (deleted since the index synced, or refused by a filter)."""
     keys = hub_keys_of(entries, query, k, exclude, scan_depth(k), gone)
     first = min(keys, key=lambda i: (keys[i], i))
     anchor = entries[first][0].astype(np.float64)
     ids = [i for i in entries if i != exclude]
     radii = dict(zip(ids, neighbourhood_radii(np.array([entries[i][0] for i in ids]),
                                               HUB_NEIGHBOURS), strict=True))
-    rest = [i for i in keys if i != first]
+    others = [i for i in ids if i != first and i not in gone]
+    by_nearness = sorted(others, key=lambda i: (float(np.sum((entries[i][0] - anchor) ** 2)), i))
+    if neighbours is None:
+        neighbours = core.scan_order.ANCHOR_NEIGHBOURS
+    pool = [i for i in keys if i != first]  # nearest by best entry first
+    rest = pool + [i for i in by_nearness[:neighbours] if i not in pool]
     squared = np.array([float(np.sum((entries[i][0] - anchor) ** 2)) for i in rest])
     near = hub_keys(squared, np.array([radii[i] for i in rest]))
     if reciprocal:
@@ -410,17 +418,24 @@ def scan_order(
 
 
 @pytest.mark.parametrize("reciprocal", [False, True])
+@pytest.mark.parametrize("neighbours", [12, core.scan_order.ANCHOR_NEIGHBOURS])
 def test_scan_mode_orders_as_a_direct_computation(
-    sessions: sessionmaker[Session], reciprocal: bool,
+    sessions: sessionmaker[Session], reciprocal: bool, neighbours: int,
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
+    """With the first answer's 12 nearest joining the pool (some of 60 models), and with
+    the shipped number (every model)."""
+    monkeypatch.setattr(core.scan_order, "ANCHOR_NEIGHBOURS", neighbours)
     entries = catalogue(sessions, 60, views=3, seed=5)
     index = ShapeIndex(sessions, reciprocal=reciprocal)
     index.rebuild()
     rng = np.random.default_rng(7)
-    moved = reordered = 0
+    moved = reordered = joined = 0
     for _ in range(6):
         query = unit(rng.normal(size=8))
         expected = scan_order(entries, query, 7, reciprocal=reciprocal)
+        joined += expected != scan_order(entries, query, 7, reciprocal=reciprocal,
+                                         neighbours=0)
         found = scan_search(index, sessions, query, k=7)
         assert [m.model.index_id for m in found] == expected
         # Distances and scores stay the plain best entry's.
@@ -430,9 +445,9 @@ def test_scan_mode_orders_as_a_direct_computation(
         moved += discounted_order(entries, query, 7) != [
             i for i, _ in brute_force(entries, query)[:7]]
         reordered += expected[1:] != discounted_order(entries, query, 7)[1:]
-    # The discount and the first answer's order each changed some answers, or this test
-    # shows nothing.
-    assert moved > 0 and reordered > 0
+    # The discount, the first answer's order and its joined neighbours each changed some
+    # answers, or this test shows nothing.
+    assert moved > 0 and reordered > 0 and joined > 0
     # A query by model id: that model is in no radius and no answer.
     own = list(entries)[3]
     expected = scan_order(entries, entries[own][0], 5, exclude=own, reciprocal=reciprocal)

@@ -26,7 +26,7 @@ def test_scan_ranking_keeps_the_first_answer_and_orders_its_pool_as_the_first_an
     excluded = np.zeros((1, 30), dtype=bool)
     excluded[0, 7] = True
     radii = neighbourhood_radii(whole, HUB_NEIGHBOURS, exclude=excluded)[0]
-    positions = scan_ranking(keys, whole, depth=12, radii=radii)
+    positions = scan_ranking(keys, whole, depth=12, radii=radii, neighbours=0)
     order = ranked(positions)
     by_key = [int(i) for i in np.argsort(keys, kind="stable") if np.isfinite(keys[i])]
     assert order[0] == by_key[0] and 7 not in order and positions[7] == np.inf
@@ -39,6 +39,33 @@ def test_scan_ranking_keeps_the_first_answer_and_orders_its_pool_as_the_first_an
     assert order[1:12] == [int(i) for i in rest[np.argsort(near, kind="stable")]]
     assert order[12:] == by_key[12:]  # beyond the pool: by key
     assert order[1:12] != by_key[1:12]  # the first answer's order moved something
+
+
+def test_scan_ranking_joins_the_first_answers_nearest_models_to_its_pool() -> None:
+    """The first answer's 6 nearest by whole descriptor (not a left-out model) join the
+    pool of 8, and the shape query for it orders them all; the others follow by key."""
+    rng = np.random.default_rng(5)
+    whole = unit_rows(40, 6, seed=5)
+    keys = rng.uniform(0.5, 2.0, size=40)
+    keys[3] = np.inf  # left out
+    excluded = np.zeros((1, 40), dtype=bool)
+    excluded[0, 3] = True
+    radii = neighbourhood_radii(whole, HUB_NEIGHBOURS, exclude=excluded)[0]
+    order = ranked(scan_ranking(keys, whole, depth=8, radii=radii, neighbours=6))
+    by_key = [int(i) for i in np.argsort(keys, kind="stable") if np.isfinite(keys[i])]
+    anchor = by_key[0]
+    distances = np.linalg.norm(whole - whole[anchor], axis=1)
+    near = [int(i) for i in np.argsort(distances, kind="stable") if i not in (anchor, 3)][:6]
+    joined = by_key[1:8] + [i for i in near if i not in by_key[:8]]
+    assert len(joined) > 7  # some of the nearest were beyond the pool
+    rest = np.array(joined)
+    radius = [direct_radius(whole, int(x), 3, HUB_NEIGHBOURS) for x in rest]
+    squared = np.sum((whole[rest] - whole[anchor]) ** 2, axis=1)
+    keys_of_rest = pool_keys(whole[anchor], whole[rest], hub_keys(squared, np.array(radius)))
+    head = [anchor, *(int(i) for i in rest[np.argsort(keys_of_rest, kind="stable")])]
+    assert order[: len(head)] == head
+    assert order[len(head):] == [i for i in by_key if i not in head]
+    assert 3 not in order
 
 
 def test_scan_mode_positions_rank_each_query_without_its_own_model() -> None:

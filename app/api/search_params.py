@@ -55,9 +55,10 @@ ORDER_HELP = (
     "similarity, need not fall along the list; a model with the query's own descriptor "
     "stays first. With mode=scan, of the max(4k, 40) nearest models by best entry the one "
     "of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean "
-    "best cosine to the 5 other models most alike it; the others follow in the order "
-    "mode=shape gives them for the first answer's whole descriptor, so the first answer's "
-    "kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0)."
+    "best cosine to the 5 other models most alike it; the others, joined with the 120 "
+    "models nearest the first answer's whole descriptor, follow in the order mode=shape "
+    "gives them for that descriptor, so the first answer's kind comes next, also where the "
+    "scan itself missed it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0)."
 )
 ModeQuery = Annotated[
     SearchMode,

@@ -51,13 +51,14 @@ calibration and the duplicates report keep their meaning). Scan mode has a disco
 own (``core.hubness.model_radii``): of the ``core.scan_order.scan_depth(k)`` (``max(4 k,
 40)``) nearest models by best entry, the one whose best entry has the least ``d^2 + 0.5 r``,
 ``r`` the entry's mean best cosine to the 5 other models most alike it, comes first (+0.006 mAP
-of single-view scans left out over seven sources); the others follow in the order a shape
-query for that first answer's whole descriptor gives them (``core.scan_order``: a partial
-scan is far from every whole model, whole models find their kind well; +0.015 mAP of
-single-view scans left out over seven sources against the blend it replaced, itself +0.073
-over the discount alone). An entry's radius costs a search, so entries are taken best bound
-first (``_scan_hub_order``) and the index keeps what it searched while the catalogue stays
-as it is.
+of single-view scans left out over seven sources); the others, joined with the
+``core.scan_order.ANCHOR_NEIGHBOURS`` (120) models nearest that first answer's whole
+descriptor, follow in the order a shape query for it gives them (``core.scan_order``: a
+partial scan is far from every whole model, whole models find their kind well; +0.015 mAP
+of single-view scans left out over seven sources against the blend it replaced, itself
++0.073 over the discount alone; the joined neighbours a further +0.013). An entry's
+radius costs a search, so entries are taken best bound first (``_scan_hub_order``) and the
+index keeps what it searched while the catalogue stays as it is.
 """
 
 from __future__ import annotations
@@ -97,6 +98,7 @@ from sqlalchemy.dialects.postgresql import ARRAY, JSONB
 from app.db.models import Model
 from app.search.index import VIEW_ID_BASE, PartitionKey, ShapeIndex, view_id, views_key
 from app.search.sizing import SizeQuery
+from core import scan_order
 from core.hubness import (
     SAME_DESCRIPTOR,
     SCAN_HUB_NEIGHBOURS,
@@ -107,7 +109,6 @@ from core.hubness import (
     rerank_depth,
 )
 from core.reciprocal import pool_keys, reciprocal_depth
-from core.scan_order import scan_depth
 from core.size import SIZE_FIELDS, ShapeSize
 
 __all__ = [
@@ -666,7 +667,7 @@ def _best_entries(
     the index's hub discount and no size term, the ``scan_depth(k)`` nearest re-ordered
     by scan mode's discount (``_scan_hub_order``)."""
     discounted = index.hub_neighbours > 0 and size.weight == 0
-    depth = scan_depth(k) if discounted else k
+    depth = scan_order.scan_depth(k) if discounted else k
     filtered = bool(filters) or bool(ranges) or size.filters
     if discounted:
         answer = _scan_hub_answer(index, connection, key, vector, k, depth, min_score,
@@ -704,12 +705,31 @@ def _best_entries(
         certain = [m for m in ranked if m.distance <= bound + 1e-5]
         past_min = min_score is not None and score_of(bound) < min_score
         if len(certain) >= depth or bound == float("inf") or past_min:
-            if not discounted:
-                return certain[:k]
-            by_id = {m.model.index_id: m for m in certain[:depth]}
-            order = _scan_hub_order(index, key, vector, list(by_id), entries, exclude, k)
-            return [by_id[i] for i in order[:k]]
+            break
         fetch *= 4
+    if not discounted:
+        return certain[:k]
+    by_id = {m.model.index_id: m for m in certain[:depth]}
+
+    def join(first: int) -> dict[int, np.ndarray]:
+        """The first answer's nearest models that qualify, with their entries."""
+        near = _nearest_wholes(index, key, entries[first][0], {first, exclude}, allowed,
+                               filtered and allowed is None)
+        confirmed = {found[0].index_id: found
+                     for found in _confirmed_best(connection, index, key, near, vector)}
+        # The nearest that pass the filters, as the pool holds the nearest that pass.
+        passing = [i for i in near if i in confirmed
+                   and _passes(confirmed[i][0], filters, ranges, size)]
+        joined: dict[int, np.ndarray] = {}
+        for i in passing[: scan_order.ANCHOR_NEIGHBOURS]:
+            row, distance, view, rows = confirmed[i]
+            if i not in by_id and (min_score is None or score_of(distance) >= min_score):
+                by_id[i] = Match(_candidate(row), distance, score_of(distance), view)
+                joined[i] = rows
+        return joined
+
+    order = _scan_hub_order(index, key, vector, list(by_id), entries, exclude, k, join)
+    return [by_id[i] for i in order[:k]]
 
 
 def _partition_sizes(index: ShapeIndex, key: PartitionKey) -> tuple[int, int]:
@@ -805,9 +825,22 @@ def _scan_hub_answer(
         fetch *= 4
     entries = _index_entries(index, key, certain[:depth])
     # model -> its best entry's distance and view
-    best = {model: _best_entry(stacked, vector) for model, stacked in entries.items()}
+    best = _best_of_each(entries, vector)
+
+    def join(first: int) -> dict[int, np.ndarray]:
+        """The first answer's nearest models that qualify, with their entries."""
+        near = _nearest_wholes(index, key, entries[first][0], {first, exclude}, allowed,
+                               screen)
+        if screen:  # the nearest that pass, as the pool holds the nearest that pass
+            near = _screened(connection, key[0], near, screened, passes,
+                             scan_order.ANCHOR_NEIGHBOURS)
+        joined = _index_entries(index, key, [i for i in near if i not in entries])
+        best.update(_best_of_each(joined, vector))
+        return {i: stacked for i, stacked in joined.items()
+                if min_score is None or score_of(best[i][0]) >= min_score}
+
     order = _scan_hub_order(index, key, vector, sorted(best, key=lambda i: (best[i][0], i)),
-                            entries, exclude, k)
+                            entries, exclude, k, join)
     matches: list[Match] = []
     for start in range(0, len(order), k):
         chunk = order[start : start + k]
@@ -822,6 +855,22 @@ def _scan_hub_answer(
             return matches[:k]
     beyond = len(certain) > depth or (bound < float("inf") and not past_min)
     return None if beyond else matches
+
+
+def _nearest_wholes(index: ShapeIndex, key: PartitionKey, anchor: np.ndarray,
+                    skip: set[int | None], allowed: list[int] | None, screen: bool
+                    ) -> list[int]:
+    """The models of partition ``key`` nearest ``anchor`` (a model's whole descriptor),
+    nearest first, up to ``core.scan_order.ANCHOR_NEIGHBOURS`` of them (four times as many
+    with ``screen``, for the filters to pick from), without ``skip``; among ``allowed``
+    when given. By the index's own distances: a compressed partition's estimates, not
+    re-ranked (which would read twice the vectors): who joins at the edge matters little,
+    and the joined are ordered from their exact vectors."""
+    wanted = scan_order.ANCHOR_NEIGHBOURS * (4 if screen else 1)
+    if wanted == 0:
+        return []
+    hits = index.search(key, anchor, wanted + len(skip), allowed=allowed)
+    return [i for i, _ in hits if i not in skip][:wanted]
 
 
 def _entry_distances(index: ShapeIndex, key: PartitionKey, vector: np.ndarray,
@@ -877,6 +926,7 @@ def _scan_hub_order(
     entries: dict[int, np.ndarray],
     exclude: int | None,
     k: int,
+    join: Callable[[int], dict[int, np.ndarray]],
 ) -> list[int]:
     """``ids`` (the pool, nearest by best entry first) in scan mode's order
     (``core.scan_order``), from their ``entries`` (``(1 + v, d) float32``, the model's
@@ -884,9 +934,10 @@ def _scan_hub_order(
     the model of least hub key (``core.hubness.model_radii``: a model's key is the least
     ``|q - e|^2 + SCAN_HUB_WEIGHT r(e)`` over its entries ``e``, ``r(e)`` the mean over the
     ``SCAN_HUB_NEIGHBOURS`` other models most alike ``e`` (not the query model ``exclude``)
-    of ``e``'s largest cosine to their entries), then the others in the order a shape query
-    for that first answer's whole descriptor gives them (``_hub_order``: the hub discount
-    and the k-reciprocal re-rank among them). Ties in upload order.
+    of ``e``'s largest cosine to their entries), then the others joined with the first
+    answer's nearest models, ``join(first)`` (id -> entries, as ``entries``), in the order a
+    shape query for that first answer's whole descriptor gives them (``_hub_order``: the hub
+    discount and the k-reciprocal re-rank among them). Ties in upload order.
 
     An entry's radius costs a search, so entries are taken best bound first: each starts
     at the key its radius among the candidates gives (``model_radii_among``, a lower bound),
@@ -929,13 +980,17 @@ def _scan_hub_order(
             radii[entry] = max(radius, float(bounds[entry]))
         heapq.heappush(heap, (float(hub_keys(squared[entry], radii[entry], SCAN_HUB_WEIGHT)),
                               rests_on - 1, first, entry))
-    rest = [i for i in ids if i != first]
-    if k == 1 or not rest:
+    if k == 1:
+        return [first]
+    joined = join(first)
+    pool = set(ids)
+    rest = [i for i in ids if i != first] + [i for i in joined if i not in pool]
+    if not rest:
         return [first]
     # The first answer's whole descriptor (a model's first entry) queries the rest as shape
     # mode would: plain distances from it, its vectors already read.
     anchor = entries[first][0].astype(np.float64)
-    whole = {i: entries[i][0] for i in rest}
+    whole = {i: (entries[i] if i in entries else joined[i])[0] for i in rest}
     rows = np.array([whole[i] for i in rest], dtype=np.float64)
     distances = np.sqrt(np.sum((rows - anchor) ** 2, axis=1)).tolist()
     return [first, *_hub_order(index, key, rest, distances, exclude, query=anchor, read=whole)]
@@ -971,6 +1026,21 @@ def _confirmed_best(
         distance, view = _best_entry(held[row.index_id], query)
         confirmed.append((row, distance, view, held[row.index_id]))
     return confirmed
+
+
+def _best_of_each(entries: dict[int, np.ndarray], query: np.ndarray
+                  ) -> dict[int, tuple[float, int | None]]:
+    """``_best_entry`` of each model's ``entries`` (id -> ``(1 + v, d)``), in one pass
+    over them all: a model's distance and which entry it is (None: its descriptor)."""
+    if not entries:
+        return {}
+    counts = [len(rows) for rows in entries.values()]
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    distances = np.linalg.norm(np.concatenate(list(entries.values())) - query, axis=1)
+    nearest = [start + int(np.argmin(distances[start : start + count]))
+               for start, count in zip(starts.tolist(), counts, strict=True)]
+    return {model: (float(distances[at]), None if at == start else at - start - 1)
+            for model, at, start in zip(entries, nearest, starts.tolist(), strict=True)}
 
 
 def _best_entry(entries: np.ndarray, query: np.ndarray) -> tuple[float, int | None]:

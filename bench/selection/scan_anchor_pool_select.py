@@ -40,6 +40,16 @@ same candidate there with tests 1 to 4 passing; if it is not built, that is said
         # P 0; generated 5; capod 6; mcad, bosl2 from /work/tuning-check
     .venv/bin/python bench/selection/scan_anchor_pool_select.py /work/scanrev3 \\
         --json /work/scanrev3/anchor_pool.json
+
+**Result** (2026-12-06, forty-first session; docs/results.md, "Scan mode's rest joined with
+its first answer's neighbours"): shipped as ``core.scan_order.ANCHOR_NEIGHBOURS`` = 120. On
+the third draw the rule chose ``union 120`` on the seven and without each (mean of seven
+0.7216 against 0.7090): left out +0.0126 (95 % +0.0071 .. +0.0188); merged scans 0.7562 ->
+0.7615, clean queries 0.8638 -> 0.8707, BOSL2 0.713 -> 0.720, the ``bendable`` family
+0.8806 -> 0.8816. Test 6, the fourth draw: ``union 120`` again, +0.0093 (+0.0049 ..
++0.0141), tests 1 to 4 passing. Test 5: ``nice -n 10 .venv/bin/python bench/scan_search.py
+--models 100000 --queries 100 --cold --anchor-neighbours 0 120`` gives 49.9 ms against
+35.7 ms without the join, 1.40x (2-core Intel Xeon, load 1.2).
 """
 
 from __future__ import annotations

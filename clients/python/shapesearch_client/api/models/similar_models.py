@@ -209,8 +209,9 @@ def sync_detailed(
     similarity, need not fall along the list; a model with the query's own descriptor stays first. With
     mode=scan, of the max(4k, 40) nearest models by best entry the one of least key comes first, key the
     best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it;
-    the others follow in the order mode=shape gives them for the first answer's whole descriptor, so the
-    first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
+    the others, joined with the 120 models nearest the first answer's whole descriptor, follow in the
+    order mode=shape gives them for that descriptor, so the first answer's kind comes next, also where
+    the scan itself missed it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
     `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
     Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
@@ -324,8 +325,9 @@ def sync(
     similarity, need not fall along the list; a model with the query's own descriptor stays first. With
     mode=scan, of the max(4k, 40) nearest models by best entry the one of least key comes first, key the
     best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it;
-    the others follow in the order mode=shape gives them for the first answer's whole descriptor, so the
-    first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
+    the others, joined with the 120 models nearest the first answer's whole descriptor, follow in the
+    order mode=shape gives them for that descriptor, so the first answer's kind comes next, also where
+    the scan itself missed it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
     `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
     Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
@@ -434,8 +436,9 @@ async def asyncio_detailed(
     similarity, need not fall along the list; a model with the query's own descriptor stays first. With
     mode=scan, of the max(4k, 40) nearest models by best entry the one of least key comes first, key the
     best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it;
-    the others follow in the order mode=shape gives them for the first answer's whole descriptor, so the
-    first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
+    the others, joined with the 120 models nearest the first answer's whole descriptor, follow in the
+    order mode=shape gives them for that descriptor, so the first answer's kind comes next, also where
+    the scan itself missed it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
     `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
     Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,
@@ -549,8 +552,9 @@ async def asyncio(
     similarity, need not fall along the list; a model with the query's own descriptor stays first. With
     mode=scan, of the max(4k, 40) nearest models by best entry the one of least key comes first, key the
     best entry's distance^2 + r/2, r that entry's mean best cosine to the 5 other models most alike it;
-    the others follow in the order mode=shape gives them for the first answer's whole descriptor, so the
-    first answer's kind comes next (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
+    the others, joined with the 120 models nearest the first answer's whole descriptor, follow in the
+    order mode=shape gives them for that descriptor, so the first answer's kind comes next, also where
+    the scan itself missed it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata:
     `metadata.KEY.gte=N` and `metadata.KEY.lte=N` keep models whose KEY holds a number in the range.
     Size (sizes compare in millimetres where the models' units are known, as given otherwise):
     `size.length.gte=`, `size.length.lte=` (and width, height, area, volume) keep models in a range,

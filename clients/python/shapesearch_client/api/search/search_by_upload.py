@@ -227,8 +227,9 @@ def sync_detailed(
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
     query's own descriptor stays first. With mode=scan, of the max(4k, 40) nearest models by best entry
     the one of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best
-    cosine to the 5 other models most alike it; the others follow in the order mode=shape gives them for
-    the first answer's whole descriptor, so the first answer's kind comes next (off with
+    cosine to the 5 other models most alike it; the others, joined with the 120 models nearest the first
+    answer's whole descriptor, follow in the order mode=shape gives them for that descriptor, so the
+    first answer's kind comes next, also where the scan itself missed it (off with
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
@@ -342,8 +343,9 @@ def sync(
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
     query's own descriptor stays first. With mode=scan, of the max(4k, 40) nearest models by best entry
     the one of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best
-    cosine to the 5 other models most alike it; the others follow in the order mode=shape gives them for
-    the first answer's whole descriptor, so the first answer's kind comes next (off with
+    cosine to the 5 other models most alike it; the others, joined with the 120 models nearest the first
+    answer's whole descriptor, follow in the order mode=shape gives them for that descriptor, so the
+    first answer's kind comes next, also where the scan itself missed it (off with
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
@@ -452,8 +454,9 @@ async def asyncio_detailed(
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
     query's own descriptor stays first. With mode=scan, of the max(4k, 40) nearest models by best entry
     the one of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best
-    cosine to the 5 other models most alike it; the others follow in the order mode=shape gives them for
-    the first answer's whole descriptor, so the first answer's kind comes next (off with
+    cosine to the 5 other models most alike it; the others, joined with the 120 models nearest the first
+    answer's whole descriptor, follow in the order mode=shape gives them for that descriptor, so the
+    first answer's kind comes next, also where the scan itself missed it (off with
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
@@ -567,8 +570,9 @@ async def asyncio(
     the discount's order); score, the plain similarity, need not fall along the list; a model with the
     query's own descriptor stays first. With mode=scan, of the max(4k, 40) nearest models by best entry
     the one of least key comes first, key the best entry's distance^2 + r/2, r that entry's mean best
-    cosine to the 5 other models most alike it; the others follow in the order mode=shape gives them for
-    the first answer's whole descriptor, so the first answer's kind comes next (off with
+    cosine to the 5 other models most alike it; the others, joined with the 120 models nearest the first
+    answer's whole descriptor, follow in the order mode=shape gives them for that descriptor, so the
+    first answer's kind comes next, also where the scan itself missed it (off with
     SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0). Numeric metadata: `metadata.KEY.gte=N` and
     `metadata.KEY.lte=N` keep models whose KEY holds a number in the range. Size (sizes compare in
     millimetres where the models' units are known, as given otherwise): `size.length.gte=`,
