@@ -17,15 +17,21 @@ def ranked(positions: np.ndarray) -> list[int]:
     return [int(i) for i in np.argsort(positions, kind="stable") if np.isfinite(positions[i])]
 
 
+def keyed_catalogue(models: int, left_out: int, seed: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``models`` random unit whole descriptors ``(m, 6)``, random scan keys ``(m,)`` (``inf``
+    for the ``left_out`` model) and each model's shape-mode radius ``(m,)`` without it."""
+    whole = unit_rows(models, 6, seed=seed)
+    keys = np.random.default_rng(seed).uniform(0.5, 2.0, size=models)
+    keys[left_out] = np.inf
+    excluded = np.zeros((1, models), dtype=bool)
+    excluded[0, left_out] = True
+    return whole, keys, neighbourhood_radii(whole, HUB_NEIGHBOURS, exclude=excluded)[0]
+
+
 def test_scan_ranking_keeps_the_first_answer_and_orders_its_pool_as_the_first_answers_query(
 ) -> None:
-    rng = np.random.default_rng(4)
-    whole = unit_rows(30, 6, seed=4)
-    keys = rng.uniform(0.5, 2.0, size=30)
-    keys[7] = np.inf  # left out
-    excluded = np.zeros((1, 30), dtype=bool)
-    excluded[0, 7] = True
-    radii = neighbourhood_radii(whole, HUB_NEIGHBOURS, exclude=excluded)[0]
+    whole, keys, radii = keyed_catalogue(30, left_out=7, seed=4)
     positions = scan_ranking(keys, whole, depth=12, radii=radii, neighbours=0)
     order = ranked(positions)
     by_key = [int(i) for i in np.argsort(keys, kind="stable") if np.isfinite(keys[i])]
@@ -44,13 +50,7 @@ def test_scan_ranking_keeps_the_first_answer_and_orders_its_pool_as_the_first_an
 def test_scan_ranking_joins_the_first_answers_nearest_models_to_its_pool() -> None:
     """The first answer's 6 nearest by whole descriptor (not a left-out model) join the
     pool of 8, and the shape query for it orders them all; the others follow by key."""
-    rng = np.random.default_rng(5)
-    whole = unit_rows(40, 6, seed=5)
-    keys = rng.uniform(0.5, 2.0, size=40)
-    keys[3] = np.inf  # left out
-    excluded = np.zeros((1, 40), dtype=bool)
-    excluded[0, 3] = True
-    radii = neighbourhood_radii(whole, HUB_NEIGHBOURS, exclude=excluded)[0]
+    whole, keys, radii = keyed_catalogue(40, left_out=3, seed=5)
     order = ranked(scan_ranking(keys, whole, depth=8, radii=radii, neighbours=6))
     by_key = [int(i) for i in np.argsort(keys, kind="stable") if np.isfinite(keys[i])]
     anchor = by_key[0]
