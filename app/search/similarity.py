@@ -715,15 +715,18 @@ def _best_entries(
         """The first answer's nearest models that qualify, with their entries."""
         near = _nearest_wholes(index, key, entries[first][0], {first, exclude}, allowed,
                                filtered and allowed is None)
-        confirmed = {found[0].index_id: found
-                     for found in _confirmed_best(connection, index, key, near, vector)}
-        # The nearest that pass the filters, as the pool holds the nearest that pass.
-        passing = [i for i in near if i in confirmed
-                   and _passes(confirmed[i][0], filters, ranges, size)]
+        confirmed = {found[0].index_id: found for found in _confirmed_best(
+            connection, index, key, [i for i in near if i not in by_id], vector)}
+        # The nearest that pass the filters (the pool's do), as the pool holds the nearest
+        # that pass.
+        passing = [i for i in near if i in by_id or (
+            i in confirmed and _passes(confirmed[i][0], filters, ranges, size))]
         joined: dict[int, np.ndarray] = {}
         for i in passing[: scan_order.ANCHOR_NEIGHBOURS]:
+            if i in by_id:
+                continue
             row, distance, view, rows = confirmed[i]
-            if i not in by_id and (min_score is None or score_of(distance) >= min_score):
+            if min_score is None or score_of(distance) >= min_score:
                 by_id[i] = Match(_candidate(row), distance, score_of(distance), view)
                 joined[i] = rows
         return joined
@@ -1021,31 +1024,22 @@ def _confirmed_best(
     best entry, which one it is (None: the model) and its entries ``(1 + views, d)
     float32``, the model's descriptor first, as the index holds them (``_index_entries``)."""
     held = _index_entries(index, key, ids)
-    confirmed = []
-    for row in _ready_candidates(connection, key[0], list(held)):
-        distance, view = _best_entry(held[row.index_id], query)
-        confirmed.append((row, distance, view, held[row.index_id]))
-    return confirmed
+    best = _best_of_each(held, query)
+    return [(row, *best[row.index_id], held[row.index_id])
+            for row in _ready_candidates(connection, key[0], list(held))]
 
 
 def _best_of_each(entries: dict[int, np.ndarray], query: np.ndarray
                   ) -> dict[int, tuple[float, int | None]]:
-    """``_best_entry`` of each model's ``entries`` (id -> ``(1 + v, d)``), in one pass
-    over them all: a model's distance and which entry it is (None: its descriptor)."""
+    """The distance from ``query`` of the nearest of each model's ``entries`` (id ->
+    ``(1 + v, d)``, its descriptor first) and which it is: None for the model's descriptor,
+    else its view. One pass over every model's entries, not a call per model."""
     if not entries:
         return {}
     counts = [len(rows) for rows in entries.values()]
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).tolist()
     distances = np.linalg.norm(np.concatenate(list(entries.values())) - query, axis=1)
     nearest = [start + int(np.argmin(distances[start : start + count]))
-               for start, count in zip(starts.tolist(), counts, strict=True)]
+               for start, count in zip(starts, counts, strict=True)]
     return {model: (float(distances[at]), None if at == start else at - start - 1)
-            for model, at, start in zip(entries, nearest, starts.tolist(), strict=True)}
-
-
-def _best_entry(entries: np.ndarray, query: np.ndarray) -> tuple[float, int | None]:
-    """The distance from ``query`` of the nearest of a model's ``entries : (1 + v, d)`` and
-    which it is: None for the model's descriptor (the first row), else its view."""
-    distances = np.linalg.norm(entries - query, axis=1)
-    nearest = int(np.argmin(distances))
-    return float(distances[nearest]), None if nearest == 0 else nearest - 1
+            for model, at, start in zip(entries, nearest, starts, strict=True)}
