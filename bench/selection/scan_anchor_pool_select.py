@@ -49,7 +49,8 @@ the third draw the rule chose ``union 120`` on the seven and without each (mean 
 0.8806 -> 0.8816. Test 6, the fourth draw: ``union 120`` again, +0.0093 (+0.0049 ..
 +0.0141), tests 1 to 4 passing. Test 5: ``nice -n 10 .venv/bin/python bench/scan_search.py
 --models 100000 --queries 100 --cold --anchor-neighbours 0 120`` gives 49.9 ms against
-35.7 ms without the join, 1.40x (2-core Intel Xeon, load 1.2).
+35.7 ms without the join, 1.40x (2-core Intel Xeon, load 1.2); re-run after the review,
+51.7 against 36.0 ms, 1.44x (load 1.1).
 """
 
 from __future__ import annotations
