@@ -4,13 +4,16 @@ BOSL2's socket-head, button-head and countersunk screws come in the same eight (
 length) sizes (``core.evaluation.sources.bosl2_parts``), so each screw has two of another
 head and its own size, and seven of its own head and other sizes. If the descriptor saw the
 head first, a screw's own-head screws would rank above the other heads of its size. This
-script describes the 24 screws with the shipped default (``core.pipeline.describe``) and
+script describes the 24 screws (or the kinds ``--heads`` names, eight sizes each: cqparts'
+four machine screws share theirs) with the shipped default (``core.pipeline.describe``) and
 reports, in plain cosine order, how often a same-size screw of another head ranks above
 the median screw of the query's own head, and both groups' ranks: for the whole descriptor
 and for each of its blocks alone (``DescriptorSpec.blocks``), to show which blocks see the
 head and which the proportions. It chooses nothing.
 
     .venv/bin/python bench/selection/screw_heads_report.py /work/tuning/bosl2
+    .venv/bin/python bench/selection/screw_heads_report.py /work/tuning/cqparts \\
+        --heads socket_head_screw button_head_screw countersunk_screw pan_head_screw
 """
 
 from __future__ import annotations
@@ -63,13 +66,16 @@ def report(name: str, rows: np.ndarray, heads: list[str], sizes: list[int]) -> N
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("bosl2", type=Path, help="the bosl2 folder core.evaluation.sources wrote")
+    parser.add_argument("source", type=Path,
+                        help="the source's folder core.evaluation.sources wrote")
+    parser.add_argument("--heads", nargs="+", default=list(HEADS),
+                        help="the screw kinds, which share their eight sizes")
     args = parser.parse_args(argv)
     spec = DescriptorSpec.from_settings(EngineSettings().descriptor)
     whole, blocks, heads, sizes = [], [], [], []
-    for head in HEADS:
+    for head in args.heads:
         for size in range(SIZES):
-            found = describe(args.bosl2 / head / f"{head}_{size:02d}.ply")
+            found = describe(args.source / head / f"{head}_{size:02d}.ply")
             whole.append(found.descriptor)
             blocks.append(spec.blocks(found.signature, found.areas, found.eigenvalues,
                                       found.points))

@@ -17,6 +17,7 @@ the libraries' own parametric models.
 | ``mcad`` | OpenSCAD's MCAD (``openscad-mcad``) | LGPL-2.1 | 11: bolts (3 heads), gears, ... |
 | ``bosl2`` | BOSL2 (its ``.scad`` in ``solidpython2``) | BSD-2-Clause | 15: screws, nuts, ... |
 | ``freecad`` | FreeCAD's own modules (``freecad``) | LGPL-2.1+ | 7: sprockets, gears, sections |
+| ``cqparts`` | cqparts' fasteners and bearings (on FreeCAD) | GPL-3.0 | 10: screws (5 heads), ... |
 | ``poses`` | ours (``bendable.identity_parts``) | ours | 20 shapes of 4 kinds, 8 shared poses |
 
 ``NON_RIGID`` names what bends: the whole ``bendable`` and ``poses`` sources and capod's
@@ -83,6 +84,12 @@ def _freecad(seed: int, shared: Path) -> Parts:
     return parts()
 
 
+def _cqparts(seed: int, shared: Path) -> Parts:
+    from core.evaluation.sources.cqparts_parts import parts
+
+    return parts()
+
+
 def _poses(seed: int, shared: Path) -> Parts:
     from core.evaluation.sources.bendable import identity_parts
     return identity_parts()
@@ -112,15 +119,16 @@ def _bendable(seed: int, shared: Path) -> Parts:
 SOURCES: dict[str, Callable[[int, Path], Parts]] = {
     "madcad": _madcad, "gearworks": _gearworks, "vslot": _vslot, "parts": _parts,
     "generated": _generated, "bendable": _bendable, "mcad": _mcad, "bosl2": _bosl2,
-    "freecad": _freecad, "poses": _poses,
+    "freecad": _freecad, "cqparts": _cqparts, "poses": _poses,
 }
 
 #: Sources written only when named: ``mcad`` and ``bosl2`` need the ``openscad`` program,
-#: ``freecad`` the ``freecadcmd`` program (neither a wheel); they were added later, as checks
-#: on settings chosen without them (``bosl2`` and then ``freecad`` after every other);
+#: ``freecad`` the ``freecadcmd`` program, ``cqparts`` that and CadQuery 1.x (none a wheel);
+#: they were added later, as checks on settings chosen without them (``bosl2``, then
+#: ``freecad``, then ``cqparts``, each after every other);
 #: ``poses`` checks the descriptor families (shapes in shared poses) and is not a tuning
 #: source.
-CHECK_SOURCES: tuple[str, ...] = ("mcad", "bosl2", "freecad", "poses")
+CHECK_SOURCES: tuple[str, ...] = ("mcad", "bosl2", "freecad", "cqparts", "poses")
 
 #: The sources written when none are named.
 DEFAULT_SOURCES: tuple[str, ...] = (

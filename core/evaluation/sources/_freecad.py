@@ -37,9 +37,10 @@ def require_freecad() -> None:
         raise FileNotFoundError("freecadcmd is not installed: apt-get install freecad")
 
 
-def render(script: str, folder: Path) -> trimesh.Trimesh:
+def render(script: str, folder: Path, paths: tuple[Path, ...] = ()) -> trimesh.Trimesh:
     """The mesh of the solid ``shape`` that ``script`` builds (FreeCAD's own mesher, read
-    back by trimesh).
+    back by trimesh); ``paths`` go first on the script's ``sys.path`` (a folder of Python
+    libraries that build on FreeCAD).
 
     Raises
     ------
@@ -48,7 +49,8 @@ def render(script: str, folder: Path) -> trimesh.Trimesh:
     """
     source, stl = folder / "part.py", folder / "part.stl"
     stl.unlink(missing_ok=True)
-    preamble = f"import sys\nsys.path[:0] = {[str(MODULES / m) for m in ('PartDesign', 'Arch')]}\n"
+    folders = [*map(str, paths), *(str(MODULES / m) for m in ("PartDesign", "Arch"))]
+    preamble = f"import sys\nsys.path[:0] = {folders}\n"
     source.write_text(preamble + script + _EXPORT.format(stl=str(stl)))
     run = subprocess.run(["freecadcmd", str(source)], capture_output=True, text=True,
                          timeout=600)
