@@ -34,6 +34,11 @@ Written down before any score:
    which share their sizes: how often a same-size screw of another head ranks above the
    median screw of the query's own head, for the whole descriptor and for each block.
 
+5. **Scans** (issue 24, item 5; added before any score, in its own commit): cqparts' parts
+   as single-view and three-view scans queried in scan mode against the clean parts, as
+   the other sources' scans were measured (``core.evaluation.scan_retrieval``, 3 views, the
+   service's scan order), reported against the aim of single-view mAP >= 0.6.
+
 Nothing in the service changes on these figures.
 
 Commands (``freecadcmd`` from Debian's ``freecad``; cqparts and CadQuery 1.x in
@@ -45,6 +50,8 @@ Commands (``freecadcmd`` from Debian's ``freecad``; cqparts and CadQuery 1.x in
     .venv/bin/python bench/selection/cqparts_check.py /work/eval_cqparts
     .venv/bin/python bench/selection/screw_heads_report.py /work/tuning/cqparts \\
         --heads socket_head_screw button_head_screw countersunk_screw pan_head_screw
+    .venv/bin/python -m core.evaluation.scan_retrieval /work/tuning/cqparts \\
+        --out /work/scan_cqparts --per-class 0 --views 3 --kinds clean multi+sor single+sor
 """
 
 from __future__ import annotations
