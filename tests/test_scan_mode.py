@@ -456,6 +456,35 @@ def test_scan_mode_orders_as_a_direct_computation(
     assert own not in expected
 
 
+def test_min_score_keeps_scan_modes_order_among_the_models_that_pass(
+    sessions: sessionmaker[Session],
+) -> None:
+    """A model below ``min_score`` by its best entry is in no pool and joins no first
+    answer, but still counts in every radius; the models that pass keep scan mode's order,
+    their distances and views the plain best entry's (read for the joined ones too)."""
+    entries = catalogue(sessions, 60, views=3, seed=5)
+    index = ShapeIndex(sessions, reciprocal=True)
+    index.rebuild()
+    rng = np.random.default_rng(8)
+    for _ in range(3):
+        query = unit(rng.normal(size=8))
+        plain = brute_force(entries, query)
+        cut = score_of(plain[11][1]) - 1e-6  # twelve pass, by rounding only
+        below = frozenset(i for i, distance in plain if score_of(distance) < cut)
+        assert len(below) == len(plain) - 12
+        expected = scan_order(entries, query, 10, reciprocal=True, gone=below)
+        unfiltered = scan_order(entries, query, 10, reciprocal=True)
+        assert expected != [i for i in unfiltered if i not in below][:10]  # not a filter after
+        found = scan_search(index, sessions, query, k=10, min_score=cut)
+        assert [m.model.index_id for m in found] == expected
+        nearest = dict(plain)
+        for match in found:
+            rows = entries[match.model.index_id]
+            assert match.distance == pytest.approx(nearest[match.model.index_id], abs=1e-5)
+            best = int(np.argmin(np.linalg.norm(rows - query, axis=1)))
+            assert match.view == (None if best == 0 else best - 1)
+
+
 def test_a_model_deleted_since_the_index_synced_is_never_an_answer(
     sessions: sessionmaker[Session],
 ) -> None:

@@ -777,7 +777,8 @@ def _scan_hub_answer(
     vectors as added; the ``depth`` nearest certain models, all their entries read
     (``_index_entries``), go in scan mode's order (``_scan_hub_order``); the database
     confirms them in that order, as many as the answer takes. So a query reads each hit's
-    vector, the pool's entries and about ``k`` rows, where confirming every candidate
+    vector, the pool's entries, the joined models' descriptors (their views only for the
+    answered, or for all with ``min_score``) and about ``k`` rows, where confirming every candidate
     first read every entry of seven models or so per model of the pool (12 KB an entry):
     3.2-3.7x a plain search at a pool of 40, 2.2-2.4x now (``bench/scan_search.py``). None
     when the first answer (which orders the rest) or fewer than ``k`` were confirmed while
@@ -831,22 +832,31 @@ def _scan_hub_answer(
     best = _best_of_each(entries, vector)
 
     def join(first: int) -> dict[int, np.ndarray]:
-        """The first answer's nearest models that qualify, with their entries."""
+        """The first answer's nearest models that qualify, with their descriptors (or all
+        their entries, when ``min_score`` needs each one's best)."""
         near = _nearest_wholes(index, key, entries[first][0], {first, exclude}, allowed,
                                screen)
         if screen:  # the nearest that pass, as the pool holds the nearest that pass
             near = _screened(connection, key[0], near, screened, passes,
                              scan_order.ANCHOR_NEIGHBOURS)
-        joined = _index_entries(index, key, [i for i in near if i not in entries])
+        fresh = [i for i in near if i not in entries]
+        if min_score is None:
+            # The order needs only their descriptors; the views of the few answered are
+            # read below, for their best entry.
+            return _index_wholes(index, key, fresh)
+        joined = _index_entries(index, key, fresh)
         best.update(_best_of_each(joined, vector))
         return {i: stacked for i, stacked in joined.items()
-                if min_score is None or score_of(best[i][0]) >= min_score}
+                if score_of(best[i][0]) >= min_score}
 
     order = _scan_hub_order(index, key, vector, sorted(best, key=lambda i: (best[i][0], i)),
                             entries, exclude, k, join)
     matches: list[Match] = []
     for start in range(0, len(order), k):
         chunk = order[start : start + k]
+        best.update(_best_of_each(
+            _index_entries(index, key, [i for i in chunk if i not in best]), vector))
+        chunk = [i for i in chunk if i in best]  # a joined model replaced meanwhile: out
         read = ([screened[i] for i in chunk] if screen
                 else _ready_candidates(connection, key[0], chunk))
         rows = {row.index_id: row for row in read if row is not None and passes(row)}
@@ -888,30 +898,37 @@ def _entry_distances(index: ShapeIndex, key: PartitionKey, vector: np.ndarray,
     return out
 
 
+def _index_wholes(index: ShapeIndex, key: PartitionKey, ids: list[int]
+                  ) -> dict[int, np.ndarray]:
+    """The descriptor of each of ``ids`` as partition ``key`` holds it (as added), ``(1, d)
+    float32``: ``_index_entries`` without the views. An id the index no longer holds is
+    left out."""
+    found = index.exact_vectors(key, ids) if ids else None
+    if found is None:
+        return {}
+    wholes, held = found
+    return {i: whole[None] for i, whole, is_held in zip(ids, wholes, held.tolist(), strict=True)
+            if is_held}
+
+
 def _index_entries(index: ShapeIndex, key: PartitionKey, ids: list[int]
                    ) -> dict[int, np.ndarray]:
     """The entries of each of ``ids`` as partition ``key`` and its views hold them (as
     added): ``(1 + v, d) float32``, the model's descriptor first, its views ``0 .. v - 1``
     after it (up to the first the index no longer holds: replaced a moment ago). An id
     whose descriptor the index no longer holds is left out."""
-    found = index.exact_vectors(key, ids) if ids else None
-    if found is None:
-        return {}
-    wholes, held = found
-    counts = [index.views_held(i) for i in ids]
+    wholes = _index_wholes(index, key, ids)
+    counts = {index_id: index.views_held(index_id) for index_id in wholes}
     viewed = index.exact_vectors(views_key(key), [
-        view_id(i, v) for i, count in zip(ids, counts, strict=True) for v in range(count)])
+        view_id(i, v) for i, count in counts.items() for v in range(count)])
     entries = {}
     start = 0
-    for index_id, whole, is_held, count in zip(ids, wholes, held.tolist(), counts,
-                                                strict=True):
+    for index_id, count in counts.items():
         rows, start = slice(start, start + count), start + count
-        if not is_held:
-            continue
         if viewed is not None:
             count = int(np.cumprod(viewed[1][rows]).sum())  # held views before a gap
-        views = viewed[0][rows][:count] if viewed is not None else wholes[:0]
-        entries[index_id] = np.concatenate([whole[None], views])
+        views = viewed[0][rows][:count] if viewed is not None else wholes[index_id][:0]
+        entries[index_id] = np.concatenate([wholes[index_id], views])
     return entries
 
 
