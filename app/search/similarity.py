@@ -778,12 +778,12 @@ def _scan_hub_answer(
     (``_index_entries``), go in scan mode's order (``_scan_hub_order``); the database
     confirms them in that order, as many as the answer takes. So a query reads each hit's
     vector, the pool's entries, the joined models' descriptors (their views only for the
-    answered, or for all with ``min_score``) and about ``k`` rows, where confirming every candidate
-    first read every entry of seven models or so per model of the pool (12 KB an entry):
-    3.2-3.7x a plain search at a pool of 40, 2.2-2.4x now (``bench/scan_search.py``). None
-    when the first answer (which orders the rest) or fewer than ``k`` were confirmed while
-    models beyond the pool may qualify: ``_best_entries``' general search, which confirms
-    every candidate, answers instead.
+    answered, or for all with ``min_score``) and about ``k`` rows, where confirming every
+    candidate first read every entry of seven models or so per model of the pool (12 KB an
+    entry): 3.2-3.7x a plain search at a pool of 40, 2.2-2.4x now (``bench/scan_search.py``).
+    None when the first answer (which orders the rest) or fewer than ``k`` were confirmed
+    while models beyond the pool may qualify: ``_best_entries``' general search, which
+    confirms every candidate, answers instead.
 
     A model is certain when its nearest hit is no farther than the last hit of each
     partition not exhausted: an entry of it that was no hit is then no nearer (to within an
