@@ -83,7 +83,7 @@ from bosl2_check import catalogue  # noqa: E402
 from freecad_check import HELD_OUT_KINDS as SIX_LIBRARY_HELD_OUT_KINDS  # noqa: E402
 from freecad_check import KIND_OF as SIX_LIBRARY_KIND_OF  # noqa: E402
 from freecad_check import LIBRARIES as SIX_LIBRARIES  # noqa: E402
-from freecad_check import claim_holds, scores  # noqa: E402
+from freecad_check import claim_holds, print_rows, scores  # noqa: E402
 
 LIBRARIES: tuple[str, ...] = (*SIX_LIBRARIES, "cqparts")
 #: Library kind -> kind: the six libraries' merges, and cqparts' parts of those kinds.
@@ -178,15 +178,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"the default above the baseline there: "
               f"{'holds' if claim_holds(seven) else 'does not hold'}")
     return 0
-
-
-def print_rows(name: str, table: dict[str, dict[str, Any]]) -> None:
-    """One run's NN / mAP / top-5 per variant, the service's order and the plain one."""
-    print(f"{name}: service's order NN / mAP / top-5 (plain order NN / mAP)")
-    for variant, row in table.items():
-        service, plain = row["service"], row["plain"]
-        print(f"  {variant:9s} {service['nn']:.3f} / {service['map']:.3f} / "
-              f"{service['top5']:.3f}   ({plain['nn']:.3f} / {plain['map']:.3f})")
 
 
 if __name__ == "__main__":

@@ -99,13 +99,18 @@ def claim_holds(table: dict[str, dict[str, Any]]) -> bool:
     return default["map"] > baseline["map"] and default["nn"] >= baseline["nn"]
 
 
-def report(name: str, table: dict[str, dict[str, Any]]) -> bool:
-    """Print one run's rows and sprocket rows; returns whether the claim holds on it."""
-    print(f"\n{name}: service's order NN / mAP / top-5 (plain order NN / mAP)")
+def print_rows(name: str, table: dict[str, dict[str, Any]]) -> None:
+    """One run's NN / mAP / top-5 per variant, the service's order and the plain one."""
+    print(f"{name}: service's order NN / mAP / top-5 (plain order NN / mAP)")
     for variant, row in table.items():
         service, plain = row["service"], row["plain"]
         print(f"  {variant:9s} {service['nn']:.3f} / {service['map']:.3f} / "
               f"{service['top5']:.3f}   ({plain['nn']:.3f} / {plain['map']:.3f})")
+
+
+def report(name: str, table: dict[str, dict[str, Any]]) -> bool:
+    """Print one run's rows and sprocket rows; returns whether the claim holds on it."""
+    print_rows(f"\n{name}", table)
     for label in SPROCKET_LABELS:
         if label in table["default"]["per_kind"]:
             maps = ", ".join(f"{v} {table[v]['per_kind'][label]['map']:.3f}"
