@@ -1,4 +1,5 @@
-"""Running FreeCAD scripts that build a part, shared by the sources drawn by FreeCAD's modules.
+"""Running FreeCAD scripts that build a part, shared by the sources drawn inside FreeCAD
+(its own modules; cqparts, on CadQuery 1.x).
 
 FreeCAD is not a Python wheel (Debian's ``freecad``); its headless ``freecadcmd`` runs a
 script that builds a ``Part`` shape named ``shape``; the lines added here mesh it and write an
