@@ -151,14 +151,16 @@ def test_freecad_source_builds_closed_parts_of_distinct_sizes() -> None:
 def test_cqparts_source_builds_closed_parts_of_distinct_sizes() -> None:
     if shutil.which("freecadcmd") is None:
         pytest.skip("freecadcmd (apt-get install freecad) is not installed")
-    from core.evaluation.sources import cqparts_parts
+    from core.evaluation.sources.cqparts_parts import KINDS as CQPARTS
+    from core.evaluation.sources.cqparts_parts import parts as cqparts_parts
+    from core.evaluation.sources.cqparts_parts import require_cqparts
 
     try:
-        cqparts_parts._library()
+        require_cqparts()
     except FileNotFoundError as missing:
         pytest.skip(str(missing))
     # The first two sizes of each kind (the source builds lazily): closed, and not alike.
-    for kind in cqparts_parts.KINDS:
-        meshes = [mesh for _, _, mesh in islice(cqparts_parts.parts((kind,)), 2)]
+    for kind in CQPARTS:
+        meshes = [mesh for _, _, mesh in islice(cqparts_parts((kind,)), 2)]
         assert all(mesh.is_watertight and mesh.is_volume for mesh in meshes), kind
         assert not np.isclose(meshes[0].area, meshes[1].area, rtol=1e-3), kind

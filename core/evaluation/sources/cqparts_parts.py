@@ -45,7 +45,7 @@ import trimesh
 
 from core.evaluation.sources._freecad import render, require_freecad
 
-__all__ = ["KINDS", "parts"]
+__all__ = ["KINDS", "parts", "require_cqparts"]
 
 #: Nominal diameter and length (mm) of the machine screws, the same for every head.
 _SCREW_SIZES = ((3, 12), (4, 20), (5, 16), (6, 30), (8, 25), (10, 50), (12, 40), (16, 60))
@@ -99,8 +99,14 @@ shape = found[0] if len(found) == 1 else Part.makeCompound(found)
 """
 
 
-def _library() -> Path:
-    """The folder that holds CadQuery 1.x and the cqparts libraries."""
+def require_cqparts() -> Path:
+    """The folder that holds CadQuery 1.x and the cqparts libraries.
+
+    Raises
+    ------
+    FileNotFoundError
+        They are not there: the message says how to install them.
+    """
     folder = Path(os.environ.get("SHAPESEARCH_CQPARTS_LIB", "/opt/cqparts"))
     if not (folder / "cqparts_fasteners").is_dir():
         raise FileNotFoundError(
@@ -189,7 +195,7 @@ def parts(kinds: tuple[str, ...] = KINDS) -> Iterator[tuple[str, str, trimesh.Tr
         cqparts built no valid solid for a size (the message says why).
     """
     require_freecad()
-    library = _library()
+    library = require_cqparts()
     makers = _makers(library)
     with tempfile.TemporaryDirectory(prefix="cqparts-") as folder:
         for kind in kinds:
