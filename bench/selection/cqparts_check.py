@@ -49,13 +49,16 @@ source builder) and its tapered roller bearings a kind of their own; scored by
 ``shapesearch eval`` as ``freecad_check.py``'s six-library catalogue was, the nearest
 likeness of the held-out scoring (several makers' styles per kind).
 
+(The reading's command took the run alone when committed; it became ``verdict RUN`` when
+the catalogue was added, the reading unchanged.)
+
 Commands (``freecadcmd`` from Debian's ``freecad``; cqparts and CadQuery 1.x in
 ``/opt/cqparts``, as ``core.evaluation.sources.cqparts_parts`` says):
 
     .venv/bin/python -m core.evaluation.sources /work/tuning --sources cqparts
     .venv/bin/shapesearch eval /work/tuning/cqparts \\
         --variants default baseline ss4 spectral bendable --out /work/eval_cqparts
-    .venv/bin/python bench/selection/cqparts_check.py /work/eval_cqparts
+    .venv/bin/python bench/selection/cqparts_check.py verdict /work/eval_cqparts
     .venv/bin/python bench/selection/screw_heads_report.py /work/tuning/cqparts \\
         --heads socket_head_screw button_head_screw countersunk_screw pan_head_screw
     .venv/bin/python -m core.evaluation.scan_retrieval /work/tuning/cqparts \\
@@ -63,11 +66,10 @@ Commands (``freecadcmd`` from Debian's ``freecad``; cqparts and CadQuery 1.x in
     # disclosed, after 1 to 4: the held-out set's kinds across seven libraries
     .venv/bin/python -m core.evaluation.sources /work/tuning \\
         --sources madcad gearworks vslot mcad bosl2 freecad
-    .venv/bin/python bench/selection/cqparts_check.py /work/eval_cqparts \\
-        --catalogue /work/tuning /work/heldout7
+    .venv/bin/python bench/selection/cqparts_check.py catalogue /work/tuning /work/heldout7
     .venv/bin/shapesearch eval /work/heldout7 \\
         --variants default baseline ss4 spectral bendable --out /work/eval_heldout7
-    .venv/bin/python bench/selection/cqparts_check.py /work/eval_cqparts \\
+    .venv/bin/python bench/selection/cqparts_check.py verdict /work/eval_cqparts \\
         --held-out-run /work/eval_heldout7
 """
 
@@ -125,33 +127,23 @@ def carried_over(table: dict[str, dict[str, Any]]) -> tuple[float, float, float]
             HELD_OUT["ss4"][1] * release["map"] / ss4["map"])
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("run", type=Path, help="shapesearch eval --out of cqparts alone")
-    parser.add_argument("--catalogue", type=Path, nargs=2, metavar=("SOURCES", "OUT"),
-                        help="link the held-out set's kinds of seven libraries instead")
-    parser.add_argument("--held-out-run", type=Path,
-                        help="shapesearch eval --out of that catalogue, reported too")
-    args = parser.parse_args(argv)
-    if args.catalogue:
-        sources, out = args.catalogue
-        missing = [name for name in LIBRARIES if not (sources / name).is_dir()]
-        if missing:
-            parser.error(f"not under {sources}: {', '.join(missing)}")
-        counts = catalogue(sources, out, HELD_OUT_KINDS, LIBRARIES, KIND_OF)
-        print(f"{sum(counts.values())} parts, {len(counts)} kinds under {out}")
-        for kind, count in sorted(counts.items()):
-            print(f"  {kind:36s} {count:3d}")
-        return 0
-    table = scores(args.run)
-    print_rows("cqparts alone", table)
-    print("mAP per kind, service's order (default / baseline / ss4); the default's wrong "
-          "first answers, plain order:")
+def print_per_kind(table: dict[str, dict[str, Any]], mistakes: bool) -> None:
+    """mAP per kind in the service's order (default / baseline / ``ss4``), and with
+    ``mistakes`` the default's wrong first answers in plain order."""
+    print("mAP per kind, service's order (default / baseline / ss4)"
+          + ("; the default's wrong first answers, plain order:" if mistakes else ":"))
     for kind in sorted(table["default"]["per_kind"]):
         maps = " / ".join(f"{table[v]['per_kind'][kind]['map']:.3f}"
                           for v in ("default", "baseline", "ss4"))
-        taken = table["default"]["mistakes"][kind]["mistakes"] or "-"
-        print(f"  {kind:24s} {maps}   {taken}")
+        taken = f"   {table['default']['mistakes'][kind]['mistakes'] or '-'}" if mistakes else ""
+        print(f"  {kind:36s} {maps}{taken}")
+
+
+def verdict(run: Path, held_out_run: Path | None) -> None:
+    """Tests 2 and 3 on cqparts alone (``run``), and the seven-library catalogue's rows."""
+    table = scores(run)
+    print_rows("cqparts alone", table)
+    print_per_kind(table, mistakes=True)
     holds = claim_holds(table)
     print(f"test 2, the default above the baseline (mAP above, NN not below): "
           f"{'holds' if holds else 'does not hold'}")
@@ -168,15 +160,36 @@ def main(argv: list[str] | None = None) -> int:
               f"to {by_ratio:.3f} (ratio); BOSL2's: {BOSL2_PROJECTION}")
     else:
         print(f"  the projection stays BOSL2's: {BOSL2_PROJECTION}")
-    if args.held_out_run:
-        seven = scores(args.held_out_run)
+    if held_out_run is not None:
+        seven = scores(held_out_run)
         print_rows("\nthe held-out set's kinds across seven libraries", seven)
-        for kind in sorted(seven["default"]["per_kind"]):
-            maps = " / ".join(f"{seven[v]['per_kind'][kind]['map']:.3f}"
-                              for v in ("default", "baseline", "ss4"))
-            print(f"  {kind:36s} {maps}")
+        print_per_kind(seven, mistakes=False)
         print(f"the default above the baseline there: "
               f"{'holds' if claim_holds(seven) else 'does not hold'}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    read = commands.add_parser("verdict", help="the pre-registered reading")
+    read.add_argument("run", type=Path, help="shapesearch eval --out of cqparts alone")
+    read.add_argument("--held-out-run", type=Path,
+                      help="shapesearch eval --out of the seven-library catalogue, reported too")
+    build = commands.add_parser("catalogue", help="link the held-out set's kinds of seven "
+                                "libraries (disclosed, after tests 1 to 4)")
+    build.add_argument("sources", type=Path, help="the folder core.evaluation.sources wrote")
+    build.add_argument("out", type=Path, help="the catalogue's folder (links)")
+    args = parser.parse_args(argv)
+    if args.command == "verdict":
+        verdict(args.run, args.held_out_run)
+        return 0
+    missing = [name for name in LIBRARIES if not (args.sources / name).is_dir()]
+    if missing:
+        parser.error(f"not under {args.sources}: {', '.join(missing)}")
+    counts = catalogue(args.sources, args.out, HELD_OUT_KINDS, LIBRARIES, KIND_OF)
+    print(f"{sum(counts.values())} parts, {len(counts)} kinds under {args.out}")
+    for kind, count in sorted(counts.items()):
+        print(f"  {kind:36s} {count:3d}")
     return 0
 
 
