@@ -116,6 +116,20 @@ def catalogue(sources: Path, out: Path, kinds: tuple[str, ...] | None = None,
     return counts
 
 
+def write_catalogue(parser: argparse.ArgumentParser, sources: Path, out: Path,
+                    kinds: tuple[str, ...] | None, libraries: tuple[str, ...] = LIBRARIES,
+                    kind_of: dict[str, str] | None = None) -> None:
+    """``catalogue`` for a script's command line: its libraries must be under ``sources``
+    (else the parser's error); prints the part count per kind."""
+    missing = [name for name in libraries if not (sources / name).is_dir()]
+    if missing:
+        parser.error(f"not under {sources}: {', '.join(missing)}")
+    counts = catalogue(sources, out, kinds, libraries, kind_of)
+    print(f"{sum(counts.values())} parts, {len(counts)} kinds under {out}")
+    for kind, count in sorted(counts.items()):
+        print(f"  {kind:36s} {count:3d}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("sources", type=Path, help="the folder core.evaluation.sources wrote")
@@ -123,14 +137,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--held-out-kinds", action="store_true",
                         help="only the kinds the held-out set has too (HELD_OUT_KINDS)")
     args = parser.parse_args(argv)
-    missing = [name for name in LIBRARIES if not (args.sources / name).is_dir()]
-    if missing:
-        parser.error(f"not under {args.sources}: {', '.join(missing)}")
-    counts = catalogue(args.sources, args.out,
-                       HELD_OUT_KINDS if args.held_out_kinds else None)
-    print(f"{sum(counts.values())} parts, {len(counts)} kinds under {args.out}")
-    for kind, count in sorted(counts.items()):
-        print(f"  {kind:36s} {count:3d}")
+    write_catalogue(parser, args.sources, args.out,
+                    HELD_OUT_KINDS if args.held_out_kinds else None)
     return 0
 
 

@@ -81,7 +81,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bosl2_check import catalogue  # noqa: E402
+from bosl2_check import write_catalogue  # noqa: E402
 from freecad_check import HELD_OUT_KINDS as SIX_LIBRARY_HELD_OUT_KINDS  # noqa: E402
 from freecad_check import KIND_OF as SIX_LIBRARY_KIND_OF  # noqa: E402
 from freecad_check import LIBRARIES as SIX_LIBRARIES  # noqa: E402
@@ -183,13 +183,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "verdict":
         verdict(args.run, args.held_out_run)
         return 0
-    missing = [name for name in LIBRARIES if not (args.sources / name).is_dir()]
-    if missing:
-        parser.error(f"not under {args.sources}: {', '.join(missing)}")
-    counts = catalogue(args.sources, args.out, HELD_OUT_KINDS, LIBRARIES, KIND_OF)
-    print(f"{sum(counts.values())} parts, {len(counts)} kinds under {args.out}")
-    for kind, count in sorted(counts.items()):
-        print(f"  {kind:36s} {count:3d}")
+    write_catalogue(parser, args.sources, args.out, HELD_OUT_KINDS, LIBRARIES, KIND_OF)
     return 0
 
 

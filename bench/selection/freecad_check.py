@@ -64,7 +64,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bosl2_check import HELD_OUT_KINDS as FIVE_LIBRARY_HELD_OUT_KINDS  # noqa: E402
 from bosl2_check import LIBRARIES as FIVE_LIBRARIES  # noqa: E402
 from bosl2_check import SHARED_KINDS as FIVE_LIBRARY_KINDS  # noqa: E402
-from bosl2_check import catalogue  # noqa: E402
+from bosl2_check import write_catalogue  # noqa: E402
 
 LIBRARIES: tuple[str, ...] = (*FIVE_LIBRARIES, "freecad")
 #: Library kind -> kind: the five libraries' merges, and FreeCAD's spur gears among theirs.
@@ -137,14 +137,8 @@ def main(argv: list[str] | None = None) -> int:
     read.add_argument("catalogue_run", type=Path, help="eval --out of the catalogue")
     args = parser.parse_args(argv)
     if args.command == "catalogue":
-        missing = [name for name in LIBRARIES if not (args.sources / name).is_dir()]
-        if missing:
-            parser.error(f"not under {args.sources}: {', '.join(missing)}")
-        kinds = None if args.all_kinds else HELD_OUT_KINDS
-        counts = catalogue(args.sources, args.out, kinds, LIBRARIES, KIND_OF)
-        print(f"{sum(counts.values())} parts, {len(counts)} kinds under {args.out}")
-        for kind, count in sorted(counts.items()):
-            print(f"  {kind:36s} {count:3d}")
+        write_catalogue(parser, args.sources, args.out,
+                        None if args.all_kinds else HELD_OUT_KINDS, LIBRARIES, KIND_OF)
         return 0
     alone = report("FreeCAD alone", scores(args.freecad_run))
     together = report("the held-out kinds of six libraries", scores(args.catalogue_run))
