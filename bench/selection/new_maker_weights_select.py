@@ -63,6 +63,18 @@ candidate.
     # only if tests 1 and 2 hold: the same four extractions with --seed 7 into /work/seed7, then
     nice -n 5 .venv/bin/python bench/selection/new_maker_weights_select.py /work/seed7 \\
         --confirm "CHOICE" --json /work/seed7/new_maker_weights.json
+
+**Result** (2026-12-06, forty-third session, a 2-core AMD EPYC; the seed-0 extraction of the
+ten sources, 919 models): declined by test 1. Mean of ten (mAP): ``ss11`` 0.8886; ShapeDNA
+at 0.1 / off 0.8895 / 0.8904; the ring at 2 with ShapeDNA 0.2 / 0.1 / off 0.8891 / 0.8910 /
+0.8915; the ring at 1 0.8882 / 0.8880 / 0.8899. The ring at 2 lifts the two libraries with
+a second maker's screws and bearings (cqparts 0.848 -> 0.871, MCAD 0.822 -> 0.847) and
+costs bd-vslot (0.913 -> 0.901), the bent shapes (0.992 -> 0.984) and our generator (0.834
+-> 0.826). The rule picks ``ring 4 dna 0.1`` (0.8895, the first within the tie of the best);
+chosen without bd-vslot or the bent shapes it picks ``ring 2 dna 0.1``, which costs the one
+left out: left out 0.8873 against 0.8886, **-0.0013 (95 % -0.0031 .. +0.0005)**. One catalogue
+by kind: NN 0.874, mAP 0.724 (``ring 4 dna 0.1`` 0.725). Tests 3 and 4 were not needed; no
+seed-7 extraction was made.
 """
 
 from __future__ import annotations
