@@ -6,7 +6,7 @@ descriptor and its virtual views; since the fifteenth session it re-orders the
 cost a search of both partitions per entry, taken best bound first until the answer is
 certain; since the thirty-eighth the rest of the pool after the first answer follows that
 answer's shape-mode order (``core.scan_order``: the hub discount and the k-reciprocal
-re-rank, ``app.search.similarity._scan_hub_order``), before it by a blend of key and
+re-rank, ``app.search.similarity._scan._scan_hub_order``), before it by a blend of key and
 nearness to the first answer, whose radii were searched as the first's; since the
 thirty-ninth the pool is ordered from the index's own vectors and the database reads the
 answers' rows alone (``_scan_hub_answer``), where it read every candidate's descriptors

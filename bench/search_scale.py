@@ -529,12 +529,12 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         from sqlalchemy import select
 
         from app.db.models import Model
-        from app.search.similarity import _sql_filter
+        from app.search.similarity import sql_filter
 
         statement = select(Model.index_id).where(
             Model.tenant == "default",
             Model.status == "ready",
-            _sql_filter(session.connection(), "default", {"family": "f7"}),
+            sql_filter(session.connection(), "default", {"family": "f7"}),
         )
         explain = "EXPLAIN QUERY PLAN " if engine.dialect.name == "sqlite" else "EXPLAIN "
         compiled = statement.compile(engine, compile_kwargs={"literal_binds": True})

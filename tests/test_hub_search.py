@@ -438,7 +438,7 @@ def test_a_change_waits_for_one_block_of_a_lists_rows_not_the_whole_list(
 def test_a_candidate_the_index_dropped_comes_after_the_others_in_the_re_rank(
     sessions: sessionmaker[Session],
 ) -> None:
-    from app.search.similarity import _reciprocal_keys
+    from app.search.similarity._shape import reciprocal_keys
 
     rows = unit_rows(30, 6, seed=14).astype(np.float32)
     ids = [add_ready(sessions, row) for row in rows]
@@ -448,7 +448,7 @@ def test_a_candidate_the_index_dropped_comes_after_the_others_in_the_re_rank(
     gone = max(ids) + 1000  # found a moment ago, no longer held by the index
     candidates = [*ids[:10], gone]
     hub = np.linspace(0.0, 1.0, len(candidates))
-    keys = _reciprocal_keys(index, KEY, candidates, hub, query, {})
+    keys = reciprocal_keys(index, KEY, candidates, hub, query, {})
     assert np.isposinf(keys[-1]) and np.isfinite(keys[:-1]).all()
     # The others are ranked among themselves, as if the dropped one had never been found.
     expected = pool_keys(query, rows[:10], hub[:-1])

@@ -1,7 +1,7 @@
 """Issue 24 follow-up: does discounting hubs at search time generalise across sources?
 
 Measurement only when written (the eighth session); the ninth adopted it in the search
-service (``app/search/similarity.py``, the radii kept by ``app/search/index/_kept.py``).
+service (``app/search/similarity/``, the radii kept by ``app/search/index/_kept.py``).
 Why: the held-out figure that misses most is mAP (0.580 against 0.70; NN 0.882), the first
 answer mostly right and the rest of the kind ranked late. In high-dimensional retrieval
 some vectors ("hubs") are near many queries of other kinds, and push true answers down

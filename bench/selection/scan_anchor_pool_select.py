@@ -17,7 +17,7 @@ the search service on saved descriptors, the scan's own model left out everywher
 - ``anchor 40``: the first answer as shipped; then the first answer's shape-mode answer
   (its 40 nearest models by plain distance of whole descriptors, the first answer and the
   scan's model left out, ordered by ``core.reciprocal.pool_keys`` over their hub keys, as
-  ``app.search.similarity._hub_order`` orders a shape query by id); then the scan pool's
+  ``app.search.similarity._shape.hub_order`` orders a shape query by id); then the scan pool's
   others by the shipped order; then the rest by scan key;
 - ``union 40``: the first answer as shipped; then the scan pool's others joined with the
   first answer's 40 nearest, ordered together as a shape query for the first answer;

@@ -2,7 +2,7 @@
 
 ``scan_expansion_select.py`` scored its candidates with the pool taken as the 40 models of
 least scan-mode key over the whole catalogue. The service takes the ``rerank_depth(k)``
-models nearest by plain best entry (``app.search.similarity._best_entries``), places the
+models nearest by plain best entry (``app.search.similarity._scan.scan_matches``), places the
 one of least key first and orders the rest of that pool by ``expansion_keys``. This emulates
 the service's order from each source's saved descriptors (pool 40, 80 and 160 by plain
 distance; beyond the pool, by key as in the study) and prints its mAP beside the study's

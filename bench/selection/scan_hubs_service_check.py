@@ -2,7 +2,7 @@
 
 The study scores its candidates with its own code over the whole catalogue. The service
 orders the ``4 k`` nearest models by best entry, taking entries best bound first, with
-radii from its index (``app.search.similarity._scan_hub_order``). This puts a source's
+radii from its index (``app.search.similarity._scan._scan_hub_order``). This puts a source's
 saved descriptors (``scan_retrieval``'s, as the study read them) into a SQLite database as
 ready models with their views, and asks ``find_similar(mode="scan")`` for every single-view
 scan with the scanned model left out (``exclude``: out of the answer and of every radius,

@@ -1,0 +1,179 @@
+"""Metadata filters: the predicate that decides (``metadata_matches``,
+``metadata_in_ranges``) and the SQL that narrows the candidates to the models it may pass
+(``matching_ids``), on either backend; SQL only narrows, so both ways agree exactly.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from sqlalchemy import (
+    ColumnElement,
+    Connection,
+    Float,
+    and_,
+    case,
+    cast,
+    column,
+    false,
+    func,
+    literal,
+    or_,
+    select,
+    table,
+    true,
+)
+from sqlalchemy.dialects.postgresql import JSONB
+
+from app.db.models import Model
+from app.search.index import PartitionKey
+from app.search.sizing import SizeQuery
+
+# SQLite's metadata entries, kept by triggers (migrations/versions/0007_metadata_values.py).
+_METADATA_VALUES = table(
+    "metadata_values", column("index_id"), column("tenant"), column("key"), column("value")
+)
+
+
+def metadata_matches(metadata: dict[str, Any], filters: dict[str, str]) -> bool:
+    """Equality on every filter; non-string values compare by their JSON text (3, true)."""
+    for key, wanted in filters.items():
+        if key not in metadata:
+            return False
+        value = metadata[key]
+        text = value if isinstance(value, str) else json.dumps(value)
+        if text != wanted:
+            return False
+    return True
+
+
+#: Metadata key -> (lowest, highest) allowed number; None: unbounded on that side.
+Ranges = dict[str, tuple[float | None, float | None]]
+
+
+def metadata_in_ranges(metadata: dict[str, Any], ranges: Ranges) -> bool:
+    """Whether every ranged key holds a JSON number (not a boolean) within its range."""
+    for key, (low, high) in ranges.items():
+        value = metadata.get(key)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return False
+        if (low is not None and value < low) or (high is not None and value > high):
+            return False
+    return True
+
+
+def sql_ranges(connection: Connection, ranges: Ranges) -> ColumnElement[bool]:
+    """A SQL condition true for every model whose metadata ``metadata_in_ranges``; a
+    non-numeric value reads as NULL (a CASE, so no cast ever fails)."""
+    conditions: list[ColumnElement[bool]] = []
+    postgres = connection.dialect.name == "postgresql"
+    for key, (low, high) in ranges.items():
+        if postgres:
+            document = cast(Model.meta, JSONB)
+            number = case(
+                (func.jsonb_typeof(document[key]) == "number",
+                 cast(document[key].astext, Float)),
+            )
+        else:
+            path = '$."' + key.replace('"', '\\"') + '"'
+            number = case(
+                (func.json_type(Model.meta, path).in_(("integer", "real")),
+                 func.json_extract(Model.meta, path)),
+            )
+        conditions.append(number.is_not(None))
+        if low is not None:
+            conditions.append(number >= low)
+        if high is not None:
+            conditions.append(number <= high)
+    return and_(true(), *conditions)
+
+
+def _values_written_as(wanted: str) -> list[Any]:
+    """The JSON values whose filter text is ``wanted``: the string itself and, when
+    ``wanted`` is the exact JSON text of a non-string, that value."""
+    values: list[Any] = [wanted]
+    try:
+        parsed = json.loads(wanted)
+    except ValueError:
+        return values
+    if not isinstance(parsed, str) and json.dumps(parsed) == wanted:
+        values.append(parsed)
+    return values
+
+
+def sql_filter(
+    connection: Connection, tenant: str, filters: dict[str, str]
+) -> ColumnElement[bool]:
+    """A SQL condition true for every model of ``tenant`` that ``metadata_matches`` (perhaps
+    a few more), served by an index on either backend."""
+    conditions = []
+    postgres = connection.dialect.name == "postgresql"
+    for key, wanted in filters.items():
+        values = _values_written_as(wanted)
+        if postgres:  # the GIN index of migration 0005
+            document = cast(Model.meta, JSONB)
+            conditions.append(
+                or_(
+                    *(document.op("@>")(cast(literal(json.dumps({key: v})), JSONB)) for v in values)
+                )
+            )
+            continue
+        # SQLite: the (tenant, key, value) entries of migration 0007, whose values are
+        # json_each's: text, numbers (true and false as 1 and 0), compact JSON text.
+        entries = [
+            json.dumps(v, separators=(",", ":")) if isinstance(v, list | dict) else v
+            for v in values
+            if v is not None
+        ]
+        if not entries:
+            conditions.append(false())
+            continue
+        conditions.append(
+            Model.index_id.in_(
+                select(_METADATA_VALUES.c.index_id).where(
+                    _METADATA_VALUES.c.tenant == tenant,
+                    _METADATA_VALUES.c.key == key,
+                    _METADATA_VALUES.c.value.in_(entries),
+                )
+            )
+        )
+    return and_(true(), *conditions)
+
+
+def matching_ids(
+    connection: Connection,
+    key: PartitionKey,
+    filters: dict[str, str],
+    limit: int,
+    size: SizeQuery | None = None,
+    ranges: Ranges | None = None,
+) -> list[int] | None:
+    """The ids of the ready models of partition ``key`` that pass ``filters`` and the size
+    filters, or None when more than ``limit`` do (the filter is not selective).
+
+    Up to ``limit + 1`` ids come back as one value, an array (PostgreSQL) or a JSON list
+    (SQLite), not as rows: 10,001 rows made in Python cost a third of a broad filter's
+    time, and the allocations set off the collector's full passes (a query's 14 ms became
+    65-123 ms in one query of ten, 2 x 10^4 models)."""
+    tenant, version = key
+    matches = (
+        select(Model.index_id)
+        .where(
+            Model.tenant == tenant,
+            Model.descriptor_version == version,
+            Model.status == "ready",
+            sql_filter(connection, tenant, filters),
+            size.sql() if size is not None else true(),
+            sql_ranges(connection, ranges) if ranges else true(),
+        )
+        .limit(limit + 1)
+        .subquery()
+    )
+    if connection.dialect.name == "postgresql":
+        ids: list[int] = connection.scalar(select(func.array_agg(matches.c.index_id))) or []
+    else:
+        ids = json.loads(connection.scalar(select(func.json_group_array(matches.c.index_id)))
+                         or "[]")
+    return None if len(ids) > limit else ids
+
