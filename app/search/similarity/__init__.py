@@ -68,6 +68,7 @@ and order) and ``_scan`` (scan mode's).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Literal
 
 import numpy as np
@@ -81,6 +82,7 @@ from app.search.similarity._filters import (
     metadata_matches,
     sql_filter,
 )
+from app.search.similarity._query import Query
 from app.search.similarity._rows import Candidate, Match, QueryChanged, score_of
 from app.search.similarity._scan import scan_matches
 from app.search.similarity._shape import shape_matches
@@ -144,20 +146,14 @@ def find_similar(
     first ``k`` returned; ``distance`` and ``score`` stay the plain ones, so scores need not
     fall along the answer.
     """
-    filters = filters or {}
-    size = size or SizeQuery()
-    ranges = metadata_ranges or {}
     vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
-    filtered = bool(filters) or bool(ranges) or size.filters
-    allowed = (
-        matching_ids(connection, key, filters, pushdown_max, size, ranges) if filtered else None
-    )
-    if allowed is not None:
-        allowed = [i for i in allowed if i != exclude]
+    query = Query(vector, k, min_score, filters or {}, metadata_ranges or {},
+                  size or SizeQuery(), exclude, None, indexed_query)
+    if query.filtered:
+        allowed = matching_ids(connection, key, query.filters, pushdown_max, query.size,
+                               query.ranges)
+        if allowed is not None:
+            query = replace(query, allowed=[i for i in allowed if i != exclude])
     if mode == "scan":
-        return scan_matches(
-            index, connection, key, vector, k, min_score, filters, exclude, allowed, size,
-            ranges,
-        )
-    return shape_matches(index, connection, key, vector, k, min_score, filters, exclude,
-                         allowed, size, ranges, indexed_query)
+        return scan_matches(index, connection, key, query)
+    return shape_matches(index, connection, key, query)

@@ -19,8 +19,6 @@ from sqlalchemy.dialects.postgresql import ARRAY
 
 from app.db.models import Model
 from app.search.index import PartitionKey
-from app.search.similarity._filters import Ranges, metadata_in_ranges, metadata_matches
-from app.search.sizing import SizeQuery
 from core.size import SIZE_FIELDS, ShapeSize
 
 
@@ -103,13 +101,6 @@ def _candidates_statement(postgres: bool, extra: tuple[str, ...]) -> Select[Any]
         Model.units,
         *(getattr(Model, name) for name in extra),
     ).where(among, Model.tenant == bindparam("tenant"), Model.status == "ready")
-
-
-def passes_filters(row: Row[Any], filters: dict[str, str], ranges: Ranges, size: SizeQuery) -> bool:
-    """Whether a candidate row passes every filter (metadata equality and ranges, size)."""
-    meta = row.meta or {}
-    return metadata_matches(meta, filters) and metadata_in_ranges(meta, ranges) and (
-        size.admits(row))
 
 
 def candidate_of(row: Row[Any]) -> Candidate:

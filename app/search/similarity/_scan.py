@@ -12,17 +12,15 @@ import numpy as np
 from sqlalchemy import Connection, Row
 
 from app.search.index import VIEW_ID_BASE, PartitionKey, ShapeIndex, view_id, views_key
-from app.search.similarity._filters import Ranges
+from app.search.similarity._query import Query
 from app.search.similarity._rows import (
     Match,
     candidate_of,
     first_passing,
-    passes_filters,
     ready_candidates,
     score_of,
 )
 from app.search.similarity._shape import exact_distances, hub_order
-from app.search.sizing import SizeQuery
 from core import scan_order
 from core.hubness import (
     SAME_DESCRIPTOR,
@@ -35,35 +33,24 @@ from core.hubness import (
 
 
 def scan_matches(
-    index: ShapeIndex,
-    connection: Connection,
-    key: PartitionKey,
-    vector: np.ndarray,
-    k: int,
-    min_score: float | None,
-    filters: dict[str, str],
-    exclude: int | None,
-    allowed: list[int] | None,
-    size: SizeQuery,
-    ranges: Ranges,
+    index: ShapeIndex, connection: Connection, key: PartitionKey, query: Query
 ) -> list[Match]:
     """Scan mode's ``find_similar``: the ``k`` models whose best entry is nearest, or, with
     the index's hub discount and no size term, the ``scan_depth(k)`` nearest re-ordered
     by scan mode's discount (``_scan_hub_order``)."""
+    vector, k, min_score, size = query.vector, query.k, query.min_score, query.size
+    exclude, allowed = query.exclude, query.allowed
     discounted = index.hub_neighbours > 0 and size.weight == 0
     depth = scan_order.scan_depth(k) if discounted else k
-    filtered = bool(filters) or bool(ranges) or size.filters
     if discounted:
         answer = _scan_hub_answer(index, connection, key, vector, k, depth, min_score,
-                                  exclude, allowed,
-                                  lambda row: passes_filters(row, filters, ranges, size),
-                                  screen=filtered and allowed is None)
+                                  exclude, allowed, query.passes, screen=query.screen)
         if answer is not None:
             return answer
     sizes = _partition_sizes(index, key)
     per_model = _views_per_model(sizes)
     fetch = (depth + 1 if exclude is not None else depth) * (
-        4 if filtered and allowed is None else 1)
+        4 if query.screen else 1)
     # Estimated distances in either partition: a margin of candidates.
     fetch = max(index.rerank_candidates(key, fetch), index.rerank_candidates(views_key(key), fetch))
     matches: dict[int, Match] = {}
@@ -77,7 +64,7 @@ def scan_matches(
         fresh = [i for i in dict.fromkeys(found) if i not in seen and i != exclude]
         seen.update(found)
         for row, distance, view, rows in _confirmed_best(connection, index, key, fresh, vector):
-            if passes_filters(row, filters, ranges, size):
+            if query.passes(row):
                 distance = size.distance(distance, row)
                 matches[row.index_id] = Match(candidate_of(row), distance, score_of(distance), view)
                 entries[row.index_id] = rows
@@ -98,13 +85,13 @@ def scan_matches(
     def join(first: int) -> dict[int, np.ndarray]:
         """The first answer's nearest models that qualify, with their entries."""
         near = _nearest_wholes(index, key, entries[first][0], {first, exclude}, allowed,
-                               filtered and allowed is None)
+                               query.screen)
         confirmed = {found[0].index_id: found for found in _confirmed_best(
             connection, index, key, [i for i in near if i not in by_id], vector)}
         # The nearest that pass the filters (the pool's do), as the pool holds the nearest
         # that pass.
         passing = [i for i in near if i in by_id or (
-            i in confirmed and passes_filters(confirmed[i][0], filters, ranges, size))]
+            i in confirmed and query.passes(confirmed[i][0]))]
         joined: dict[int, np.ndarray] = {}
         for i in passing[: scan_order.ANCHOR_NEIGHBOURS]:
             if i in by_id:

@@ -10,39 +10,27 @@ import numpy as np
 from sqlalchemy import Connection, Row
 
 from app.search.index import PartitionKey, ShapeIndex
-from app.search.similarity._filters import Ranges
+from app.search.similarity._query import Query
 from app.search.similarity._rows import (
     Match,
     candidate_of,
     first_passing,
-    passes_filters,
     ready_candidates,
     score_of,
     without_query,
 )
-from app.search.sizing import SizeQuery
 from core.hubness import hub_keys, rerank_depth
 from core.reciprocal import pool_keys, reciprocal_depth
 
 
 def shape_matches(
-    index: ShapeIndex,
-    connection: Connection,
-    key: PartitionKey,
-    vector: np.ndarray,
-    k: int,
-    min_score: float | None,
-    filters: dict[str, str],
-    exclude: int | None,
-    allowed: list[int] | None,
-    size: SizeQuery,
-    ranges: Ranges,
-    indexed_query: bool,
+    index: ShapeIndex, connection: Connection, key: PartitionKey, query: Query
 ) -> list[Match]:
     """Shape mode's ``find_similar``: the ``k`` nearest models, or, with the index's hub
     discount, the nearest re-ordered by it (``hub_answer``, from the index alone, or this
     general search when that cannot answer) and re-ranked k-reciprocally."""
-    filtered = bool(filters) or bool(ranges) or size.filters
+    vector, k, min_score, size = query.vector, query.k, query.min_score, query.size
+    exclude, allowed = query.exclude, query.allowed
     approximate = index.is_approximate(key)
     discounted = index.hub_neighbours > 0
     # Plain nearest, re-ordered below; a k-reciprocal re-rank takes neighbourhoods among them
@@ -51,19 +39,18 @@ def shape_matches(
     depth = reciprocal_depth(k) if reciprocal else rerank_depth(k) if discounted else k
     wanted = depth + 1 if exclude is not None else depth
     fetch = index.rerank_candidates(key, wanted)
-    if filtered and allowed is None:
+    if query.screen:
         fetch *= 4
     if discounted and size.weight == 0:
         answer = hub_answer(
             index, connection, key, vector, k, depth, fetch, min_score, exclude,
-            exclude if indexed_query else None, allowed,
-            lambda row: passes_filters(row, filters, ranges, size),
-            screen=filtered and allowed is None)
+            exclude if query.indexed_query else None, allowed, query.passes,
+            screen=query.screen)
         if answer is not None:
             return answer
     matches: list[Match] = []
     seen: set[int] = set()
-    query_id = exclude if indexed_query else None
+    query_id = exclude if query.indexed_query else None
     while True:
         hits = index.search(key, vector, fetch, allowed=allowed)
         fresh = [i for i, _ in hits if i not in seen and i != exclude]
@@ -78,7 +65,7 @@ def shape_matches(
         if approximate:  # estimates from the codes: exact ones from the full vectors
             distances.update(exact_distances(index, key, [row.index_id for row in rows], vector))
         for row in rows:
-            if passes_filters(row, filters, ranges, size):
+            if query.passes(row):
                 distance = size.distance(distances[row.index_id], row)
                 matches.append(Match(candidate_of(row), distance, score_of(distance)))
         matches.sort(key=lambda match: (match.distance, match.model.index_id))
