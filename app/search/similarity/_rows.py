@@ -48,6 +48,7 @@ class Match:
 
 
 def score_of(distance: float) -> float:
+    """``1 - d^2 / 4`` of an L2 distance between unit vectors, in [0, 1]: ``(1 + cos) / 2``."""
     return float(np.clip(1.0 - distance * distance / 4.0, 0.0, 1.0))
 
 
@@ -63,7 +64,6 @@ def without_query(rows: list[Row[Any]], query_id: int, key: PartitionKey) -> lis
     if not own or own[0].descriptor_version != key[1]:
         raise QueryChanged(query_id)
     return [row for row in rows if row.index_id != query_id]
-
 
 
 def ready_candidates(
@@ -104,16 +104,16 @@ def _candidates_statement(postgres: bool, extra: tuple[str, ...]) -> Select[Any]
 
 
 def candidate_of(row: Row[Any]) -> Candidate:
+    """The ``Candidate`` of a ``ready_candidates`` row."""
     size = None
     if row.size_length is not None:
         size = ShapeSize(*(getattr(row, f"size_{name}") for name in SIZE_FIELDS))
     return Candidate(row.index_id, row.id, row.external_id, row.name, row.meta, size, row.units)
 
 
-
 def first_passing(connection: Connection, tenant: str, ranked: list[int],
-              screened: dict[int, Row[Any] | None], passes: Callable[[Row[Any]], bool],
-              wanted: int) -> list[int]:
+                  screened: dict[int, Row[Any] | None], passes: Callable[[Row[Any]], bool],
+                  wanted: int) -> list[int]:
     """The first ``wanted`` of ``ranked`` (nearest first) whose rows are ready and pass,
     their rows read ``2 * wanted`` at a time as far as needed and kept in ``screened``
     (id -> row; None: gone, or refused by ``passes``)."""

@@ -209,7 +209,7 @@ def _scan_hub_answer(
                                screen)
         if screen:  # the nearest that pass, as the pool holds the nearest that pass
             near = first_passing(connection, key[0], near, screened, passes,
-                             scan_order.ANCHOR_NEIGHBOURS)
+                                 scan_order.ANCHOR_NEIGHBOURS)
         fresh = [i for i in near if i not in entries]
         if min_score is None:
             # The order needs only their descriptors; the views of the few answered are

@@ -88,7 +88,7 @@ def shape_matches(
             if not discounted:
                 return nearest
             return hub_ordered(index, key, nearest, exclude,
-                                vector if reciprocal else None)[:k]
+                               vector if reciprocal else None)[:k]
         fetch *= 4
 
 
@@ -136,7 +136,7 @@ def hub_answer(
         fetch *= 4
     if screen and query_id is not None:  # the query model's own row, confirmed alone
         without_query(ready_candidates(connection, key[0], [query_id], "descriptor_version"),
-                       query_id, key)
+                      query_id, key)
         query_id = None
     nearest = ranked[:depth]
     beyond = len(ids) > depth or not exhausted  # more candidates than those ordered here
@@ -146,7 +146,7 @@ def hub_answer(
         nearest = qualifying
     # A query by model id is that model's own vector, at plain distances here.
     order = hub_order(index, key, nearest, [distances[i] for i in nearest], exclude,
-                       query_is_excluded=True, query=vector, read=read)
+                      query_is_excluded=True, query=vector, read=read)
     matches: list[Match] = []
     for start in range(0, max(len(order), 1), k):
         chunk = order[start : start + k]
@@ -156,7 +156,7 @@ def hub_answer(
             rows = ready_candidates(connection, key[0], chunk)
         else:  # the query model's own row rides along, once
             rows = without_query(ready_candidates(connection, key[0], [*chunk, query_id],
-                                                    "descriptor_version"), query_id, key)
+                                                  "descriptor_version"), query_id, key)
             query_id = None
         by_id = {row.index_id: row for row in rows if passes(row)}
         matches += [Match(candidate_of(by_id[i]), distances[i], score_of(distances[i]))
@@ -167,9 +167,9 @@ def hub_answer(
 
 
 def hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: list[float],
-               exclude: int | None, query_is_excluded: bool = False,
-               query: np.ndarray | None = None,
-               read: dict[int, np.ndarray] | None = None) -> list[int]:
+              exclude: int | None, query_is_excluded: bool = False,
+              query: np.ndarray | None = None,
+              read: dict[int, np.ndarray] | None = None) -> list[int]:
     """``ids`` (nearest first, at plain ``distances``, or combined ones with a size term) in
     the order of the hub discount (``core.hubness.hub_keys``), the query model ``exclude``
     in no neighbourhood (``query_is_excluded``: the query vector is its own and the
@@ -192,7 +192,7 @@ def hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: l
 
 
 def reciprocal_keys(index: ShapeIndex, key: PartitionKey, ids: list[int], hub: np.ndarray,
-                     query: np.ndarray, read: dict[int, np.ndarray]) -> np.ndarray:
+                    query: np.ndarray, read: dict[int, np.ndarray]) -> np.ndarray:
     """``core.reciprocal.pool_keys`` of ``ids`` for ``query`` (their ``hub`` keys as its
     blended term), from the vectors the index holds (those in ``read`` already read); an
     id it dropped since it was found comes after the others. ``hub`` itself when fewer than
@@ -218,9 +218,8 @@ def hub_ordered(
     k-reciprocally with the ``query`` vector."""
     by_id = {m.model.index_id: m for m in matches}
     order = hub_order(index, key, list(by_id), [m.distance for m in matches], exclude,
-                       query=query)
+                      query=query)
     return [by_id[i] for i in order]
-
 
 
 def exact_distances(
