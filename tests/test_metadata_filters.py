@@ -98,6 +98,39 @@ def test_k_results_when_sql_allows_models_the_filter_refuses(
     assert nearest not in {m.model.index_id for m in matches}
 
 
+def test_a_filter_broad_in_the_tenant_but_narrow_in_the_partition_answers_exactly(
+    sessions: sessionmaker[Session], database_url: str,
+) -> None:
+    """SQLite judges a filter broad from its metadata entries alone, counted across the
+    tenant before any model's partition is checked. Here five models on another descriptor
+    version make ``material=steel`` name more entries than the limit (3) while two in the
+    query's partition pass: SQLite hands the search no ids (it screens the nearest rows),
+    PostgreSQL the two. The answer is those two either way, and the nearest model, which
+    the filter refuses, is in neither."""
+    base = unit(0, 8)
+    passing = [add_ready(sessions, base + 0.1 * unit(i, 8), meta={"material": "steel"})
+               for i in (1, 2)]
+    for i in range(3, 8):
+        add_ready(sessions, unit(i, 8), version="v0", meta={"material": "steel"})
+    nearest = add_ready(sessions, base, meta={"material": "brass"})
+    steel = {"material": "steel"}
+    with sessions() as session:
+        found = matching_ids(session.connection(), KEY, steel, limit=3)
+        assert matching_ids(session.connection(), KEY, {"material": "brass"}, limit=3) == [
+            nearest]
+    if database_url.startswith("sqlite"):
+        assert found is None
+    else:
+        assert found is not None and sorted(found) == sorted(passing)
+    index = ShapeIndex(sessions)
+    index.rebuild()
+    for mode in ("shape", "scan"):
+        with sessions() as session:
+            matches = find_similar(index, session.connection(), KEY, base, k=2, filters=steel,
+                                   pushdown_max=3, mode=mode)
+        assert sorted(m.model.index_id for m in matches) == sorted(passing), mode
+
+
 def test_sqlite_rows_from_before_the_migration_are_filled_in(
     tmp_path: pytest.TempPathFactory,
 ) -> None:

@@ -110,35 +110,49 @@ def sql_filter(
     conditions = []
     postgres = connection.dialect.name == "postgresql"
     for key, wanted in filters.items():
-        values = _values_written_as(wanted)
         if postgres:  # the GIN index of migration 0005
             document = cast(Model.meta, JSONB)
-            conditions.append(
-                or_(
-                    *(document.op("@>")(cast(literal(json.dumps({key: v})), JSONB)) for v in values)
-                )
-            )
+            conditions.append(or_(*(
+                document.op("@>")(cast(literal(json.dumps({key: v})), JSONB))
+                for v in _values_written_as(wanted))))
             continue
-        # SQLite: the (tenant, key, value) entries of migration 0007, whose values are
-        # json_each's: text, numbers (true and false as 1 and 0), compact JSON text.
-        entries = [
-            json.dumps(v, separators=(",", ":")) if isinstance(v, list | dict) else v
-            for v in values
-            if v is not None
-        ]
-        if not entries:
-            conditions.append(false())
-            continue
-        conditions.append(
-            Model.index_id.in_(
-                select(_METADATA_VALUES.c.index_id).where(
-                    _METADATA_VALUES.c.tenant == tenant,
-                    _METADATA_VALUES.c.key == key,
-                    _METADATA_VALUES.c.value.in_(entries),
-                )
-            )
-        )
+        entries = _entries(tenant, key, wanted)
+        conditions.append(false() if entries is None else Model.index_id.in_(
+            select(_METADATA_VALUES.c.index_id).where(*entries)))
     return and_(true(), *conditions)
+
+
+def _entries(tenant: str, key: str, wanted: str) -> list[ColumnElement[bool]] | None:
+    """SQLite: the conditions that select ``tenant``'s metadata entries (migration 0007)
+    that filter text ``wanted`` of ``key`` names; None when no entry can (a JSON null). The
+    entries' values are json_each's: text, numbers (true and false as 1 and 0), compact
+    JSON text."""
+    values = [
+        json.dumps(v, separators=(",", ":")) if isinstance(v, list | dict) else v
+        for v in _values_written_as(wanted)
+        if v is not None
+    ]
+    if not values:
+        return None
+    return [_METADATA_VALUES.c.tenant == tenant, _METADATA_VALUES.c.key == key,
+            _METADATA_VALUES.c.value.in_(values)]
+
+
+def _some_filter_narrow(tenant: str, filters: dict[str, str], limit: int
+                        ) -> ColumnElement[bool]:
+    """SQLite: true when some equality filter names at most ``limit`` of ``tenant``'s
+    metadata entries (each counted up to ``limit + 1`` from the entries' index alone, which
+    holds tenant, key and value). Else more than ``limit`` models may pass, and
+    ``matching_ids`` says so without checking each one's partition."""
+    narrow: list[ColumnElement[bool]] = []
+    for key, wanted in filters.items():
+        entries = _entries(tenant, key, wanted)
+        if entries is None:
+            return true()  # nothing passes: the full statement answers at once
+        named = select(literal(1)).select_from(_METADATA_VALUES).where(*entries)
+        counted = select(func.count()).select_from(named.limit(limit + 1).subquery())
+        narrow.append(counted.scalar_subquery() <= limit)
+    return or_(*narrow)
 
 
 def matching_ids(
@@ -150,7 +164,16 @@ def matching_ids(
     ranges: Ranges | None = None,
 ) -> list[int] | None:
     """The ids of the ready models of partition ``key`` that pass ``filters`` and the size
-    filters, or None when more than ``limit`` do (the filter is not selective).
+    filters, or None when more than ``limit`` do (the filter is not selective): the search
+    then screens the nearest candidates' rows instead, with the same answers.
+
+    On SQLite, with equality filters, None also when each of them names more than ``limit``
+    of the tenant's metadata entries, counted from their index alone, before any model's
+    partition is checked: for a filter that 15,000 of 2 x 10^4 models pass, checking ids
+    until more than 10,000 were ready in the partition took 13.0 ms, counting its entries
+    1.7 ms; one that 2,000 pass costs 0.4 ms more (3.6 -> 4.0 ms; the statement is larger).
+    A filter broad across the tenant but narrow in the partition (most of its models on
+    another descriptor version, mid re-describe) is then screened too.
 
     Up to ``limit + 1`` ids come back as one value, an array (PostgreSQL) or a JSON list
     (SQLite), not as rows: 10,001 rows made in Python cost a third of a broad filter's
@@ -172,8 +195,13 @@ def matching_ids(
     )
     if connection.dialect.name == "postgresql":
         ids: list[int] = connection.scalar(select(func.array_agg(matches.c.index_id))) or []
-    else:
-        ids = json.loads(connection.scalar(select(func.json_group_array(matches.c.index_id)))
-                         or "[]")
+        return None if len(ids) > limit else ids
+    listed = select(func.json_group_array(matches.c.index_id)).scalar_subquery()
+    # One statement: SQLite computes the list only when the case asks for it.
+    found = connection.scalar(select(
+        case((_some_filter_narrow(tenant, filters, limit), listed)) if filters else listed))
+    if found is None:
+        return None
+    ids = json.loads(found)
     return None if len(ids) > limit else ids
 
