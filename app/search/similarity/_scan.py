@@ -43,8 +43,7 @@ def scan_matches(
     discounted = index.hub_neighbours > 0 and size.weight == 0
     depth = scan_order.scan_depth(k) if discounted else k
     if discounted:
-        answer = _scan_hub_answer(index, connection, key, vector, k, depth, min_score,
-                                  exclude, allowed, query.passes, screen=query.screen)
+        answer = _scan_hub_answer(index, connection, key, query, depth)
         if answer is not None:
             return answer
     sizes = _partition_sizes(index, key)
@@ -131,17 +130,7 @@ def _certainty_bound(model_hits: list[tuple[int, float]],
 
 
 def _scan_hub_answer(
-    index: ShapeIndex,
-    connection: Connection,
-    key: PartitionKey,
-    vector: np.ndarray,
-    k: int,
-    depth: int,
-    min_score: float | None,
-    exclude: int | None,
-    allowed: list[int] | None,
-    passes: Callable[[Row[Any]], bool],
-    screen: bool = False,
+    index: ShapeIndex, connection: Connection, key: PartitionKey, query: Query, depth: int,
 ) -> list[Match] | None:
     """Scan mode's ``hub_answer``: ordered from the index alone, then confirmed. Each
     model's distance is its nearest hit's or its descriptor's, exact from the index's
@@ -160,11 +149,13 @@ def _scan_hub_answer(
     partition not exhausted: an entry of it that was no hit is then no nearer (to within an
     approximate partition's estimates, as in the general search).
 
-    ``screen``: filters that SQL could not narrow to ids (too many models pass them). The
-    certain models' rows are then read nearest first, a few at a time, until ``depth`` of
+    ``query.screen``: filters that SQL could not narrow to ids (too many models pass them).
+    The certain models' rows are then read nearest first, a few at a time, until ``depth`` of
     them pass: the pool holds models that pass, and its rows are the answer's, where the
     general search read every entry of four times the candidates (125 -> 31 ms for a filter
     three models in four pass, 2 x 10^4 models, ``bench/scan_search.py --filters``)."""
+    vector, k, min_score = query.vector, query.k, query.min_score
+    exclude, allowed, passes, screen = query.exclude, query.allowed, query.passes, query.screen
     sizes = _partition_sizes(index, key)
     per_model = _views_per_model(sizes)
     wanted_models = depth + 1 if exclude is not None else depth

@@ -3,7 +3,6 @@ re-rank (the package's docstring tells the order and why)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -42,10 +41,7 @@ def shape_matches(
     if query.screen:
         fetch *= 4
     if discounted and size.weight == 0:
-        answer = hub_answer(
-            index, connection, key, vector, k, depth, fetch, min_score, exclude,
-            exclude if query.indexed_query else None, allowed, query.passes,
-            screen=query.screen)
+        answer = hub_answer(index, connection, key, query, depth, fetch)
         if answer is not None:
             return answer
     matches: list[Match] = []
@@ -93,31 +89,23 @@ def shape_matches(
 
 
 def hub_answer(
-    index: ShapeIndex,
-    connection: Connection,
-    key: PartitionKey,
-    vector: np.ndarray,
-    k: int,
-    depth: int,
+    index: ShapeIndex, connection: Connection, key: PartitionKey, query: Query, depth: int,
     fetch: int,
-    min_score: float | None,
-    exclude: int | None,
-    query_id: int | None,
-    allowed: list[int] | None,
-    passes: Callable[[Row[Any]], bool],
-    screen: bool = False,
 ) -> list[Match] | None:
     """``find_similar`` with the hub discount, without a size term, unfiltered or with the
-    ids that pass the filters ``allowed`` by SQL: the ``depth`` nearest (exact distances)
+    ids that pass the filters ``query.allowed`` by SQL: the ``depth`` nearest (exact distances)
     are ordered from the index alone, then confirmed by the database in that order, as
     many as the answer takes, so the database reads about ``k`` rows, not ``depth``. None
-    when fewer than ``k`` were confirmed (deleted a moment ago, or refused by ``passes``,
+    when fewer than ``k`` were confirmed (deleted a moment ago, or refused by the filters,
     which SQL can let through) while models beyond the ``depth`` nearest may qualify: the
     caller's general search widens instead. A k-reciprocal re-rank takes its neighbourhoods
-    among the ``depth`` nearest that SQL allowed, a row ``passes`` then refuses included.
+    among the ``depth`` nearest that SQL allowed, a row the filters then refuse included.
 
-    ``screen``: filters SQL could not narrow to ids. The hits' rows are read nearest first
+    ``query.screen``: filters SQL could not narrow to ids. The hits' rows are read nearest first
     until ``depth`` of them pass (``first_passing``), and those are the ones ordered."""
+    vector, k, min_score = query.vector, query.k, query.min_score
+    exclude, allowed, passes, screen = query.exclude, query.allowed, query.passes, query.screen
+    query_id = exclude if query.indexed_query else None  # its row is confirmed with the rest
     screened: dict[int, Row[Any] | None] = {}  # with screen: read rows (None: refused)
     # The full vectors read for exact distances, kept only for a k-reciprocal re-rank.
     read: dict[int, np.ndarray] | None = {} if index.reciprocal else None
