@@ -63,6 +63,46 @@ blocks, by length against by head: ``ss11`` 0.607 / 0.509; ``L2`` 0.188 / 0.530,
 Otherwise nothing changes. Reported whatever the verdict: every source's mAP and NN per
 candidate.
 
+**Result** (2026-12-06, forty-fourth session, a 2-core AMD EPYC; the sources rebuilt and
+extracted this session, 919 models): ships (layout ``ss12``, ``runs_longest`` 4). Mean of
+ten (mAP): ``ss11`` 0.8904; ``L2`` 0.8956, ``L3`` 0.9001, ``L4`` 0.9066, ``L6`` 0.9026. ``L4``
+against ``ss11``: cqparts 0.850 -> 0.937 (NN 0.950 -> 1.000), MCAD 0.828 -> 0.896, FreeCAD
+0.902 -> 0.929, our generator 0.840 -> 0.844, pymadcad 0.963 -> 0.965, capod, py-gearworks,
+bd-vslot and the real parts level, the bent shapes 0.992 -> 0.965 (NN 1.000 -> 0.958: a
+straight copy is shortened, a bent one is not; the ``bendable`` family is theirs). Chosen
+without each source: ``L4``, except without cqparts (``L2``); left out 0.8971 against
+0.8904, **+0.0066 (95 % +0.0006 .. +0.0126)**: test 1 holds. One catalogue by kind: NN
+0.874 -> 0.880, mAP 0.723 -> 0.740: test 2 holds. Test 3, ``L4`` fixed on a seed-7
+extraction: mean of ten 0.8916 -> 0.9052, **+0.0136 (95 % +0.0080 .. +0.0196)**, cqparts
+0.851 -> 0.946, MCAD 0.824 -> 0.890, FreeCAD 0.902 -> 0.915, our generator 0.847 -> 0.829,
+the bent shapes 0.992 -> 0.965; one catalogue by kind NN 0.874 -> 0.877, mAP 0.716 -> 0.733:
+holds. Test 4 on BOSL2, which no choice saw (``shapesearch eval /work/tuning-bosl2/bosl2
+--variants default ss11 ...``, the service's order): NN 0.950 -> 0.967, mAP 0.796 -> 0.918:
+holds.
+
+**Round 2** (disclosed: written after round 1's result, once the score calibration of the
+adopted ``L4`` showed that the copies of one real part, ``round``, a long rod of polygonal
+section, re-sampled, fell from a lowest score of 0.995 to 0.964; the duplicates report's
+``min_score`` 0.98 then keeps 94 % of copies, not 98 %). The cause, measured before this
+round was written: the rod's slices have two modes of distance from the axis (its flats and
+its corners), and their median jumps between them (0.94 / 1.06) from one slice to the next,
+so the rod's run breaks on some samplings and not on others. The round's candidate, ``L4
+w1``, keeps ``L`` 4 and compares cross-sections by their 19 quantiles (5 % .. 95 %) of
+distance from the axis, in radii: neighbours are alike when the mean absolute difference of
+their quantiles (a Wasserstein-1 distance) is at most 0.04, a run stays one cross-section
+while every slice is within 0.08 of the run's median quantiles. It replaces round 1's ``L4``
+only if (1) against ``ss11`` it passes tests 1 and 2 above, (2) its left-out mean is not
+below round 1's (0.8971) by more than 0.002, (3) fixed on the seed-7 extraction it passes
+test 3 against ``ss11``, and (4) the real parts' copies (``parts``, six re-samplings of 15
+parts) keep a lowest score not below ``ss11``'s by more than 0.005 and at least 97 % of
+copy pairs at 0.98. Otherwise round 1's ``L4`` ships and the rod's copies are a known
+limit.
+
+    nice -n 5 .venv/bin/python bench/selection/collapsed_runs_select.py /work/study10 --round 2 \
+        --json /work/study10/collapsed_runs_round2.json
+    nice -n 5 .venv/bin/python bench/selection/collapsed_runs_select.py /work/seed7 --round 2 \
+        --confirm "L4 w1" --json /work/seed7/collapsed_runs_round2.json
+
     .venv/bin/python bench/selection/collapsed_runs_select.py --check
     # the ten sources' seed-0 extraction of new_maker_weights_select.py (/work/study10)
     nice -n 5 .venv/bin/python bench/selection/collapsed_runs_select.py /work/study10 \\
@@ -122,8 +162,14 @@ from core.extrinsic import (  # noqa: E402
 from core.settings import DescriptorSettings  # noqa: E402
 
 REFERENCE = "ss11"
-#: The longest a run of one cross-section may stay, in radii, per candidate (None: as is).
-GRID: dict[str, float | None] = {REFERENCE: None, "L2": 2.0, "L3": 3.0, "L4": 4.0, "L6": 6.0}
+#: The longest a run of one cross-section may stay, in radii, and how cross-sections are
+#: compared, per candidate (None: as is), per round.
+GRIDS: dict[int, dict[str, tuple[float, str] | None]] = {
+    1: {REFERENCE: None, "L2": (2.0, "percentiles"), "L3": (3.0, "percentiles"),
+        "L4": (4.0, "percentiles"), "L6": (6.0, "percentiles")},
+    2: {REFERENCE: None, "L4 w1": (4.0, "w1")},
+}
+GRID = GRIDS[1]
 #: Slice width in radii; percentiles of a slice's cross-section; how far two neighbouring
 #: slices' percentiles may differ, and a whole run's, in radii; the fewest points a slice
 #: needs to be judged.
@@ -132,6 +178,11 @@ PERCENTILES = (0.1, 0.5, 0.9)
 NEIGHBOUR_TOLERANCE = 0.08
 RUN_TOLERANCE = 0.16
 FEWEST_POINTS = 8
+#: Round 2: the quantiles of a slice's cross-section, and how far two neighbours' and a
+#: slice from its run's median may be, as the mean absolute difference of the quantiles.
+W1_QUANTILES = tuple(np.linspace(0.05, 0.95, 19).tolist())
+W1_NEIGHBOUR_TOLERANCE = 0.04
+W1_RUN_TOLERANCE = 0.08
 
 UNIT_SPEC = DescriptorSpec.from_settings(replace(DescriptorSettings(), **UNIT_WEIGHTS))
 SETTINGS = DescriptorSettings()
@@ -160,8 +211,8 @@ def _runs(alike: np.ndarray) -> list[tuple[int, int]]:
     return runs
 
 
-def shortened(points: np.ndarray, areas: np.ndarray, longest: float
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def shortened(points: np.ndarray, areas: np.ndarray, longest: float,
+              compared: str = "percentiles") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The part with each run of one cross-section along its first principal axis longer
     than ``longest`` radii shortened to ``longest`` radii.
 
@@ -170,6 +221,8 @@ def shortened(points: np.ndarray, areas: np.ndarray, longest: float
     points : (n, 3) float
     areas : (n,) float
     longest : float
+    compared : str
+        "percentiles" (round 1) or "w1" (round 2).
 
     Returns
     -------
@@ -191,20 +244,28 @@ def shortened(points: np.ndarray, areas: np.ndarray, longest: float
     index = np.floor(along / width).astype(np.int64)
     slot = index - index.min()
     count = int(slot.max()) + 1
-    profile = np.full((count, len(PERCENTILES)), np.nan)
+    shares = PERCENTILES if compared == "percentiles" else W1_QUANTILES
+    profile = np.full((count, len(shares)), np.nan)
     populated = np.bincount(slot, minlength=count)
     for s in np.flatnonzero(populated >= FEWEST_POINTS):
         members = slot == s
-        profile[s] = _weighted_percentiles(radial[members], areas[members], PERCENTILES) / rho
+        profile[s] = _weighted_percentiles(radial[members], areas[members], shares) / rho
     steps = np.abs(np.diff(profile, axis=0))
     alike = np.zeros(count - 1, dtype=bool)
     judged = ~np.isnan(steps).any(axis=1)
-    alike[judged] = steps[judged].max(axis=1) <= NEIGHBOUR_TOLERANCE
+    if compared == "percentiles":
+        alike[judged] = steps[judged].max(axis=1) <= NEIGHBOUR_TOLERANCE
+    else:
+        alike[judged] = steps[judged].mean(axis=1) <= W1_NEIGHBOUR_TOLERANCE
     factor = np.ones(count)
     for first, last in _runs(alike):
         run = profile[first:last + 1]
         length = (last - first + 1) * width
-        if np.ptp(run, axis=0).max() <= RUN_TOLERANCE and length > longest * rho:
+        if compared == "percentiles":
+            one = np.ptp(run, axis=0).max() <= RUN_TOLERANCE
+        else:
+            one = np.abs(run - np.median(run, axis=0)).mean(axis=1).max() <= W1_RUN_TOLERANCE
+        if one and length > longest * rho:
             factor[first:last + 1] = longest * rho / length
     starts = np.concatenate([[0.0], np.cumsum(factor * width)[:-1]])
     moved = starts[slot] + (along - (index * width)) * factor[slot]
@@ -214,15 +275,18 @@ def shortened(points: np.ndarray, areas: np.ndarray, longest: float
     return coordinates, areas, frame
 
 
-def extrinsic_blocks(points: np.ndarray, areas: np.ndarray, longest: float | None
-                     ) -> dict[str, np.ndarray]:
-    """``ss11``'s extrinsic blocks of one sample, shortened by ``longest`` (None: as is):
+def extrinsic_blocks(points: np.ndarray, areas: np.ndarray,
+                     shortening: float | tuple[float, str] | None) -> dict[str, np.ndarray]:
+    """``ss11``'s extrinsic blocks of one sample, shortened by ``shortening`` (the longest
+    run in radii, and how cross-sections are compared; None: as is):
     D2, D1, normals and symmetry at unit weight (``service_base``'s), the ring at weight 1,
     the caps at its weight (``Replacing``'s), as ``DescriptorSpec._extrinsic_blocks``
     computes them, with the sample's own normals."""
     normals = surface_normals(points, UNIT_SPEC.normal_neighbours)
-    if longest is not None:
-        points, areas, frame = shortened(points, areas, longest)
+    if shortening is not None:
+        longest, compared = (shortening if isinstance(shortening, tuple)
+                             else (shortening, "percentiles"))
+        points, areas, frame = shortened(points, areas, longest, compared)
         normals = normals @ frame
     layout = evened_areas(points, areas, normals)
     distance_points = evened_spreads(points, layout)
@@ -243,7 +307,8 @@ def extrinsic_blocks(points: np.ndarray, areas: np.ndarray, longest: float | Non
     }
 
 
-def study_blocks(study: Study, longest: float | None) -> dict[str, dict[str, np.ndarray]]:
+def study_blocks(study: Study, longest: tuple[float, str] | None
+                 ) -> dict[str, dict[str, np.ndarray]]:
     """``extrinsic_blocks`` of every model's stored sample, per block, per source
     (capod-nonrigid added)."""
     rows: dict[str, dict[str, list[np.ndarray]]] = {}
@@ -320,11 +385,12 @@ def main(argv: list[str] | None = None) -> int:
     if argv is None and sys.argv[1:] == ["--check"]:
         return check()
     args, study, cache = study_command(
-        __doc__, argv, confirm="test 3: this candidate, fixed, against ss11")
+        __doc__, argv, rounds=(1, 2), confirm="test 3: this candidate, fixed, against ss11")
     check_ten(study)
     replacing = Replacing(study, cache)
-    names = [REFERENCE, args.confirm] if args.confirm else list(GRID)
-    blocks = {name: study_blocks(study, GRID[name]) for name in names}
+    grid = GRIDS[args.round]
+    names = [REFERENCE, args.confirm] if args.confirm else list(grid)
+    blocks = {name: study_blocks(study, grid[name]) for name in names}
     print("blocks done", flush=True)
     check_identity(study, blocks[REFERENCE], replacing)
     table, queries = service_scores(
