@@ -6,7 +6,9 @@ to end (``core.pipeline.describe``) with the default before issue 24 (``ss4``: n
 block), its first default (``ss5``: no ring block), its second (``ss6``: no caps block), its
 third (``ss7``: the caps block along the principal axes alone), its fourth (``ss8``: the
 ring block's shells the area tertiles), its fifth (``ss9``: D2 and D1 of the sample as it
-is), the present default and the ``bendable`` family,
+is), its sixth (``ss10``: every block weighed by the sample's areas), its seventh
+(``ss11``: the part's runs of one cross-section as they are), the present default and the
+``bendable`` family,
 interleaved per part (so drifting machine load falls on all alike), ``--repeats`` times;
 BLAS pinned to one thread. Prints per-kind medians of wall and CPU seconds, the ratios to
 ``ss4`` and the descriptor widths (index memory and exact-search time grow with the
@@ -37,6 +39,7 @@ from core.evaluation.variants import (  # noqa: E402
     SS8_DESCRIPTOR,
     SS9_DESCRIPTOR,
     SS10_DESCRIPTOR,
+    SS11_DESCRIPTOR,
 )
 from core.pipeline import describe  # noqa: E402
 from core.settings import DESCRIPTOR_FAMILIES, EngineSettings  # noqa: E402
@@ -50,6 +53,7 @@ KINDS = {
     "ss8": EngineSettings(descriptor=SS8_DESCRIPTOR),
     "ss9": EngineSettings(descriptor=SS9_DESCRIPTOR),
     "ss10": EngineSettings(descriptor=SS10_DESCRIPTOR),
+    "ss11": EngineSettings(descriptor=SS11_DESCRIPTOR),
     "default": EngineSettings(),
     "bendable": EngineSettings(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
 }

@@ -66,6 +66,7 @@ from core.extrinsic import (
     normal_axis_cosines,
     pair_distance_ratios,
     reflection_symmetry,
+    shortened_runs,
     spread_profile,
     surface_normals,
 )
@@ -87,8 +88,9 @@ __all__ = [
 # Layout generation: bump when the code changes the vector for unchanged settings.
 # ss5: the local block; ss6: the ring block; ss7: the caps block; ss8: its soft axes; ss9: the
 # ring block's soft shells; ss10: D2 and D1 of the evened sample; ss11: the evened surface's
-# areas in D2, D1, normals and symmetry (issue 24)
-_LAYOUT = "ss11"
+# areas in D2, D1, normals and symmetry; ss12: the extrinsic blocks measure the part with its
+# long runs of one cross-section shortened (issue 24)
+_LAYOUT = "ss12"
 
 #: The libraries whose upgrade can change a descriptor for unchanged code and settings
 #: (distribution names): the linear algebra and eigensolvers (numpy, scipy, qdldl), the
@@ -289,6 +291,7 @@ class DescriptorSpec:
     caps_depth: float = 1.0
     caps_weight: float = 0.0
     caps_sharpness: float | None = None
+    runs_longest: float | None = None
     local_weight: float = 0.0
     local_encoding: str = "vlad"
     local_vocabulary: str = ""
@@ -360,6 +363,7 @@ class DescriptorSpec:
             caps_depth=settings.caps_depth,
             caps_weight=settings.caps_weight,
             caps_sharpness=settings.caps_sharpness,
+            runs_longest=settings.runs_longest,
             local_weight=settings.local_weight,
             local_encoding=settings.local_encoding,
             local_vocabulary=settings.local_vocabulary,
@@ -498,6 +502,11 @@ class DescriptorSpec:
             self.d2_weight, self.d1_weight, self.normal_weight, self.symmetry_weight) > 0
         normals = (surface_normals(points, self.normal_neighbours)
                    if self.normal_weight > 0 or evens_areas else None)
+        if self.runs_longest is not None:
+            # Normals of the sample itself: a shortened run faces where it faced, and
+            # estimating them on its denser points would not see that.
+            points, areas, axes = shortened_runs(points, areas, self.runs_longest)
+            normals = None if normals is None else normals @ axes
         layout_areas = (evened_areas(points, areas, normals)
                         if evens_areas and normals is not None else areas)
         distance_points = (evened_spreads(points, layout_areas) if self.evened_distances
@@ -600,6 +609,8 @@ class DescriptorSpec:
                 name if weight == 1 else f"{name}:{weight:g}"
                 for name, weight in extrinsic.items() if weight > 0
             ))
+            if self.runs_longest is not None:
+                parts.append(f"runs={self.runs_longest:g}")
         # The readable part rounds; the digest pins every exact value (a custom time grid).
         vocabulary_digest = (
             load_vocabulary(self.local_vocabulary).digest() if self.local_weight > 0 else ""

@@ -23,6 +23,10 @@ part's description does not depend on how it was placed or exported:
   the screw's length; optionally each axis averaged over the directions it could take
   (``soft_axis_weights``) when the shape does not define it.
 
+``shortened_runs`` is not a measurement but what the blocks measure: the part with each
+long run of one cross-section along its first axis (a shank, a shaft, a key's length)
+shortened to a few radii, so that a kind made in many lengths looks alike to them.
+
 ``core.descriptor`` turns them into histogram blocks.
 """
 
@@ -47,6 +51,7 @@ __all__ = [
     "principal_frame",
     "reflection_symmetry",
     "shell_spectrum",
+    "shortened_runs",
     "soft_axis_weights",
     "spread_profile",
     "surface_normals",
@@ -80,6 +85,20 @@ END_QUANTILE = 0.005
 #: ``evened_spreads``: an axis is grown at most this many times (a washer stays a flat ring
 #: rather than becoming a ball).
 EVEN_FLATTEST = 10.0
+
+#: ``shortened_runs``: slices this many radii wide; a slice's cross-section is these
+#: area-weighted quantiles of the distance from the axis, in radii; neighbouring slices
+#: are alike when their quantiles differ by at most ``RUN_STEP`` on average (a
+#: Wasserstein-1 distance, which a section with two modes of distance, flats and corners,
+#: does not jump in as its median does), and a run stays one cross-section while every
+#: slice is within ``RUN_SPREAD`` of the run's median quantiles; a slice of fewer points is
+#: not judged (and ends a run). Fixed before the study that chose them
+#: (``bench/selection/collapsed_runs_select.py``, round 2).
+RUN_SLICE_WIDTH = 0.5
+RUN_QUANTILES = tuple(np.linspace(0.05, 0.95, 19).tolist())
+RUN_STEP = 0.04
+RUN_SPREAD = 0.08
+RUN_FEWEST_POINTS = 8
 
 
 def principal_frame(
@@ -188,6 +207,98 @@ def _evening_factors(variances: np.ndarray, flattest: float) -> np.ndarray | Non
     if spreads[1] <= 0.0:
         return None
     return spreads[1] / np.maximum(spreads, spreads[1] / flattest)
+
+
+def shortened_runs(points: np.ndarray, areas: np.ndarray, longest: float
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The part with each run of one cross-section along its first principal axis that is
+    longer than ``longest`` radii shortened to ``longest`` radii.
+
+    What a screw's shank, a shaft or a key adds when it grows is more of one cross-section;
+    the extrinsic blocks measured on the shortened part see a kind made in many lengths
+    alike, and what differs (a head, a neck, a groove) at its own size (issue 24). The
+    radius ``rho`` is the area-weighted median distance from the axis. The part is cut into
+    slices ``RUN_SLICE_WIDTH`` radii wide, laid from the centroid so that a flipped axis
+    gives the same slices; a slice's cross-section is its ``RUN_QUANTILES`` of the
+    distance from the axis, over ``rho``. A run is a maximal chain of neighbouring slices
+    that are alike (``RUN_STEP``) and stay one cross-section over the whole run
+    (``RUN_SPREAD``); a run longer than ``longest`` radii is scaled along the axis to
+    ``longest`` radii, its points' areas by the same factor (its lateral surface shrinks
+    with it). Heads, necks, bearings and gears keep their length. Rotation, translation,
+    uniform scale and point order do not change the result beyond the frame's axis signs.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+    areas : (n,) float
+        Non-negative, not all zero.
+    longest : float
+        Radii a run of one cross-section keeps at most, > 0.
+
+    Returns
+    -------
+    coordinates : (n, 3) float
+        The part in its principal frame (``principal_frame``), shortened, about its new
+        area-weighted centroid.
+    areas : (n,) float
+        The shortened runs' points' areas times their run's factor.
+    axes : (3, 3) float
+        The principal axes as columns: ``normals @ axes`` turns the sample's normals into
+        the frame (a shortened run faces where it faced).
+    """
+    coordinates, _, axes = principal_frame(points, areas)
+    along = coordinates[:, 0]
+    radial = np.linalg.norm(coordinates[:, 1:], axis=1)
+    rho = _weighted_quantile(radial, areas / areas.sum(), 0.5)
+    if not rho > 0:
+        return coordinates, areas, axes
+    width = RUN_SLICE_WIDTH * rho
+    index = np.floor(along / width).astype(np.int64)
+    slot = index - index.min()
+    factors = _run_factors(_slice_profiles(slot, radial / rho, areas), width / rho, longest)
+    starts = np.concatenate([[0.0], np.cumsum(factors * width)[:-1]])
+    moved = starts[slot] + (along - index * width) * factors[slot]
+    shortened = areas * factors[slot]
+    coordinates = coordinates.copy()
+    coordinates[:, 0] = moved - np.average(moved, weights=shortened)
+    return coordinates, shortened, axes
+
+
+def _slice_profiles(slot: np.ndarray, radial: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    """Each slice's ``RUN_QUANTILES`` of ``radial``, ``(s, q)``; NaN where a slice holds
+    fewer than ``RUN_FEWEST_POINTS`` or no area."""
+    count = int(slot.max()) + 1
+    profiles = np.full((count, len(RUN_QUANTILES)), np.nan)
+    for s in np.flatnonzero(np.bincount(slot, minlength=count) >= RUN_FEWEST_POINTS):
+        members = slot == s
+        values, weights = radial[members], areas[members]
+        order = np.argsort(values, kind="stable")
+        cumulative = np.cumsum(weights[order])
+        if not cumulative[-1] > 0:
+            continue  # a slice of points that stand for no area is not judged
+        cumulative /= cumulative[-1]
+        at = np.minimum(np.searchsorted(cumulative, RUN_QUANTILES), values.size - 1)
+        profiles[s] = values[order][at]
+    return profiles
+
+
+def _run_factors(profiles: np.ndarray, width: float, longest: float) -> np.ndarray:
+    """Each slice's factor along the axis, ``(s,)``: ``longest / length`` in a run of one
+    cross-section longer than ``longest`` (``width`` and lengths in radii), 1 elsewhere."""
+    steps = np.abs(np.diff(profiles, axis=0))
+    judged = ~np.isnan(steps).any(axis=1)
+    alike = np.zeros(len(steps), dtype=bool)
+    alike[judged] = steps[judged].mean(axis=1) <= RUN_STEP
+    factors = np.ones(len(profiles))
+    # Boundaries alike..not alike delimit the runs: slices first..last.
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], alike.astype(np.int8), [0]])))
+    for first, last in zip(edges[::2], edges[1::2], strict=True):
+        length = (last - first + 1) * width
+        run = profiles[first:last + 1]
+        spread = np.abs(run - np.median(run, axis=0)).mean(axis=1).max()
+        if length > longest and spread <= RUN_SPREAD:
+            factors[first:last + 1] = longest / length
+    return factors
 
 
 def spread_profile(points: np.ndarray, areas: np.ndarray) -> np.ndarray:

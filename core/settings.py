@@ -197,6 +197,15 @@ class DescriptorSettings:
     # round 3 of bench/selection/end_caps_select.py: 4096, leave-one-source-out +0.0024 over
     # ``ss7``.
     caps_sharpness: float | None = 4096.0
+    # The extrinsic blocks measure the part with each run of one cross-section along its
+    # first axis (a shank, a shaft, a key) longer than this many radii shortened to it
+    # (core.extrinsic.shortened_runs), so that a kind made in many lengths looks alike and
+    # its head counts; None: the part as it is (``ss11``). Chosen by
+    # bench/selection/collapsed_runs_select.py (issue 24, docs/results.md): 4 radii,
+    # leave-one-source-out +0.0066 mAP over ``ss11`` on the ten tuning sources; round 2's
+    # cross-sections compared by a Wasserstein-1 distance +0.0162, +0.0164 on an unseen
+    # extraction, re-sampled copies as close as with ``ss11``.
+    runs_longest: float | None = 4.0
     # Local signatures pooled over a shipped vocabulary (core.local_features): the file
     # core/data/<local_vocabulary>.npz; each point's features are its log HKS at every time
     # (``local_columns="hks"``; "hks+wks" adds its log WKS), then its surface variation at
@@ -272,6 +281,8 @@ class DescriptorSettings:
                                 "ring_shells")
         if self.caps_sharpness is not None and not self.caps_sharpness > 0:
             raise SettingsError("caps_sharpness must be positive (or None)", "caps_sharpness")
+        if self.runs_longest is not None and not self.runs_longest > 0:
+            raise SettingsError("runs_longest must be positive (or None)", "runs_longest")
         if self.local_weight < 0:
             raise SettingsError("local_weight must be >= 0", "local_weight")
         if self.local_weight > 0:

@@ -155,6 +155,13 @@ def test_ring_shells_that_are_not_three_increasing_positive_centres_are_refused(
     DescriptorSettings(ring_shells=None).validate()  # the area tertiles: allowed
 
 
+@pytest.mark.parametrize("longest", [0.0, -4.0, float("nan")])
+def test_a_runs_longest_that_is_not_positive_is_refused(longest: float) -> None:
+    with pytest.raises(ValueError, match="runs_longest"):
+        DescriptorSettings(runs_longest=longest).validate()
+    DescriptorSettings(runs_longest=None).validate()  # the part as it is: allowed
+
+
 def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
     base = EngineSettings()
     spec = DescriptorSpec.from_settings(base.descriptor)
@@ -206,12 +213,18 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(ring_shells=(0.25, 1.0, 1.75)),
         DescriptorSettings(evened_distances=False),
         DescriptorSettings(evened_areas=False),
+        DescriptorSettings(runs_longest=None),
+        DescriptorSettings(runs_longest=3.0),
     ):
         versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 45
+    assert len(versions) == 47
     # Readable too: D2 and D1 of the evened sample ("e") and the blocks weighed by the evened
     # surface's areas ("a") are marked.
     assert "ext=d2ea,d1ea,nrma:0.5,syma," in spec.version(base)
+    # ... and the runs of one cross-section shortened to 4 radii.
+    assert ";runs=4;" in spec.version(base)
+    unshortened = DescriptorSpec.from_settings(DescriptorSettings(runs_longest=None))
+    assert "runs=" not in unshortened.version(base)
     sample_areas = DescriptorSpec.from_settings(DescriptorSettings(evened_areas=False))
     assert "ext=d2e,d1e,nrm:0.5,sym," in sample_areas.version(base)
     plain = DescriptorSpec.from_settings(

@@ -26,6 +26,7 @@ from core.extrinsic import (
     principal_frame,
     reflection_symmetry,
     shell_spectrum,
+    shortened_runs,
     soft_axis_weights,
     surface_normals,
 )
@@ -486,13 +487,13 @@ def test_evened_areas_put_a_screws_head_before_its_length() -> None:
     standard = pytest.importorskip(
         "madcad.standard", reason="pymadcad (the test extra) is not installed"
     )
-    from core.evaluation.variants import SS10_DESCRIPTOR
+    from core.evaluation.variants import SS10_DESCRIPTOR, SS11_DESCRIPTOR
 
     def layout(length: float, head: str, spec: DescriptorSpec) -> np.ndarray:
         return _screw_blocks(standard, length, head, spec, ("d2", "d1", "normals", "symmetry"))
 
     distances = {}
-    for name, settings in (("sample", SS10_DESCRIPTOR), ("evened", DescriptorSettings())):
+    for name, settings in (("sample", SS10_DESCRIPTOR), ("evened", SS11_DESCRIPTOR)):
         spec = DescriptorSpec.from_settings(settings)
         screws = {(length, head): layout(length, head, spec)
                   for length in (16, 48) for head in ("SH", "BH")}
@@ -502,3 +503,76 @@ def test_evened_areas_put_a_screws_head_before_its_length() -> None:
         distances[name] = (max(by_length), min(by_head))
     assert distances["sample"][0] > distances["sample"][1]
     assert distances["evened"][0] < 0.6 * distances["evened"][1]
+
+
+def _screw_in_code(length: float, count: int = 4000) -> tuple[np.ndarray, np.ndarray]:
+    """A shank of radius 0.5 and ``length`` under a head of radius 0.8, 1 long: evenly drawn
+    points, each of equal area."""
+    shank = trimesh.creation.cylinder(radius=0.5, height=length, sections=96)
+    shank.apply_translation([0.0, 0.0, -length / 2])
+    head = trimesh.creation.cylinder(radius=0.8, height=1.0, sections=96)
+    head.apply_translation([0.0, 0.0, 0.5])
+    mesh = trimesh.util.concatenate([shank, head])
+    points, _ = trimesh.sample.sample_surface_even(mesh, count, seed=0)
+    return np.asarray(points), np.full(len(points), mesh.area / len(points))
+
+
+def test_shortened_runs_shorten_a_long_shank_and_keep_its_head() -> None:
+    # The shank is 16 radii long (radius 0.5, the median distance from the axis); shortened
+    # to 4 radii, the screw is about 2 + 1 long (slices half a radius wide may keep a slice
+    # at each end of the run). The head keeps its points' areas; the shank's shrink by the
+    # same factor, 2 / 8.
+    points, areas = _screw_in_code(8.0)
+    coordinates, shortened, axes = shortened_runs(points, areas, 4.0)
+    assert abs(abs(axes[2, 0]) - 1.0) < 1e-4  # the first axis is the screw's
+    assert 2.9 < np.ptp(coordinates[:, 0]) < 3.6
+    in_head = points[:, 2] > 0.01
+    np.testing.assert_allclose(shortened[in_head], areas[in_head])
+    shank_wall = (points[:, 2] < -1.0) & (points[:, 2] > -7.0)
+    factors = shortened[shank_wall] / areas[shank_wall]
+    assert np.ptp(factors) < 1e-12 and 0.2 < factors[0] < 0.3
+
+
+def test_shortened_runs_keep_a_part_without_a_long_run() -> None:
+    # A shank 4 radii long stays as it is: the coordinates are the principal frame's.
+    points, areas = _screw_in_code(2.0)
+    coordinates, shortened, _ = shortened_runs(points, areas, 4.0)
+    np.testing.assert_array_equal(shortened, areas)
+    np.testing.assert_allclose(coordinates, principal_frame(points, areas)[0], atol=1e-12)
+
+
+def test_shortened_runs_ignore_rotation_translation_scale_and_point_order() -> None:
+    points, areas = _screw_in_code(6.0)
+    areas = areas * np.random.default_rng(1).uniform(0.9, 1.1, len(areas))
+    order = np.random.default_rng(3).permutation(len(points))
+    moved = 2.5 * points[order] @ random_rotation(np.random.default_rng(2)).T + [4.0, -1.0, 7.0]
+    before, before_areas, _ = shortened_runs(points, areas, 4.0)
+    after, after_areas, _ = shortened_runs(moved, 2.5**2 * areas[order], 4.0)
+    np.testing.assert_allclose(after_areas, 2.5**2 * before_areas[order], rtol=1e-9)
+    # Coordinates up to the axes' signs, which the eigensolver chooses.
+    np.testing.assert_allclose(np.abs(after), 2.5 * np.abs(before[order]), atol=1e-8)
+
+
+def test_shortened_runs_put_a_screws_head_before_its_length() -> None:
+    # pymadcad's M8 screws, every extrinsic block: on the part as it is (ss11), a socket- or
+    # button-head screw 16 long is nearly as far from one 48 long as from the other head
+    # (measured 0.67-0.69 against 0.72-0.75); with its runs shortened to 4 radii the lengths
+    # come close (0.09-0.20) and the heads stay apart (0.73-0.75).
+    # bench/selection/collapsed_runs_select.py chose it.
+    standard = pytest.importorskip(
+        "madcad.standard", reason="pymadcad (the test extra) is not installed"
+    )
+    from core.evaluation.variants import SS11_DESCRIPTOR
+
+    keys = ("d2", "d1", "normals", "symmetry", "ring", "caps")
+    distances = {}
+    for name, settings in (("ss11", SS11_DESCRIPTOR), ("shortened", DescriptorSettings())):
+        spec = DescriptorSpec.from_settings(settings)
+        screws = {(length, head): _screw_blocks(standard, length, head, spec, keys)
+                  for length in (16, 48) for head in ("SH", "BH")}
+        by_length = [np.linalg.norm(screws[16, head] - screws[48, head]) for head in ("SH", "BH")]
+        by_head = [np.linalg.norm(screws[length, "SH"] - screws[length, "BH"])
+                   for length in (16, 48)]
+        distances[name] = (max(by_length), min(by_head))
+    assert distances["ss11"][0] > 0.85 * distances["ss11"][1]
+    assert distances["shortened"][0] < 0.35 * distances["shortened"][1]

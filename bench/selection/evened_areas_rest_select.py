@@ -80,6 +80,7 @@ from profile_block_select import (  # noqa: E402
 )
 
 from core.descriptor import DescriptorSpec, caps_block, ring_block  # noqa: E402
+from core.evaluation.variants import SS11_DESCRIPTOR  # noqa: E402
 from core.extrinsic import evened_areas, surface_normals  # noqa: E402
 from core.settings import DescriptorSettings  # noqa: E402
 
@@ -118,10 +119,11 @@ def evened_blocks(study: Study, cache: Path) -> tuple[Study, dict[str, PerSource
 
 
 def service_base(study: Study) -> dict[str, PerSource]:
-    """``ss11``'s evened-area blocks as the service makes them of every model's stored
+    """``ss11``'s evened-area blocks as the service made them of every model's stored
     sample: D2, D1, normals and symmetry at unit weight, per source (capod-nonrigid
-    added)."""
-    spec = DescriptorSpec.from_settings(replace(DescriptorSettings(), **UNIT_WEIGHTS))
+    added). ``ss11`` is the studies' reference since the nineteenth session; ``ss12``'s
+    shortened runs are built by ``collapsed_runs_select.py``."""
+    spec = DescriptorSpec.from_settings(replace(SS11_DESCRIPTOR, **UNIT_WEIGHTS))
     rows: dict[str, dict[str, list[np.ndarray]]] = {key: {} for key in GROUPS["extrinsic"]}
     for source, folder in zip(study.sources, study.folders, strict=True):
         for file in sorted(folder.glob("*.npz")):

@@ -93,8 +93,9 @@ def extract(sources: Path, out: Path, scan: str, only: list[str] | None,
         settings = replace(settings, cutoff=replace(settings.cutoff, t=cutoff_t))
     unit = {field: 1.0 for block, field in BLOCK_WEIGHTS.items() if block != "local"}
     # D2 and D1 of the sample as it is: the studies' base is ``ss9``'s, and the evened ones
-    # of ``ss10`` are built from the stored sample (stretch_blocks_select.py).
-    ones = replace(settings.descriptor, **unit, evened_distances=False)
+    # of ``ss10`` are built from the stored sample (stretch_blocks_select.py), as are the
+    # shortened runs of ``ss12`` (collapsed_runs_select.py).
+    ones = replace(settings.descriptor, **unit, evened_distances=False, runs_longest=None)
     spec = DescriptorSpec.from_settings(ones)
     cache = out / "cache"
     sampling = sampling_of(settings, ROTATION_SEED + seed, scan, feature_share)

@@ -54,6 +54,7 @@ from core.evaluation.variants import (
     SS8_DESCRIPTOR,
     SS9_DESCRIPTOR,
     SS10_DESCRIPTOR,
+    SS11_DESCRIPTOR,
 )
 from core.pipeline import descriptor_from_eigenpairs
 from core.scan_order import scan_mode_positions
@@ -84,8 +85,8 @@ DESCRIPTORS: dict[str, tuple[DescriptorSettings, bool]] = {
     "default": (_DEFAULT, False),
     # Issue 24: the defaults before it, before its ring block, before its caps block,
     # before the caps block's soft axes, before the ring block's soft shells, before the
-    # evened D2 and D1 and before the evened surface's areas, and the family for bendable
-    # shapes.
+    # evened D2 and D1, before the evened surface's areas and before the shortened runs,
+    # and the family for bendable shapes.
     "ss4": (SS4_DESCRIPTOR, False),
     "ss5": (SS5_DESCRIPTOR, False),
     "ss6": (SS6_DESCRIPTOR, False),
@@ -93,6 +94,7 @@ DESCRIPTORS: dict[str, tuple[DescriptorSettings, bool]] = {
     "ss8": (SS8_DESCRIPTOR, False),
     "ss9": (SS9_DESCRIPTOR, False),
     "ss10": (SS10_DESCRIPTOR, False),
+    "ss11": (SS11_DESCRIPTOR, False),
     "bendable": (DESCRIPTOR_FAMILIES["bendable"], False),
     "boundary": (_DEFAULT, True),
     # ShapeDNA is a global spectrum: a partial surface's eigenvalues are not the whole's.

@@ -37,6 +37,7 @@ __all__ = [
     "SS8_DESCRIPTOR",
     "SS9_DESCRIPTOR",
     "SS10_DESCRIPTOR",
+    "SS11_DESCRIPTOR",
     "VARIANTS",
     "resolve_variants",
 ]
@@ -69,6 +70,10 @@ SPECTRAL_DESCRIPTOR = replace(
     DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0, local_weight=0.0
 )
 
+#: The default before issue 24's shortened runs (``ss11``); every earlier default below
+#: starts from it.
+SS11_DESCRIPTOR = replace(DescriptorSettings(), runs_longest=None)
+
 #: The defaults before issue 24's evening measured on the sample as it is (D2 and D1 on it,
 #: every block weighed by its areas).
 _AS_SAMPLED: dict[str, Any] = {"evened_distances": False, "evened_areas": False}
@@ -77,35 +82,35 @@ _AS_SAMPLED: dict[str, Any] = {"evened_distances": False, "evened_areas": False}
 #: blocks of issue 24, with the spread and axis-offset blocks it then had, D2 and D1 of the
 #: sample as it is.
 SS4_DESCRIPTOR = replace(
-    DescriptorSettings(), local_weight=0.0, ring_weight=0.0, caps_weight=0.0,
+    SS11_DESCRIPTOR, local_weight=0.0, ring_weight=0.0, caps_weight=0.0,
     spread_weight=1.0, axis_weight=0.5, **_AS_SAMPLED,
 )
 
 #: The first default of issue 24 (``ss5``): the present one without the ring and caps blocks,
 #: D2 and D1 of the sample as it is.
-SS5_DESCRIPTOR = replace(DescriptorSettings(), ring_weight=0.0, caps_weight=0.0,
+SS5_DESCRIPTOR = replace(SS11_DESCRIPTOR, ring_weight=0.0, caps_weight=0.0,
                          **_AS_SAMPLED)
 
 #: The second default of issue 24 (``ss6``): the present one without the caps block, the
 #: ring block's shells the area tertiles, D2 and D1 of the sample as it is.
-SS6_DESCRIPTOR = replace(DescriptorSettings(), caps_weight=0.0, ring_shells=None,
+SS6_DESCRIPTOR = replace(SS11_DESCRIPTOR, caps_weight=0.0, ring_shells=None,
                          **_AS_SAMPLED)
 
 #: The third default of issue 24 (``ss7``): the caps block along the principal axes alone,
 #: the ring block's shells the area tertiles, D2 and D1 of the sample as it is.
-SS7_DESCRIPTOR = replace(DescriptorSettings(), caps_sharpness=None, ring_shells=None,
+SS7_DESCRIPTOR = replace(SS11_DESCRIPTOR, caps_sharpness=None, ring_shells=None,
                          **_AS_SAMPLED)
 
 #: The fourth default of issue 24 (``ss8``): the ring block's shells the area tertiles, D2
 #: and D1 of the sample as it is.
-SS8_DESCRIPTOR = replace(DescriptorSettings(), ring_shells=None, **_AS_SAMPLED)
+SS8_DESCRIPTOR = replace(SS11_DESCRIPTOR, ring_shells=None, **_AS_SAMPLED)
 
 #: The fifth default of issue 24 (``ss9``): D2 and D1 of the sample as it is.
-SS9_DESCRIPTOR = replace(DescriptorSettings(), **_AS_SAMPLED)
+SS9_DESCRIPTOR = replace(SS11_DESCRIPTOR, **_AS_SAMPLED)
 
 #: The sixth default of issue 24 (``ss10``): D2 and D1 of the evened sample, every block
 #: weighed by the sample's areas.
-SS10_DESCRIPTOR = replace(DescriptorSettings(), evened_areas=False)
+SS10_DESCRIPTOR = replace(SS11_DESCRIPTOR, evened_areas=False)
 
 
 def _without(settings: DescriptorSettings, weight: str) -> DescriptorSettings:
@@ -170,8 +175,9 @@ def _variants() -> dict[str, EngineSettings]:
             default.intrinsic(), d2_weight=1.0, spread_weight=1.0, local_weight=0.0)),
         # Issue 24: the defaults before it (ss4), before its ring block (ss5), before its
         # caps block (ss6), before the caps block's soft axes (ss7), before the ring
-        # block's soft shells (ss8), before the evened D2 and D1 (ss9) and before the
-        # evened surface's areas (ss10), and the descriptor family for bendable shapes.
+        # block's soft shells (ss8), before the evened D2 and D1 (ss9), before the evened
+        # surface's areas (ss10) and before the shortened runs (ss11), and the descriptor
+        # family for bendable shapes.
         "ss4": _engine(descriptor=SS4_DESCRIPTOR),
         "ss5": _engine(descriptor=SS5_DESCRIPTOR),
         "ss6": _engine(descriptor=SS6_DESCRIPTOR),
@@ -179,6 +185,7 @@ def _variants() -> dict[str, EngineSettings]:
         "ss8": _engine(descriptor=SS8_DESCRIPTOR),
         "ss9": _engine(descriptor=SS9_DESCRIPTOR),
         "ss10": _engine(descriptor=SS10_DESCRIPTOR),
+        "ss11": _engine(descriptor=SS11_DESCRIPTOR),
         "bendable": _engine(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
         "default-no-local": _engine(descriptor=replace(default, local_weight=0.0)),
         **{
