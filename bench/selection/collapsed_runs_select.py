@@ -168,6 +168,7 @@ from core.extrinsic import (  # noqa: E402
     normal_axis_cosines,
     principal_frame,
     reflection_symmetry,
+    shortened_runs,
     surface_normals,
 )
 from core.settings import DescriptorSettings  # noqa: E402
@@ -189,11 +190,8 @@ PERCENTILES = (0.1, 0.5, 0.9)
 NEIGHBOUR_TOLERANCE = 0.08
 RUN_TOLERANCE = 0.16
 FEWEST_POINTS = 8
-#: Round 2: the quantiles of a slice's cross-section, and how far two neighbours' and a
-#: slice from its run's median may be, as the mean absolute difference of the quantiles.
-W1_QUANTILES = tuple(np.linspace(0.05, 0.95, 19).tolist())
-W1_NEIGHBOUR_TOLERANCE = 0.04
-W1_RUN_TOLERANCE = 0.08
+#: Round 2's comparison (19 quantiles, 0.04 between neighbours, 0.08 from the run's median)
+#: is ``core.extrinsic``'s ``RUN_QUANTILES``, ``RUN_STEP`` and ``RUN_SPREAD``.
 
 UNIT_SPEC = DescriptorSpec.from_settings(replace(DescriptorSettings(), **UNIT_WEIGHTS))
 SETTINGS = DescriptorSettings()
@@ -233,7 +231,8 @@ def shortened(points: np.ndarray, areas: np.ndarray, longest: float,
     areas : (n,) float
     longest : float
     compared : str
-        "percentiles" (round 1) or "w1" (round 2).
+        "percentiles" (round 1) or "w1" (round 2, shipped: ``core.extrinsic.shortened_runs``,
+        the same to 1e-15 on every model of the study as this script's copy that scored it).
 
     Returns
     -------
@@ -244,6 +243,8 @@ def shortened(points: np.ndarray, areas: np.ndarray, longest: float,
     frame : (3, 3) float
         The principal axes as columns (to rotate normals into the frame).
     """
+    if compared == "w1":
+        return shortened_runs(points, areas, longest)
     coordinates, _, frame = principal_frame(points, areas)
     along = coordinates[:, 0]
     radial = np.linalg.norm(coordinates[:, 1:], axis=1)
@@ -255,28 +256,20 @@ def shortened(points: np.ndarray, areas: np.ndarray, longest: float,
     index = np.floor(along / width).astype(np.int64)
     slot = index - index.min()
     count = int(slot.max()) + 1
-    shares = PERCENTILES if compared == "percentiles" else W1_QUANTILES
-    profile = np.full((count, len(shares)), np.nan)
+    profile = np.full((count, len(PERCENTILES)), np.nan)
     populated = np.bincount(slot, minlength=count)
     for s in np.flatnonzero(populated >= FEWEST_POINTS):
         members = slot == s
-        profile[s] = _weighted_percentiles(radial[members], areas[members], shares) / rho
+        profile[s] = _weighted_percentiles(radial[members], areas[members], PERCENTILES) / rho
     steps = np.abs(np.diff(profile, axis=0))
     alike = np.zeros(count - 1, dtype=bool)
     judged = ~np.isnan(steps).any(axis=1)
-    if compared == "percentiles":
-        alike[judged] = steps[judged].max(axis=1) <= NEIGHBOUR_TOLERANCE
-    else:
-        alike[judged] = steps[judged].mean(axis=1) <= W1_NEIGHBOUR_TOLERANCE
+    alike[judged] = steps[judged].max(axis=1) <= NEIGHBOUR_TOLERANCE
     factor = np.ones(count)
     for first, last in _runs(alike):
         run = profile[first:last + 1]
         length = (last - first + 1) * width
-        if compared == "percentiles":
-            one = np.ptp(run, axis=0).max() <= RUN_TOLERANCE
-        else:
-            one = np.abs(run - np.median(run, axis=0)).mean(axis=1).max() <= W1_RUN_TOLERANCE
-        if one and length > longest * rho:
+        if np.ptp(run, axis=0).max() <= RUN_TOLERANCE and length > longest * rho:
             factor[first:last + 1] = longest * rho / length
     starts = np.concatenate([[0.0], np.cumsum(factor * width)[:-1]])
     moved = starts[slot] + (along - (index * width)) * factor[slot]
