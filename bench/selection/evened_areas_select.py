@@ -293,7 +293,7 @@ def confirm_report(name: str, reference: str, table: dict, queries: dict,
     for c in table:
         cells = ", ".join(f"{s} {table[c][s]['map']:.3f} / {table[c][s]['nn']:.3f}"
                           for s in table[c])
-        print(f"{c}: mean of eight {mean[c]:.4f}; {cells}")
+        print(f"{c}: mean of {len(sources)} {mean[c]:.4f}; {cells}")
     print(f"candidate - {reference} {point:+.4f} (95 % {low:+.4f} .. {high:+.4f}): {first}")
     print(f"one catalogue by kind: NN {catalogue[reference]['nn']:.3f} -> "
           f"{catalogue[name]['nn']:.3f}, mAP {catalogue[reference]['map']:.3f} -> "
