@@ -271,14 +271,10 @@ def _slice_profiles(slot: np.ndarray, radial: np.ndarray, areas: np.ndarray) -> 
     profiles = np.full((count, len(RUN_QUANTILES)), np.nan)
     for s in np.flatnonzero(np.bincount(slot, minlength=count) >= RUN_FEWEST_POINTS):
         members = slot == s
-        values, weights = radial[members], areas[members]
-        order = np.argsort(values, kind="stable")
-        cumulative = np.cumsum(weights[order])
-        if not cumulative[-1] > 0:
-            continue  # a slice of points that stand for no area is not judged
-        cumulative /= cumulative[-1]
-        at = np.minimum(np.searchsorted(cumulative, RUN_QUANTILES), values.size - 1)
-        profiles[s] = values[order][at]
+        total = areas[members].sum()
+        if total > 0:  # a slice of points that stand for no area is not judged
+            profiles[s] = _weighted_quantiles(radial[members], areas[members] / total,
+                                              RUN_QUANTILES)
     return profiles
 
 
@@ -644,7 +640,14 @@ def _end_profile(depth: np.ndarray, radial: np.ndarray, weights: np.ndarray, bin
 
 def _weighted_quantile(values: np.ndarray, weights: np.ndarray, share: float) -> float:
     """The value below which ``share`` of ``weights`` (summing to 1) lies."""
+    return float(_weighted_quantiles(values, weights, (share,))[0])
+
+
+def _weighted_quantiles(values: np.ndarray, weights: np.ndarray,
+                        shares: tuple[float, ...]) -> np.ndarray:
+    """The values below which each of ``shares`` of ``weights`` (summing to 1) lies,
+    ``(len(shares),) float``: one sort for them all."""
     order = np.argsort(values, kind="stable")
     cumulative = np.cumsum(weights[order])
-    position = min(int(np.searchsorted(cumulative, share)), len(values) - 1)
-    return float(values[order][position])
+    positions = np.minimum(np.searchsorted(cumulative, shares), len(values) - 1)
+    return values[order][positions]

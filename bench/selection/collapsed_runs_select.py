@@ -125,7 +125,6 @@ rod's lowest copy score 0.989 (``ss11`` 0.995, round 1 0.964), the lowest of eve
 
 from __future__ import annotations
 
-import functools
 import os
 import sys
 from dataclasses import replace
@@ -137,15 +136,15 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from catalogue_by_kind import KIND_OF, scores  # noqa: E402
 from evened_areas_rest_select import service_base  # noqa: E402
 from evened_areas_select import (  # noqa: E402
     GROUPS,
     UNIT_WEIGHTS,
+    catalogue_scores,
     close_study,
     service_scores,
 )
-from hubness_select import pooled_local, pooled_rows  # noqa: E402
+from hubness_select import pooled_local  # noqa: E402
 from local_features_select import Study  # noqa: E402
 from mcad_check import CATALOGUE  # noqa: E402
 from new_maker_weights_select import check_ten  # noqa: E402
@@ -162,6 +161,8 @@ from core.descriptor import (  # noqa: E402
     ring_block,
 )
 from core.extrinsic import (  # noqa: E402
+    _weighted_quantile,
+    _weighted_quantiles,
     centroid_distance_ratios,
     evened_areas,
     evened_spreads,
@@ -195,15 +196,6 @@ FEWEST_POINTS = 8
 
 UNIT_SPEC = DescriptorSpec.from_settings(replace(DescriptorSettings(), **UNIT_WEIGHTS))
 SETTINGS = DescriptorSettings()
-
-
-def _weighted_percentiles(values: np.ndarray, weights: np.ndarray,
-                          shares: tuple[float, ...]) -> np.ndarray:
-    order = np.argsort(values, kind="stable")
-    cumulative = np.cumsum(weights[order])
-    cumulative /= cumulative[-1]
-    at = np.minimum(np.searchsorted(cumulative, shares), values.size - 1)
-    return values[order][at]
 
 
 def _runs(alike: np.ndarray) -> list[tuple[int, int]]:
@@ -248,7 +240,7 @@ def shortened(points: np.ndarray, areas: np.ndarray, longest: float,
     coordinates, _, frame = principal_frame(points, areas)
     along = coordinates[:, 0]
     radial = np.linalg.norm(coordinates[:, 1:], axis=1)
-    rho = float(_weighted_percentiles(radial, areas, (0.5,))[0])
+    rho = _weighted_quantile(radial, areas / areas.sum(), 0.5)
     if not rho > 0:
         return coordinates, areas, frame
     width = SLICE_WIDTH * rho
@@ -260,7 +252,8 @@ def shortened(points: np.ndarray, areas: np.ndarray, longest: float,
     populated = np.bincount(slot, minlength=count)
     for s in np.flatnonzero(populated >= FEWEST_POINTS):
         members = slot == s
-        profile[s] = _weighted_percentiles(radial[members], areas[members], PERCENTILES) / rho
+        weights = areas[members] / areas[members].sum()
+        profile[s] = _weighted_quantiles(radial[members], weights, PERCENTILES) / rho
     steps = np.abs(np.diff(profile, axis=0))
     alike = np.zeros(count - 1, dtype=bool)
     judged = ~np.isnan(steps).any(axis=1)
@@ -339,23 +332,6 @@ def check_identity(study: Study, blocks: dict[str, dict[str, np.ndarray]],
         raise SystemExit("the script's blocks are not the service's: stop before scoring")
 
 
-def rows_of(replacing: Replacing, blocks: dict[str, dict[str, np.ndarray]],
-            names: tuple[str, ...] | None = None,
-            local: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
-    """Unit rows per source with these extrinsic blocks (``Replacing``)."""
-    return replacing({key: blocks[key] for key in GROUPS["extrinsic"]}, names=names,
-                     local=local, ring=blocks["ring"], caps=blocks["caps"])
-
-
-def catalogue(study: Study, replacing: Replacing, blocks: dict[str, dict[str, np.ndarray]],
-              local: dict[str, np.ndarray]) -> dict[str, float]:
-    """The four third-party libraries as one catalogue by kind, in the service's order."""
-    _, library_kinds = pooled_rows(study, CATALOGUE)
-    per_source = rows_of(replacing, blocks, CATALOGUE, local)
-    rows = np.vstack([per_source[name] for name in CATALOGUE])
-    return scores(SERVICE_ORDER(rows), [KIND_OF.get(label, label) for label in library_kinds])
-
-
 def check() -> int:
     """Before any score: ``ss11``'s extrinsic blocks of screws made in code, by length and
     by head, as they are and shortened; the shortening's invariance."""
@@ -376,12 +352,11 @@ def check() -> int:
     turn, _ = np.linalg.qr(np.random.default_rng(2).normal(size=(3, 3)))
     order = np.random.default_rng(3).permutation(len(points))
     moved = (3.7 * points @ turn.T + [1.0, -2.0, 0.5])[order]
-    for longest in (3.0,):
-        here = extrinsic_blocks(points, areas, longest)
-        there = extrinsic_blocks(moved, 3.7**2 * areas[order], longest)
-        gap = max(float(np.abs(here[k] - there[k]).max()) for k in here if k != "d2")
-        print(f"L{longest:g} blocks (D2 apart: its pairs follow the point order) under "
-              f"rotation, translation, scale and point order: {gap:.1e}")
+    here = extrinsic_blocks(points, areas, 3.0)
+    there = extrinsic_blocks(moved, 3.7**2 * areas[order], 3.0)
+    gap = max(float(np.abs(here[k] - there[k]).max()) for k in here if k != "d2")
+    print("L3 blocks (D2 apart: its pairs follow the point order) under rotation, "
+          f"translation, scale and point order: {gap:.1e}")
     return 0
 
 
@@ -397,10 +372,16 @@ def main(argv: list[str] | None = None) -> int:
     blocks = {name: study_blocks(study, grid[name]) for name in names}
     print("blocks done", flush=True)
     check_identity(study, blocks[REFERENCE], replacing)
+    # Each candidate's D2, D1, normals and symmetry in place of the study's, and its ring
+    # and caps (``Replacing``).
+    base = {name: {key: blocks[name][key] for key in GROUPS["extrinsic"]} for name in names}
+    ends = {name: {"ring": blocks[name]["ring"], "caps": blocks[name]["caps"]}
+            for name in names}
     table, queries = service_scores(
-        study, ((name, rows_of(replacing, blocks[name])) for name in names), SERVICE_ORDER)
-    pooled = functools.cache(lambda: pooled_local(study, CATALOGUE))
-    catalogues = {name: catalogue(study, replacing, blocks[name], pooled()) for name in names}
+        study, ((name, replacing(base[name], **ends[name])) for name in names), SERVICE_ORDER)
+    local = pooled_local(study, CATALOGUE)
+    catalogues = {name: catalogue_scores(study, replacing, base[name], order=SERVICE_ORDER,
+                                         local=local, **ends[name]) for name in names}
     close_study("runs of one cross-section shortened, parts family", REFERENCE, table,
                 queries, catalogues, [s.name for s in study.sources], args.confirm, args.json)
     return 0

@@ -187,17 +187,18 @@ def catalogue_scores(study: Study, replacing: Replacing, replaced: dict[str, Per
                      weights: dict[str, float] | None = None,
                      ring: PerSource | None = None, order: Order = service_keys,
                      words: Study | None = None, local: PerSource | None = None,
-                     added: tuple[PerSource, float] | None = None) -> dict[str, float]:
+                     added: tuple[PerSource, float] | None = None,
+                     caps: PerSource | None = None) -> dict[str, float]:
     """The four third-party libraries as one catalogue (one vocabulary for all), by kind,
-    ranked by ``order`` (the service's); ``weights`` and ``ring`` as ``Replacing`` takes
-    them; ``words``: the study whose local features the local block encodes (``study``'s
-    when not given); ``local``: the catalogue's local blocks themselves, in place of
-    ``pooled_local``'s; ``added``: one more block per source and its weight
+    ranked by ``order`` (the service's); ``weights``, ``ring`` and ``caps`` as ``Replacing``
+    takes them; ``words``: the study whose local features the local block encodes
+    (``study``'s when not given); ``local``: the catalogue's local blocks themselves, in
+    place of ``pooled_local``'s; ``added``: one more block per source and its weight
     (``Replacing``'s)."""
     _, library_kinds = pooled_rows(study, CATALOGUE)
     local = local or pooled_local(words or study, CATALOGUE)
     per_source = replacing(replaced, weights, local=local, names=CATALOGUE, ring=ring,
-                           added=added)
+                           caps=caps, added=added)
     rows = np.vstack([per_source[name] for name in CATALOGUE])
     return scores(order(rows), [KIND_OF.get(label, label) for label in library_kinds])
 
