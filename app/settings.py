@@ -20,7 +20,7 @@ from sqlalchemy.exc import ArgumentError
 
 from core.descriptor import DescriptorSpec
 from core.errors import SettingsError
-from core.hubness import HUB_NEIGHBOURS
+from core.rank.hubness import HUB_NEIGHBOURS
 from core.settings import (
     DESCRIPTOR_FAMILIES,
     CutoffMode,
@@ -431,8 +431,8 @@ class Settings(BaseSettings):
         "comes a little later; `score` stays the plain similarity. 0: plain distance "
         "order, in scan mode too. Chosen on seven tuning sources, +0.01 mAP left out "
         "(README, Order of the results). Scan mode's discount has its own k (5) and weight "
-        "(0.5), core.hubness.SCAN_HUB_NEIGHBOURS, and orders the answers after its first "
-        "as this order ranks them for that answer (core.scan_order); 0 turns both off.",
+        "(0.5), core.rank.hubness.SCAN_HUB_NEIGHBOURS, and orders the answers after its first "
+        "as this order ranks them for that answer (core.rank.scan_order); 0 turns both off.",
     )
     search_reciprocal: bool = Field(
         default=True,

@@ -2,10 +2,10 @@
 
 Scan mode (``find_similar(..., mode="scan")``) compares a scan with every model's whole
 descriptor and its virtual views; since the fifteenth session it re-orders the
-``core.scan_order.scan_depth(k)`` nearest models by scan mode's hub discount, whose radii
+``core.rank.scan_order.scan_depth(k)`` nearest models by scan mode's hub discount, whose radii
 cost a search of both partitions per entry, taken best bound first until the answer is
 certain; since the thirty-eighth the rest of the pool after the first answer follows that
-answer's shape-mode order (``core.scan_order``: the hub discount and the k-reciprocal
+answer's shape-mode order (``core.rank.scan_order``: the hub discount and the k-reciprocal
 re-rank, ``app.search.similarity._scan._scan_hub_order``), before it by a blend of key and
 nearness to the first answer, whose radii were searched as the first's; since the
 thirty-ninth the pool is ordered from the index's own vectors and the database reads the
@@ -29,9 +29,9 @@ seconds, median and p90 seconds per order and the ratio of medians, with the mac
     nice -n 10 .venv/bin/python bench/scan_search.py [--models 20000] [--queries 100] [--cold]
         [--scan-pools 40 160] [--anchor-neighbours 0 120]
 
-``--scan-pools`` times scan mode's order at each pool size (``core.scan_order.SCAN_POOL``),
+``--scan-pools`` times scan mode's order at each pool size (``core.rank.scan_order.SCAN_POOL``),
 and ``--anchor-neighbours`` with each number of the first answer's nearest models joined to
-the pool (``core.scan_order.ANCHOR_NEIGHBOURS``; 0: none, the order before the forty-first
+the pool (``core.rank.scan_order.ANCHOR_NEIGHBOURS``; 0: none, the order before the forty-first
 session), each query in every combination, interleaved; the filters' rows take the first
 of each. ``--answers FILE`` writes every order's answers (ids,
 distances, views) as JSON, so two versions of the code can be compared on one catalogue (the
@@ -127,11 +127,11 @@ def main() -> None:
     parser.add_argument("--cold", action="store_true",
                         help="forget the kept entry neighbours before every query")
     parser.add_argument("--scan-pools", type=int, nargs="+",
-                        help="scan mode's pool sizes (core.scan_order.SCAN_POOL) to time, "
+                        help="scan mode's pool sizes (core.rank.scan_order.SCAN_POOL) to time, "
                         "each query in every one (default: the shipped one)")
     parser.add_argument("--anchor-neighbours", type=int, nargs="+",
                         help="numbers of the first answer's nearest joined to scan mode's pool "
-                        "(core.scan_order.ANCHOR_NEIGHBOURS) to time (default: the shipped one)")
+                        "(core.rank.scan_order.ANCHOR_NEIGHBOURS) to time (default: the shipped one)")
     parser.add_argument("--answers", type=Path, help="write every order's answers as JSON")
     parser.add_argument("--k", type=int, default=10, help="results per query")
     parser.add_argument("--url", help="an empty database to fill (e.g. PostgreSQL) in place "
@@ -140,12 +140,12 @@ def main() -> None:
                         help="time scan mode's order under a selective and a common filter")
     args = parser.parse_args()
 
-    import core.scan_order
+    import core.rank.scan_order
     from app.db.session import make_engine, make_session_factory
     from app.search.index import ShapeIndex, views_key
     from app.search.index._entry_neighbours import KeptEntryNeighbours
     from app.search.similarity import find_similar
-    from core.hubness import HUB_NEIGHBOURS
+    from core.rank.hubness import HUB_NEIGHBOURS
 
     real = real_descriptors(args.real, 3000)
     with tempfile.TemporaryDirectory() as folder:
@@ -163,8 +163,8 @@ def main() -> None:
         started = time.perf_counter()
         kept = index.keep_neighbourhoods()
         print(f"{kept} shape-mode neighbourhoods kept in {time.perf_counter() - started:.0f} s")
-        pools = args.scan_pools or [core.scan_order.SCAN_POOL]
-        joins = args.anchor_neighbours or [core.scan_order.ANCHOR_NEIGHBOURS]
+        pools = args.scan_pools or [core.rank.scan_order.SCAN_POOL]
+        joins = args.anchor_neighbours or [core.rank.scan_order.ANCHOR_NEIGHBOURS]
         orders = [("plain", 0, pools[0], joins[0])] + [
             (f"discount, pool {pool}" + (f", joined {join}" if len(joins) > 1 else ""),
              HUB_NEIGHBOURS, pool, join) for pool in pools for join in joins]
@@ -178,8 +178,8 @@ def main() -> None:
             answers = {}
             for order, neighbours, pool, join in orders:
                 index.hub_neighbours = neighbours
-                core.scan_order.SCAN_POOL = pool
-                core.scan_order.ANCHOR_NEIGHBOURS = join
+                core.rank.scan_order.SCAN_POOL = pool
+                core.rank.scan_order.ANCHOR_NEIGHBOURS = join
                 if args.cold:
                     index._entry_neighbours = KeptEntryNeighbours()
                 t0 = time.perf_counter()

@@ -510,13 +510,13 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         print(f"in-process {label} k={K}: {percentiles(times)}; results min {min(counts)}")
         medians[label] = float(np.median(times))
     index.hub_neighbours, index.reciprocal = hub, reciprocal
-    import core.reciprocal
+    import core.rank.reciprocal
 
     for pool in args.reciprocal_pools:  # the re-rank's cost per pool size
-        shipped, core.reciprocal.RECIPROCAL_POOL = core.reciprocal.RECIPROCAL_POOL, pool
+        shipped, core.rank.reciprocal.RECIPROCAL_POOL = core.rank.reciprocal.RECIPROCAL_POOL, pool
         index.reciprocal = True
         times, _ = timed_similar(index, reader, rng.choice(model_ids, size=args.queries))
-        core.reciprocal.RECIPROCAL_POOL, index.reciprocal = shipped, reciprocal
+        core.rank.reciprocal.RECIPROCAL_POOL, index.reciprocal = shipped, reciprocal
         print(f"in-process similar re-ranked among {pool}: {percentiles(times)}; "
               f"{np.median(times) / medians[alone]:.2f}x the discount alone")
     if hub:

@@ -36,14 +36,15 @@ from typing import Any
 import lzf
 import numpy as np
 import trimesh
-from scan_files import (
+
+from tests.scan_files import (
     e57_file,
     e57_with_record_count,
     las_file,
     las_with_point_count,
     pcd_compressed_file,
 )
-from shapes import fibonacci_sphere_points
+from tests.shapes import fibonacci_sphere_points
 
 __all__ = [
     "HOSTILE_FILES",

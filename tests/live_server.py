@@ -17,7 +17,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from conftest import FAST_QUEUE, SMALL_ENGINE
+from tests.conftest import FAST_QUEUE, SMALL_ENGINE
 
 __all__ = ["free_port", "live_server"]
 

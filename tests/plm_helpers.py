@@ -10,10 +10,10 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
 import trimesh
-from conftest import fake_describe, make_settings
 from fastapi.testclient import TestClient
 
 from app.api.main import create_app
+from tests.conftest import fake_describe, make_settings
 
 ClientFactory = Callable[..., TestClient]
 Request = tuple[str, dict[str, str], bytes]  # path, headers, body

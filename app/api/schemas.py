@@ -14,7 +14,7 @@ from app.db.models import Job, Model
 from app.search.similarity import Candidate
 from core.cutoff import CutoffRecord
 from core.io import SUPPORTED_FORMATS
-from core.score_calibration import calibration_for
+from core.rank.score_calibration import calibration_for
 
 __all__ = [
     "FileInfo",

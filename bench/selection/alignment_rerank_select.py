@@ -25,7 +25,7 @@ The distance, on each model's stored normalised sample (``points``, ``areas``):
    ``c``'s drawn points to ``q``'s sample, in the final alignment.
 
 The re-rank: for each query the service's order (the k-reciprocal re-rank with the hub
-discount's keys and its first answer kept: ``core.reciprocal.first_kept``); its first ``K``
+discount's keys and its first answer kept: ``core.rank.reciprocal.first_kept``); its first ``K``
 answers (a part within ``SAME_DESCRIPTOR`` of the query stays first, unmoved) are put in
 order of ``p_s + w p_a``, ``p_s`` a candidate's place among the ``K`` in the service's
 order and ``p_a`` its place by the distance (both from 0), ties by ``p_s``; the rest keep
@@ -86,8 +86,8 @@ from mcad_check import CANDIDATE, CATALOGUE, KEYS  # noqa: E402
 from profile_block_select import decide, score_distances, study_command, study_samples  # noqa: E402
 
 from core.extrinsic import principal_frame  # noqa: E402
-from core.hubness import SAME_DESCRIPTOR  # noqa: E402
-from core.reciprocal import first_kept  # noqa: E402
+from core.rank.hubness import SAME_DESCRIPTOR  # noqa: E402
+from core.rank.reciprocal import first_kept  # noqa: E402
 
 SERVICE = "service order"
 DEPTHS = (10, 20)
@@ -184,7 +184,7 @@ class PairDistances:
 def service_keys(rows: np.ndarray) -> np.ndarray:
     """The search service's order ``(m, m)`` of unit ``rows`` (lower first) as the studies
     up to the twentieth session ranked by it: the re-rank's ``lambda`` 0.3, which
-    ``reciprocal_blend_select.py`` moved to 0.1 (``core.reciprocal.BLEND``); pinned so that
+    ``reciprocal_blend_select.py`` moved to 0.1 (``core.rank.reciprocal.BLEND``); pinned so that
     every study re-runs as it ran."""
     return first_kept(KEYS[CANDIDATE](rows), KEYS[REFERENCE](rows))
 

@@ -20,7 +20,7 @@ Reported for each descriptor family the service can hold, ``ss9`` (the rigid def
 ``spectral`` (the intrinsic default before issue 12) and ``bendable`` (``spectral`` with the
 idf word counts of HKS on 64 words at weight 2), plain cosine order and the search service's
 order (k-reciprocal ``k1`` 5, ``k2`` 3, ``lambda`` 0.3 with the hub discount's keys as its
-distance term, ``core.reciprocal``), and (added in the same session, after the results
+distance term, ``core.rank.reciprocal``), and (added in the same session, after the results
 below) the hub discount alone: NN, mAP and top-5 over the catalogue (leave-one-out), by
 kind and by library kind; then the service order's first answers by kind. Every local block
 is encoded by one vocabulary fitted on the other four sources (none of the catalogue's).

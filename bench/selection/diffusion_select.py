@@ -67,7 +67,7 @@ from hubness_select import family_check, family_rows, pooled_rows  # noqa: E402
 from mcad_check import CANDIDATE, CATALOGUE, KEYS  # noqa: E402
 from profile_block_select import decide, score_distances, study_command  # noqa: E402
 
-from core.hubness import SAME_DESCRIPTOR  # noqa: E402
+from core.rank.hubness import SAME_DESCRIPTOR  # noqa: E402
 
 PLAIN = "ss9"
 NEIGHBOURS = (5, 10)

@@ -34,7 +34,7 @@ The grid, written before any score of it was seen (``local_features_extract.py
 
 Both at ``ss11``'s weights. Not asked: the histograms of the evened part beside the local
 words of the part (two full solves: about 1.6x ``ss4``'s describe, above the issue's 1.5x).
-Every candidate ranked in the search service's order (``core.reciprocal``'s ``k1`` and
+Every candidate ranked in the search service's order (``core.rank.reciprocal``'s ``k1`` and
 ``lambda`` with the hub discount's keys, its first answer kept). The rule
 (``evened_areas_select.close_study``): mean mAP over the eight sources (capod-nonrigid
 scored apart), ties within 0.002 to the reference first, then the grid's order;

@@ -1,6 +1,6 @@
 """Issue 24 follow-up: is another hubness reduction better than the shipped CSLS discount?
 
-Why: the hub discount (``core.hubness``, CSLS ``k`` 10, ``beta`` 1) was the largest
+Why: the hub discount (``core.rank.hubness``, CSLS ``k`` 10, ``beta`` 1) was the largest
 left-out gain of any candidate (+0.0095 to +0.0108 mAP over seven tuning sources), and mAP is
 the held-out figure that misses most. CSLS was the only hubness reduction measured. A
 comparison of hubness reductions over many data sets (Feldbauer & Flexer, KAIS 2019) found
@@ -71,7 +71,7 @@ from local_features_select import Study  # noqa: E402
 from profile_block_select import decide, score_distances, study_command  # noqa: E402
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
-from core.hubness import SAME_DESCRIPTOR  # noqa: E402
+from core.rank.hubness import SAME_DESCRIPTOR  # noqa: E402
 
 REFERENCE = "csls k10 beta1"
 PLAIN = "ss9"

@@ -6,7 +6,7 @@ every test below is adopted in a later step). Why: of every question asked under
 leave-one-source-out rule, the ones that carried over to every source were changes to how a
 catalogue is searched (the hub discount, +0.011; the k-reciprocal re-rank over it, MCAD
 +0.039; its blend, +0.0034), and mAP is the target the nearest evidence falls short of. The
-re-rank (``core.reciprocal``) takes each model's neighbourhoods (steps 1-3: ``N(i, k)``,
+re-rank (``core.rank.reciprocal``) takes each model's neighbourhoods (steps 1-3: ``N(i, k)``,
 ``R(i, k)``, the weights ``V = exp(-D)``) in plain distance, where a hub (a model near many
 models of other kinds) enters many neighbourhoods; only the blended term and the kept first
 answer use the hub discount. Here the neighbourhoods are taken in the hub discount's order
@@ -77,8 +77,8 @@ from reciprocal_blend_select import (  # noqa: E402
     judge_orders,
 )
 
-from core.hubness import SAME_DESCRIPTOR  # noqa: E402
-from core.reciprocal import (  # noqa: E402
+from core.rank.hubness import SAME_DESCRIPTOR  # noqa: E402
+from core.rank.reciprocal import (  # noqa: E402
     BLEND,
     EXPANSION,
     RECIPROCAL_NEIGHBOURS,

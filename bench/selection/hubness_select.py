@@ -55,7 +55,7 @@ further apart than one vocabulary does). Added after the results, for the cost o
 10 discounted results are certain (``fetch_depths``); and, written when the service
 adopted it (ninth session), how its approximation agrees with the whole catalogue's key:
 the plain nearest ``factor * 10`` re-ordered (``rerank_fidelity``, factor 1, 2, 4, 8),
-which chooses ``core.hubness.HUB_RERANK_FACTOR`` by agreement, not by score: the smallest
+which chooses ``core.rank.hubness.HUB_RERANK_FACTOR`` by agreement, not by score: the smallest
 factor whose first 10 are the whole catalogue's for at least 95 % of the queries (rule
 written before the measurement; 4 was the placeholder).
 
@@ -92,7 +92,7 @@ from profile_block_select import (  # noqa: E402
 )
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
-from core.hubness import hub_discounted_keys, neighbourhood_radii  # noqa: E402
+from core.rank.hubness import hub_discounted_keys, neighbourhood_radii  # noqa: E402
 from core.local_features import encode_bof, encode_vlad  # noqa: E402
 
 SS9 = "ss9"
@@ -110,7 +110,7 @@ def candidate_name(neighbours: int, beta: float) -> str:
 
 def hub_discounted(rows: np.ndarray, neighbours: int, beta: float) -> np.ndarray:
     """Ranking keys ``(m, m)`` (lower first) of every query ``q`` (row) for every model:
-    ``core.hubness.hub_discounted_keys`` leave-one-out (``r_k`` without the query), plain
+    ``core.rank.hubness.hub_discounted_keys`` leave-one-out (``r_k`` without the query), plain
     distance for ``neighbours`` 0."""
     if neighbours == 0:
         return hub_discounted_keys(rows, rows, weight=0.0)
@@ -204,7 +204,7 @@ def pooled_check(study: Study, grid: list[tuple[str, int, float]]
 def rerank_fidelity(rows: np.ndarray, labels: list[str], neighbours: int, beta: float,
                     results: int = 10) -> dict[str, dict[str, float]]:
     """How the service's approximation, the plain nearest ``factor * results`` re-ordered
-    by the key (``core.hubness.rerank_depth``), agrees with the key over the whole
+    by the key (``core.rank.hubness.rerank_depth``), agrees with the key over the whole
     catalogue, per ``factor`` (each query leave-one-out): the share of queries whose first
     ``results`` are the same list, and NN and precision at ``results`` of either. Prints it."""
     keys = hub_discounted(rows, neighbours, beta)

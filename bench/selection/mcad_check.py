@@ -49,7 +49,7 @@ seven, and ``local_features_extract.py /work/tuning-mcad /work/study8`` for ``mc
 confirmed, all four tests pass: MCAD mAP 0.684 -> 0.723 (+0.0385, 95 % +0.0255 .. +0.0520),
 mean of eight 0.8466 -> 0.8675, the ``bendable`` family 0.9835 -> 0.9870, one catalogue of
 326 parts mAP 0.677 -> 0.711, NN 0.853 -> 0.850; the re-rank is the search service's order
-since (``core.reciprocal``). Question 1: on MCAD the shipped ``ss9`` (mAP 0.670, NN 0.864)
+since (``core.rank.reciprocal``). Question 1: on MCAD the shipped ``ss9`` (mAP 0.670, NN 0.864)
 trails ``spectral`` (0.698 / 0.886), the ``bendable`` family (0.717 / 0.909) and the naive
 baseline (0.694 / 0.955): the descriptor series fits the seven sources it was chosen on.
 

@@ -8,7 +8,7 @@ plain order; twenty-first session, ``shapesearch eval /work/tuning-bosl2/bosl2``
 mAP is higher there (``ss4`` 0.689 against 0.580). Carried over by difference, the release
 would score the held-out parts about NN 0.95 and mAP 0.68: mAP is the target the nearest
 evidence falls short of. The re-rank is the step of the search order that lifts mAP without
-moving a first answer (the hub discount's first answer is kept, ``core.reciprocal``), and of
+moving a first answer (the hub discount's first answer is kept, ``core.rank.reciprocal``), and of
 its parameters the tenth session asked ``k1`` {5, 10, 20} and ``k2`` {1, 3} at ``lambda``
 0.3: ``k1`` 5 was the grid's lower edge, and ``lambda`` (how much the hub discount's order
 still counts beside the neighbourhoods' Jaccard distance) was never asked.
@@ -19,7 +19,7 @@ as the service orders; the reference is the service's (``k1`` 5, ``lambda`` 0.3)
 study's own keys must rebuild exactly or the run stops. Every candidate ranks ``ss11``'s
 rows as the service builds them (``evened_areas_rest_select.service_base``, ``Replacing``).
 Like every re-rank study before it, it re-ranks each source's whole set; the service
-re-ranks each query's ``4 k`` nearest, at least 40 (``core.reciprocal.reciprocal_depth``,
+re-ranks each query's ``4 k`` nearest, at least 40 (``core.rank.reciprocal.reciprocal_depth``,
 measured close to the whole set's by ``reciprocal_depth.py``). The rule
 (``evened_areas_select.close_study``): mean mAP over the eight sources, ties within 0.002 to
 the reference first, then the grid's order; leave-one-source-out with a paired bootstrap
@@ -39,7 +39,7 @@ against the reference. It ships only if
    the reference's by more than 0.002 and NN not below (0.950 on this machine).
 
 **Result** (2026-11-28, twenty-first session): adopted, ``lambda`` 0.1
-(``core.reciprocal.BLEND``). The reference rebuilt the service's order on every source. Seed
+(``core.rank.reciprocal.BLEND``). The reference rebuilt the service's order on every source. Seed
 0, mean of eight: the reference 0.8861, ``k1 5 lambda 0.1`` 0.8909, ``k1 7 lambda 0.1``
 0.8926 (within the tie of it, and later in the grid's order), every ``k1`` 3 candidate below
 0.877; a lower ``lambda`` is better at every ``k1``. The rule picks ``k1 5 lambda 0.1``
@@ -63,7 +63,7 @@ there. Disclosed: ``lambda`` 0.1 is the grid's lower edge; a second round was no
 **Round 2** (``--round 2``; written after round 1's table was seen, disclosed as such: round
 1's choice lies on its grid's lower edge of ``lambda``, and ``k1`` 7 had the best mean in
 sample): ``k1`` {5, 7, 10} x ``lambda`` {0.03, 0.05, 0.1}, the reference now the service's
-(``k1`` 5, ``lambda`` 0.1; the run stops unless it is ``core.reciprocal``'s defaults). The
+(``k1`` 5, ``lambda`` 0.1; the run stops unless it is ``core.rank.reciprocal``'s defaults). The
 same rule and tests 1-3 and 5 (BOSL2 against the release: mAP 0.7876, NN 0.950); test 4 on
 seed 9, an extraction no score has read (seed 8 was read by round 1's test 4).
 
@@ -77,7 +77,7 @@ seed 9, an extraction no score has read (seed 8 was read by round 1's test 4).
         --round 2 --confirm "CHOICE" --json /work/seed9/reciprocal_blend2.json
 
 **Result of round 2** (2026-11-28, twenty-first session): declined; ``lambda`` stays 0.1. The
-reference rebuilt ``core.reciprocal``'s defaults. Mean of eight: the reference 0.8909, ``k1 5
+reference rebuilt ``core.rank.reciprocal``'s defaults. Mean of eight: the reference 0.8909, ``k1 5
 lambda 0.03`` 0.8931 (the rule's choice), ``k1`` 7 0.8925-0.8926, ``k1`` 10 0.8870-0.8871. The
 gain in sample is MCAD's (0.824 -> 0.838); without MCAD the rule takes ``k1 7 lambda 0.03``,
 which scores MCAD 0.815: left out **-0.0006 (95 % -0.0023 .. +0.0011)**, test 1 fails (one
@@ -111,7 +111,7 @@ from hubness_select import hub_discounted  # noqa: E402
 from local_features_select import Source, Study, joined  # noqa: E402
 from profile_block_select import TIE, Replacing, score_distances, study_command  # noqa: E402
 
-from core.reciprocal import (  # noqa: E402
+from core.rank.reciprocal import (  # noqa: E402
     BLEND,
     EXPANSION,
     RECIPROCAL_NEIGHBOURS,
@@ -141,7 +141,7 @@ def order_of(neighbours: int, blend: float) -> Order:
     return keys
 
 
-#: The search service's order: ``core.reciprocal``'s ``k1`` and ``lambda``.
+#: The search service's order: ``core.rank.reciprocal``'s ``k1`` and ``lambda``.
 SERVICE_ORDER: Order = order_of(RECIPROCAL_NEIGHBOURS, BLEND)
 
 
@@ -158,7 +158,7 @@ def orders_of(round_: int) -> dict[str, Order]:
 
 def service_order(round_: int) -> Order:
     """The service's order when ``round_`` was asked: ``alignment_rerank_select.service_keys``
-    (``lambda`` 0.3, which every earlier study used) for round 1, ``core.reciprocal``'s
+    (``lambda`` 0.3, which every earlier study used) for round 1, ``core.rank.reciprocal``'s
     ``k1`` and ``lambda`` after."""
     return service_keys if round_ == 1 else SERVICE_ORDER
 

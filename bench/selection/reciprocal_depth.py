@@ -2,9 +2,9 @@
 
 The service cannot take every model's neighbourhood over the whole catalogue per query: it
 re-orders the plain nearest ``factor * k`` candidates that pass a query's filters, and
-``core.reciprocal.pool_keys`` takes each neighbourhood among the query and those candidates
+``core.rank.reciprocal.pool_keys`` takes each neighbourhood among the query and those candidates
 alone (the hub discount's keys of the candidates, from the index's kept radii, as its
-blended term). This measures how often that agrees with ``core.reciprocal.reciprocal_keys``
+blended term). This measures how often that agrees with ``core.rank.reciprocal.reciprocal_keys``
 over the whole catalogue, per ``factor`` in {4, 8, 16}, for ``k`` 10, each query leave-one-
 out, on the four third-party part sources as one catalogue (``mcad_check.py``'s: pymadcad,
 py-gearworks, bd-vslot and MCAD, 326 parts, one vocabulary fitted on the other sources).
@@ -22,7 +22,7 @@ the whole catalogue's for 47.2 % (factor 4), 61.0 % (8), 74.8 % (16) of the quer
 precision at 10 0.5546, 0.5595, 0.5632 against 0.5687 (the hub discount alone: 0.5387); NN
 0.8528, 0.8497, 0.8497 against 0.8497. No factor met the rule's words, and ``choose`` then
 returns the largest factor, a fallback its docstring did not state (disclosed). The service
-re-ranks the hub discount's own 4 per result, at least 40 (``core.reciprocal.RECIPROCAL_POOL``),
+re-ranks the hub discount's own 4 per result, at least 40 (``core.rank.reciprocal.RECIPROCAL_POOL``),
 chosen for cost afterwards: 16 per result cost 3.2x the discount's time per query at 10^5
 models (``bench/search_scale.py --reciprocal-pools 40 80 160``), 4 per result 1.4-1.6x.
 """
@@ -44,8 +44,8 @@ from hubness_select import hub_discounted, pooled_rows  # noqa: E402
 from local_features_select import load_study  # noqa: E402
 from mcad_check import CATALOGUE  # noqa: E402
 
-from core.hubness import HUB_NEIGHBOURS, hub_keys, neighbourhood_radii  # noqa: E402
-from core.reciprocal import pool_keys, reciprocal_keys, rescaled_rows  # noqa: E402
+from core.rank.hubness import HUB_NEIGHBOURS, hub_keys, neighbourhood_radii  # noqa: E402
+from core.rank.reciprocal import pool_keys, reciprocal_keys, rescaled_rows  # noqa: E402
 
 FACTORS = (4, 8, 16)
 RESULTS = 10

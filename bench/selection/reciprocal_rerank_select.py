@@ -69,8 +69,8 @@ from hub_measures_select import PLAIN, REFERENCE, Candidate, run_search_study  #
 from hubness_select import hub_discounted  # noqa: E402
 from profile_block_select import study_command  # noqa: E402
 
-from core.reciprocal import reciprocal_keys as core_reciprocal_keys  # noqa: E402
-from core.reciprocal import rescaled_rows  # noqa: E402
+from core.rank.reciprocal import reciprocal_keys as core_reciprocal_keys  # noqa: E402
+from core.rank.reciprocal import rescaled_rows  # noqa: E402
 
 FIRST = (5, 10, 20)
 EXPANSION = (1, 3)
@@ -88,10 +88,10 @@ def hub_term(rows: np.ndarray) -> np.ndarray:
 def reciprocal_keys(rows: np.ndarray, k1: int, k2: int, weight: float = LAMBDA,
                     term: np.ndarray | None = None) -> np.ndarray:
     """``(m, m)`` final distances (lower first) of k-reciprocal re-ranking of unit ``rows``
-    (``core.reciprocal.reciprocal_keys``, since the eleventh session: the loop this study
+    (``core.rank.reciprocal.reciprocal_keys``, since the eleventh session: the loop this study
     first ran, moved there and vectorised, gives the same keys to the last bit on random
     vectors); ``term``: the blended distance term in place of the scaled squared distance.
-    The re-rank as studied: without the first answer kept (``core.reciprocal.first_kept``,
+    The re-rank as studied: without the first answer kept (``core.rank.reciprocal.first_kept``,
     since the thirteenth session the service's step 5), so that every study re-runs as it
     ran."""
     return core_reciprocal_keys(rows, term, k1, k2, weight, keep_first=False)

@@ -56,7 +56,7 @@ mAP 0.676 -> 0.711; per extraction it fails test 4 on seeds 3 and 4, test 3 on s
 ``bendable`` family 0.0028 below the discount's): mean of eight 0.8459 -> 0.8668 (the
 re-rank 0.8670), one catalogue mAP 0.712 at the discount's NN 0.847, by kind NN 0.867 /
 mAP 0.640 -> 0.664, the ``bendable`` family 0.9509 -> 0.9534. It ships as
-``core.reciprocal.first_kept``.
+``core.rank.reciprocal.first_kept``.
 
 **Re-run on two more extractions** (seventeenth session; this reading committed before the
 run): the script unchanged on ``/work/seed5`` and ``/work/seed6`` (extracted for
@@ -98,7 +98,7 @@ from local_features_select import load_study  # noqa: E402
 from mcad_check import CANDIDATE, CATALOGUE, KEYS, NEW_SOURCE, NN_SLACK  # noqa: E402
 from positional_features_select import TIE  # noqa: E402
 
-from core.reciprocal import first_kept  # noqa: E402
+from core.rank.reciprocal import first_kept  # noqa: E402
 
 ORDERS = ("discount", "re-rank", "first kept")
 

@@ -2,7 +2,7 @@
 neighbours, not only from the scan's pool?
 
 Why: scan mode re-orders the 40 models nearest a scan by plain best entry: the first answer
-by scan mode's hub key, the rest in that answer's shape-mode order (``core.scan_order``).
+by scan mode's hub key, the rest in that answer's shape-mode order (``core.rank.scan_order``).
 A pool of 160 lifted single views (+0.0066 left out, ``scan_pool_select.py``) but cost 2.5x
 the search at 10^5 models, against 1.5x allowed: the pool's every entry is read and bounded.
 The gain came from models of the first answer's kind that the scan's plain distances put
@@ -16,7 +16,7 @@ the search service on saved descriptors, the scan's own model left out everywher
   at 40;
 - ``anchor 40``: the first answer as shipped; then the first answer's shape-mode answer
   (its 40 nearest models by plain distance of whole descriptors, the first answer and the
-  scan's model left out, ordered by ``core.reciprocal.pool_keys`` over their hub keys, as
+  scan's model left out, ordered by ``core.rank.reciprocal.pool_keys`` over their hub keys, as
   ``app.search.similarity._shape.hub_order`` orders a shape query by id); then the scan pool's
   others by the shipped order; then the rest by scan key;
 - ``union 40``: the first answer as shipped; then the scan pool's others joined with the
@@ -42,7 +42,7 @@ same candidate there with tests 1 to 4 passing; if it is not built, that is said
         --json /work/scanrev3/anchor_pool.json
 
 **Result** (2026-12-06, forty-first session; docs/results.md, "Scan mode's rest joined with
-its first answer's neighbours"): shipped as ``core.scan_order.ANCHOR_NEIGHBOURS`` = 120. On
+its first answer's neighbours"): shipped as ``core.rank.scan_order.ANCHOR_NEIGHBOURS`` = 120. On
 the third draw the rule chose ``union 120`` on the seven and without each (mean of seven
 0.7216 against 0.7090): left out +0.0126 (95 % +0.0071 .. +0.0188); merged scans 0.7562 ->
 0.7615, clean queries 0.8638 -> 0.8707, BOSL2 0.713 -> 0.720, the ``bendable`` family
@@ -79,9 +79,9 @@ from scan_hubs_select import (  # noqa: E402
 )
 
 from core.evaluation.scan_retrieval import best_entry_distances  # noqa: E402
-from core.hubness import HUB_NEIGHBOURS, hub_keys, neighbourhood_radii, scan_hub_keys  # noqa: E402
-from core.reciprocal import pool_keys  # noqa: E402
-from core.scan_order import SCAN_POOL  # noqa: E402
+from core.rank.hubness import HUB_NEIGHBOURS, hub_keys, neighbourhood_radii, scan_hub_keys  # noqa: E402
+from core.rank.reciprocal import pool_keys  # noqa: E402
+from core.rank.scan_order import SCAN_POOL  # noqa: E402
 
 SHIPPED = "pool 40"
 CANDIDATES = (SHIPPED, "anchor 40", "union 40", "union 120")

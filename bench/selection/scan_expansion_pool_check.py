@@ -6,7 +6,7 @@ models nearest by plain best entry (``app.search.similarity._scan.scan_matches``
 one of least key first and orders the rest of that pool by ``expansion_keys``. This emulates
 the service's order from each source's saved descriptors (pool 40, 80 and 160 by plain
 distance; beyond the pool, by key as in the study) and prints its mAP beside the study's
-(``core.hubness.scan_ranking`` at depth 40), with the share of queries whose first 10 are
+(``core.rank.hubness.scan_ranking`` at depth 40), with the share of queries whose first 10 are
 the same. ``scan_hubs_service_check.py`` checks the service itself against the emulation
 (first 10 identical at ``k`` 10: BOSL2 0.958, MCAD 0.852, bd-vslot 0.979, pymadcad 0.925,
 py-gearworks 0.971, as the emulation at pool 40 says).
@@ -14,7 +14,7 @@ py-gearworks 0.971, as the emulation at pool 40 says).
     .venv/bin/python bench/selection/scan_expansion_pool_check.py /work/scanrev
 
 Since the thirty-eighth session scan mode orders the rest of its pool as a shape query for
-the first answer (``core.scan_order``, ``scan_expansion_select.py --round 2``): the
+the first answer (``core.rank.scan_order``, ``scan_expansion_select.py --round 2``): the
 emulation and the study's order are that one; the sixteenth session's result below is of
 the expansion it replaced.
 
@@ -42,8 +42,8 @@ from scan_hubs_select import Catalogue, load_catalogue  # noqa: E402
 
 from core.evaluation.metrics import ranked_relevance, score_rankings  # noqa: E402
 from core.evaluation.scan_retrieval import best_entry_distances  # noqa: E402
-from core.hubness import HUB_NEIGHBOURS, neighbourhood_radii, scan_hub_keys  # noqa: E402
-from core.scan_order import scan_ranking  # noqa: E402
+from core.rank.hubness import HUB_NEIGHBOURS, neighbourhood_radii, scan_hub_keys  # noqa: E402
+from core.rank.scan_order import scan_ranking  # noqa: E402
 
 SOURCES = ("madcad", "gearworks", "vslot", "mcad", "generated", "bendable", "capod", "bosl2")
 STUDY_DEPTH = 40

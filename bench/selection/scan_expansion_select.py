@@ -16,7 +16,7 @@ fitted.
 Candidates, written before any score of them was seen (7):
 
 - ``shipped`` (the reference): scan mode as it ships, a model's key ``s`` the least
-  ``|q - e|^2 + 0.5 r(e)`` over its entries (``core.hubness.scan_hub_keys``, k 5);
+  ``|q - e|^2 + 0.5 r(e)`` over its entries (``core.rank.hubness.scan_hub_keys``, k 5);
 - ``m<m> w<w>``: among the pool the service re-orders (the ``D`` = 40 models of lowest
   ``s``: ``rerank_depth(10)``), the anchors are the ``m`` of lowest ``s``; each pool model
   ``p`` gets ``c(p)``, the mean over the anchors ``a`` of ``|x_p - x_a|^2`` (``x`` a model's
@@ -58,7 +58,7 @@ order the rest of a scan's answers"): the rule chose ``m1 w0.75`` on the seven a
 each of them; single-view scans left out +0.0731 (95 % +0.0561 .. +0.0910) against
 ``shipped`` (mean of seven 0.6106 -> 0.6837, every source up); merged scans 0.6957 ->
 0.7338, clean queries 0.8161 -> 0.8190; BOSL2 0.585 -> 0.670; the ``bendable`` family
-0.7522 -> 0.7918: all four tests pass, it ships (``core.hubness.scan_ranking``,
+0.7522 -> 0.7918: all four tests pass, it ships (``core.rank.hubness.scan_ranking``,
 ``SCAN_EXPANSION_WEIGHT``; the service's scan mode since). Disclosed: the grid's edge (one
 anchor, the largest weight). After the run the rule and tests moved into
 ``scan_hubs_select.rule_and_tests``, shared with the other two scan studies (their choices,
@@ -83,11 +83,11 @@ first answer ``a``) throughout; candidates, in the tie order (7):
 - ``plain w0.9``, ``plain w1``: the same nearness, more weight (at 1 the scan's own key
   no longer orders the rest of the pool);
 - ``hub w0.75``, ``hub w0.9``, ``hub w1``: ``c(p)`` the shape-mode hub key of ``p`` for
-  the query ``x_a``, ``|x_p - x_a|^2 + r_10(p)`` (``core.hubness.hub_keys``,
+  the query ``x_a``, ``|x_p - x_a|^2 + r_10(p)`` (``core.rank.hubness.hub_keys``,
   ``HUB_NEIGHBOURS`` 10, ``HUB_WEIGHT`` 1; ``r_10`` over the source's whole descriptors,
   the scanned model left out, as a shape query leaves itself out);
 - ``service w1``: the rest of the pool in the order the service gives the shape query
-  ``x_a`` among it (``core.reciprocal.pool_keys``: the k-reciprocal re-rank over the hub
+  ``x_a`` among it (``core.rank.reciprocal.pool_keys``: the k-reciprocal re-rank over the hub
   keys above, ``k1`` 5, ``k2`` 3, blend 0.1). Its keys are Jaccard distances, not in the
   scan key's units, so only weight 1 is asked.
 
@@ -111,7 +111,7 @@ queries 0.8421 -> 0.8647; BOSL2 0.696 -> 0.721; the ``bendable`` family 0.8203 -
 the four tests pass. The fifth, on the second draw (``/work/scanrev2``, this script
 unchanged): ``service w1`` again, +0.0118 (+0.0068 .. +0.0172), the four tests pass there
 (merged 0.7407 -> 0.7563, clean 0.8423 -> 0.8647, BOSL2 0.703 -> 0.720, family 0.8533 ->
-0.8774). Ships: ``core.scan_order``. Disclosed: after the first run the scanned model was
+0.8774). Ships: ``core.rank.scan_order``. Disclosed: after the first run the scanned model was
 left out of a pool larger than its source (capod's non-rigid classes, 30 models), whose
 vector had entered ``service w1``'s neighbourhoods; only the family figure moved (0.8315 ->
 0.8332).
@@ -140,8 +140,8 @@ from scan_hubs_select import (  # noqa: E402
     tabulate,
 )
 
-from core.hubness import HUB_NEIGHBOURS, hub_keys, neighbourhood_radii, scan_hub_keys  # noqa: E402
-from core.reciprocal import pool_keys  # noqa: E402
+from core.rank.hubness import HUB_NEIGHBOURS, hub_keys, neighbourhood_radii, scan_hub_keys  # noqa: E402
+from core.rank.reciprocal import pool_keys  # noqa: E402
 
 POOL = 40  # app.search.similarity: rerank_depth(10)
 ANCHORS = (1, 3)
@@ -207,7 +207,7 @@ def round_one_ranking(keys: np.ndarray, whole: np.ndarray) -> np.ndarray:
 def round_one_positions(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
                         left_out: np.ndarray, whole: np.ndarray) -> np.ndarray:
     """``round_one_ranking`` of each query (``(q, models)``) over a whole catalogue, its
-    ``left_out`` model (``core.hubness.scan_hub_keys``'s) last."""
+    ``left_out`` model (``core.rank.hubness.scan_hub_keys``'s) last."""
     keys = scan_hub_keys(queries, entries, owners, left_out)
     left_out = np.asarray(left_out)
     rows = np.flatnonzero(left_out >= 0)

@@ -77,7 +77,7 @@ from scan_hubs_select import (  # noqa: E402
     tabulate,
 )
 
-from core.hubness import rerank_depth, scan_hub_keys  # noqa: E402
+from core.rank.hubness import rerank_depth, scan_hub_keys  # noqa: E402
 
 SHIPPED = "shipped"
 NEIGHBOURS = (3, 5)

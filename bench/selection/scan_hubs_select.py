@@ -5,7 +5,7 @@ Why: single-view scans in scan mode miss the issue's aim (mAP >= 0.6) on three p
 and the fourteenth session saw why in shape mode: one part was the first answer of 28 of
 BOSL2's 120 single-view queries, a hub of partial views. Scan mode ranks a model by its best
 entry (the whole model or one of its 3 virtual views, ``app.search.similarity``) in plain
-distance order. The hub discount that orders shape mode (CSLS, ``core.hubness``) was measured
+distance order. The hub discount that orders shape mode (CSLS, ``core.rank.hubness``) was measured
 on whole-model queries only, and its radii, taken among whole models, did not carry over to
 scans (merged scans -0.012 mAP, docs/results.md). A partial view is a query from another
 domain: the radius that describes how near an entry lies to *scans* is its nearness to the
@@ -61,7 +61,7 @@ views"): the rule chose ``entries k5 b0.5`` on the seven and without each of the
 single-view scans left out +0.0057 (95 % +0.0016 .. +0.0097) against ``plain`` (mean of
 seven 0.5997 -> 0.6054); merged scans 0.6898 -> 0.6977, clean queries 0.8082 -> 0.8155;
 BOSL2 0.560 -> 0.569; the ``bendable`` family 0.7460 -> 0.7591: all four tests pass, it
-ships (``core.hubness.SCAN_HUB_NEIGHBOURS``, ``SCAN_HUB_WEIGHT``; the service's scan mode
+ships (``core.rank.hubness.SCAN_HUB_NEIGHBOURS``, ``SCAN_HUB_WEIGHT``; the service's scan mode
 since). Disclosed: the choice is the grid's corner (smallest ``k`` and ``beta``).
 """
 
@@ -85,7 +85,7 @@ from local_features_select import NON_RIGID_CAPOD  # noqa: E402
 from profile_block_select import TIE, Table, decide  # noqa: E402
 
 from core.evaluation.metrics import average_precision, ranked_relevance, score_rankings  # noqa: E402
-from core.hubness import scan_hub_keys  # noqa: E402
+from core.rank.hubness import scan_hub_keys  # noqa: E402
 
 RULE_SOURCES = ("madcad", "gearworks", "vslot", "mcad", "generated", "bendable", "capod")
 JUDGE = "bosl2"
@@ -167,7 +167,7 @@ def source_catalogue(root: Path, source: str, descriptor: str,
 def model_keys(catalogue: Catalogue, kind: str, pool: str | None, neighbours: int,
                beta: float) -> np.ndarray:
     """Ranking keys ``(q, models)``, lower first, for the ``kind`` queries: each model's
-    best entry, plain (``pool`` None) or discounted (``core.hubness.scan_hub_keys``, radii
+    best entry, plain (``pool`` None) or discounted (``core.rank.hubness.scan_hub_keys``, radii
     over the ``views`` or all ``entries`` of the other models, the query's own left out)."""
     queries = catalogue.queries[kind]
     if pool is None:

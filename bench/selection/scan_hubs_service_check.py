@@ -12,7 +12,7 @@ study's rows for the source.
 
 And how far the service's pool (the ``4 k`` nearest by best entry, ``rerank_depth``) is from
 the whole catalogue's order: for ``k`` 10, the share of queries whose first 10 are the
-whole catalogue's first 10 (``core.hubness.scan_hub_keys``) in the same order. Written
+whole catalogue's first 10 (``core.rank.hubness.scan_hub_keys``) in the same order. Written
 before it ran, as shape mode's depth was chosen: the depth is kept if the share is at least
 95 % on every source given, else the next factor (8) is measured.
 
@@ -24,7 +24,7 @@ five; first 10 as the whole catalogue's for 100 % of the queries (MCAD 87 of 88)
 depth stays ``4 k``.
 
 Since the sixteenth session scan mode also re-orders its pool after the first answer
-(``core.hubness.scan_ranking``, ``bench/selection/scan_expansion_select.py``): the first-10
+(``core.rank.hubness.scan_ranking``, ``bench/selection/scan_expansion_select.py``): the first-10
 column compares the service at ``k`` 10 with ``scan_ranking`` at depth ``rerank_depth(10)``,
 the study's order; the mAP column asks the service for the whole catalogue, whose pool is
 then the whole catalogue (the study's pool is 40), so it is not the study's figure.
@@ -33,7 +33,7 @@ Sixteenth session: first 10 as the study's order for BOSL2 0.958, MCAD 0.852, bd
 distance against key), at equal mAP (``scan_expansion_pool_check.py``); the depth stays.
 
 Since the thirty-eighth session the rest of the pool follows the first answer's shape-mode
-order (``core.scan_order``, ``scan_expansion_select.py --round 2``), and the pool is
+order (``core.rank.scan_order``, ``scan_expansion_select.py --round 2``), and the pool is
 ``reciprocal_depth(k)`` (at least 40) as in shape mode; the service is asked with its
 default k-reciprocal re-rank on. Thirty-eighth session (``/work/scanrev``): first 10 as the
 study's order for BOSL2 0.808, MCAD 0.648, bd-vslot 0.958, pymadcad 0.517, py-gearworks
@@ -62,9 +62,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from scan_hubs_select import load_catalogue  # noqa: E402
 
 from core.evaluation.metrics import average_precision  # noqa: E402
-from core.hubness import HUB_NEIGHBOURS, neighbourhood_radii, scan_hub_keys  # noqa: E402
-from core.reciprocal import reciprocal_depth  # noqa: E402
-from core.scan_order import scan_ranking  # noqa: E402
+from core.rank.hubness import HUB_NEIGHBOURS, neighbourhood_radii, scan_hub_keys  # noqa: E402
+from core.rank.reciprocal import reciprocal_depth  # noqa: E402
+from core.rank.scan_order import scan_ranking  # noqa: E402
 
 KEY = ("default", "check")
 
@@ -127,7 +127,7 @@ def check(folder: Path) -> dict[str, tuple[float, float]]:
             keys = all_keys[row].copy()
             keys[model] = np.inf
             # The study's order for 10 results (since the thirty-eighth session the rest
-            # after the first answer in that answer's shape-mode order, core.scan_order).
+            # after the first answer in that answer's shape-mode order, core.rank.scan_order).
             positions = scan_ranking(keys, whole, reciprocal_depth(10), radii[row])
             expected = [index_ids[m] for m in np.lexsort((np.arange(len(keys)), positions))[:10]]
             with engine.connect() as connection:

@@ -2,8 +2,8 @@
 
 Why: since the thirty-eighth session scan mode places its first answer by the hub key among
 the ``max(4 k, 40)`` models nearest by plain best entry and orders the rest of that pool as
-a shape query for the first answer (``core.scan_order``, ``scan_expansion_select.py
---round 2``). The pool's size 40 was shape mode's (``core.reciprocal.RECIPROCAL_POOL``,
+a shape query for the first answer (``core.rank.scan_order``, ``scan_expansion_select.py
+--round 2``). The pool's size 40 was shape mode's (``core.rank.reciprocal.RECIPROCAL_POOL``,
 chosen there for cost), never asked for scans. ``scan_expansion_pool_check.py`` on that
 session's first draw (``/work/scanrev``) emulated the service at pools 40, 80 and 160 and
 showed higher mAP at 80 on four sources (py-gearworks +0.037, BOSL2 +0.023, capod +0.020,
@@ -39,7 +39,7 @@ The first draw (seen) chose ``pool 80``, +0.0114 (+0.0062 .. +0.0174). Test 5 fa
 ``nice -n 10 .venv/bin/python bench/scan_search.py --models 100000 --queries 100 --cold
 --scan-pools 40 80 160`` (2-core Intel Xeon, load 1.0) gives medians 43.0 ms at pool 40,
 76.4 ms at 80 (1.78x) and 159.3 ms at 160 (3.70x), against the 1.5x allowed. The pool stays
-40 (``core.scan_order.SCAN_POOL``). Asked again in the thirty-ninth session, once scan mode
+40 (``core.rank.scan_order.SCAN_POOL``). Asked again in the thirty-ninth session, once scan mode
 ordered its pool from the index's vectors (``--scan-pools 40 160``, load 1.0): 30.3 ms at 40,
 76.5 ms at 160 (2.52x): declined again.
 """
@@ -70,7 +70,7 @@ from scan_hubs_select import (  # noqa: E402
 )
 
 from core.evaluation.scan_retrieval import best_entry_distances  # noqa: E402
-from core.hubness import HUB_NEIGHBOURS, neighbourhood_radii, scan_hub_keys  # noqa: E402
+from core.rank.hubness import HUB_NEIGHBOURS, neighbourhood_radii, scan_hub_keys  # noqa: E402
 
 DEPTHS = (40, 80, 160)
 SHIPPED = "pool 40"

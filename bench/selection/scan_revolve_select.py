@@ -18,7 +18,7 @@ axis, before any retrieval score.
 Candidates, written before any score of them was seen (7):
 
 - ``shipped`` (the reference): scan mode as it ships, a model's key the least
-  ``|q - e|^2 + 0.5 r(e)`` over its entries (``core.hubness.scan_hub_keys``, k 5);
+  ``|q - e|^2 + 0.5 r(e)`` over its entries (``core.rank.hubness.scan_hub_keys``, k 5);
 - ``<combine> a<gate>``: a query whose scan agrees with its fitted axis at least ``gate``
   (``core.evaluation.revolution.Axis.agreement``, the share of side points whose normal
   meets the axis) is also described completed; its key per model is the least of the raw
@@ -110,7 +110,7 @@ from core.evaluation.metrics import average_precision, ranked_relevance, score_r
 from core.evaluation.revolution import fit_axis  # noqa: E402
 from core.evaluation.runner import _sample_points, sampling_of  # noqa: E402
 from core.evaluation.scan_retrieval import ROTATION_SEED  # noqa: E402
-from core.hubness import scan_hub_keys  # noqa: E402
+from core.rank.hubness import scan_hub_keys  # noqa: E402
 from core.settings import EngineSettings  # noqa: E402
 
 #: Query kind -> its completed kind, and the kind whose points are completed.

@@ -13,7 +13,7 @@ with the service's default engine settings; for every pair within a source the A
 Prints quantiles per group and, for candidate thresholds, the share of each group at or
 above them: the figures behind the README's ``min_score`` guidance. With ``--write`` it stores
 the quantiles of the different-kind scores as the default descriptor's calibration
-(``core/data/score-calibration.json``, read by ``core.score_calibration``) and prints how the
+(``core/data/score-calibration.json``, read by ``core.rank.score_calibration``) and prints how the
 calibrated score separates the three groups::
 
     .venv/bin/python bench/selection/score_calibration.py /work/tuning \\
@@ -36,7 +36,7 @@ import numpy as np  # noqa: E402
 from core.descriptor import DescriptorSpec  # noqa: E402
 from core.errors import InvalidShapeError  # noqa: E402
 from core.pipeline import describe  # noqa: E402
-from core.score_calibration import CALIBRATION_FILE, ScoreCalibration, layout_of  # noqa: E402
+from core.rank.score_calibration import CALIBRATION_FILE, ScoreCalibration, layout_of  # noqa: E402
 from core.settings import EngineSettings  # noqa: E402
 
 THRESHOLDS = (0.95, 0.97, 0.975, 0.98, 0.99, 0.995)

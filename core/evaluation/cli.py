@@ -49,19 +49,19 @@ from core.evaluation.runner import (
 from core.evaluation.scan_retrieval import best_entry_distances
 from core.evaluation.scans import view_kind
 from core.evaluation.variants import SCAN_VARIANTS, resolve_variants
-from core.hubness import (
+from core.rank.hubness import (
     HUB_NEIGHBOURS,
     HUB_WEIGHT,
     hub_discounted_keys,
 )
-from core.reciprocal import (
+from core.rank.reciprocal import (
     BLEND,
     EXPANSION,
     RECIPROCAL_NEIGHBOURS,
     reciprocal_keys,
     rescaled_rows,
 )
-from core.scan_order import scan_mode_positions
+from core.rank.scan_order import scan_mode_positions
 from core.settings import EngineSettings
 
 __all__ = ["evaluate", "run"]
@@ -139,7 +139,7 @@ def _ranking_inputs(
     service's keys), the query and database labels and the excluded pairs (a query's own
     model). With ``hub_neighbours``, ``clean`` queries (the database itself) rank as the
     service does, by the hub discount re-ranked k-reciprocally over the whole catalogue, the
-    discount's first answer kept first (``core.reciprocal``); scans by the hub discount
+    discount's first answer kept first (``core.rank.reciprocal``); scans by the hub discount
     alone (a scan is no member of the catalogue whose neighbourhoods the re-rank compares:
     said by ``clean``, since a scan is named after its model)."""
     names = sorted(database)
@@ -169,7 +169,7 @@ def score_variant(
 
     A query is left out of the database under its own model name (itself for clean queries,
     its source model for scans). ``hub_neighbours`` above 0 ranks with the hub discount
-    (``core.hubness``, that ``k`` and the chosen weight), the left-out model counted in no
+    (``core.rank.hubness``, that ``k`` and the chosen weight), the left-out model counted in no
     candidate's neighbourhood; ``clean`` queries (the database itself) are then re-ranked
     k-reciprocally as the service's shape mode does, scans are not.
     """
@@ -193,7 +193,7 @@ def score_scan_mode(
     model of ``database`` is an entry whole and one per ``views`` (its virtual views that
     could be described); a scan ranks the models as the service answers 10 results, the hub
     discount among entries for the first answer and that answer's shape-mode order for the
-    rest (``core.scan_order.scan_ranking``), or (``discounted`` False) by best entry."""
+    rest (``core.rank.scan_order.scan_ranking``), or (``discounted`` False) by best entry."""
     names = sorted(database)
     index = {name: position for position, name in enumerate(names)}
     rows, owners = [], []
@@ -347,7 +347,7 @@ def evaluate(
     ``hub_neighbours`` is above 0, by best entry otherwise).
 
     ``hub_neighbours`` above 0 also scores every ranking with the hub discount
-    (``core.hubness``), under each variant's ``hub`` entry: the order the search service
+    (``core.rank.hubness``), under each variant's ``hub`` entry: the order the search service
     gives shape-mode answers (``app.search.similarity``; the same as long as a query's
     ``k`` is at least a quarter of the catalogue, else its re-rank of the plain nearest
     ``4 k`` agreed with this for most queries: bench/selection/hubness_select.py).
@@ -474,7 +474,7 @@ def _plots(record: dict[str, Any], out: Path) -> list[str]:
 
 def hub_neighbours_for(asked: int | None, models: int) -> int:
     """``--hub-discount``'s ``K``: as asked, or when not asked the service's default
-    (``core.hubness.HUB_NEIGHBOURS``) for a set of at least 3 models, else 0 (none)."""
+    (``core.rank.hubness.HUB_NEIGHBOURS``) for a set of at least 3 models, else 0 (none)."""
     if asked is not None:
         return asked
     return HUB_NEIGHBOURS if models >= 3 else 0

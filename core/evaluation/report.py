@@ -67,7 +67,7 @@ def variant_table(variants: dict[str, dict[str, Any]], key: str = "clean") -> st
 
 
 def hub_table(record: dict[str, Any]) -> str:
-    """Every scoring with the hub discount (``core.hubness``) beside the plain one."""
+    """Every scoring with the hub discount (``core.rank.hubness``) beside the plain one."""
     hub = record["hub_discount"]
     again = hub.get("reciprocal")
     lines = [

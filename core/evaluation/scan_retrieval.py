@@ -20,7 +20,7 @@ cache (``runner.describe_sampling``), so a rerun only computes what is new::
 writes ``OUT/scan_retrieval.json`` and prints a Markdown table. Catalogues with views are
 scored twice: by best entry (``views<n>``) and in the search service's scan-mode order for
 10 results, the hub discount among entries for the first answer, that answer's shape-mode
-order for the rest (``views<n>+hub``, ``core.scan_order.scan_ranking``).
+order for the rest (``views<n>+hub``, ``core.rank.scan_order.scan_ranking``).
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ from core.evaluation.variants import (
     SS11_DESCRIPTOR,
 )
 from core.pipeline import descriptor_from_eigenpairs
-from core.scan_order import scan_mode_positions
+from core.rank.scan_order import scan_mode_positions
 from core.settings import DESCRIPTOR_FAMILIES, DescriptorSettings, EngineSettings
 from core.views import boundary_weights
 
@@ -196,7 +196,7 @@ def _scores(
 ) -> dict[str, float]:
     """Leave-one-out scores of ``queries`` against ``catalogue`` (each model's entries) by
     best entry, plain or (``hub``) in the search service's scan-mode order
-    (``core.scan_order.scan_ranking``)."""
+    (``core.rank.scan_order.scan_ranking``)."""
     names = sorted(catalogue)
     query_names = sorted(queries)
     entries, owners = [], []

@@ -42,7 +42,7 @@ no descriptor from the database.
 
 ``neighbour_graph`` gives every vector of a partition its k most alike others at once (the
 duplicates report, ``app.search.duplicates``), ``neighbourhood_radii`` a few vectors' mean
-cosine to theirs (the hub discount similar queries are ordered by, ``core.hubness``); an
+cosine to theirs (the hub discount similar queries are ordered by, ``core.rank.hubness``); an
 index built with ``only`` holds one partition and no views, which is what a duplicates job
 loads.
 
@@ -96,7 +96,7 @@ from app.search.index._view_ids import (
     views_array,
     views_key,
 )
-from core.hubness import HUB_NEIGHBOURS
+from core.rank.hubness import HUB_NEIGHBOURS
 from core.settings import MAX_VIEWS
 
 log = logging.getLogger("shapesearch.index")
@@ -151,12 +151,12 @@ class ShapeIndex:
         Principal components an IVF partition's codes hold instead of every dimension
         (``_projection``); 0, the default: every dimension.
     hub_neighbours : int
-        ``k`` of the hub discount that similar queries rank by (``core.hubness``,
+        ``k`` of the hub discount that similar queries rank by (``core.rank.hubness``,
         ``neighbourhood_radii``); 0: plain distance order, in scan mode too (whose discount
-        has its own ``k``, ``core.hubness.SCAN_HUB_NEIGHBOURS``).
+        has its own ``k``, ``core.rank.hubness.SCAN_HUB_NEIGHBOURS``).
     reciprocal : bool
         With ``hub_neighbours`` above 0: similar queries re-rank the hub discount's order
-        k-reciprocally (``core.reciprocal``). The service's default is on
+        k-reciprocally (``core.rank.reciprocal``). The service's default is on
         (``SHAPESEARCH_SEARCH_RECIPROCAL``); off here, so that a bare index ranks by the
         discount alone.
     cache_dir : Path, optional

@@ -1,6 +1,6 @@
 """Scan mode's entry neighbours: each catalogue entry's most alike other models, kept.
 
-Scan mode's hub discount (``core.hubness.model_radii``) needs, for each candidate entry (a
+Scan mode's hub discount (``core.rank.hubness.model_radii``) needs, for each candidate entry (a
 model's whole descriptor or one of its virtual views), the other models most alike it: its
 largest cosine to each model's entries. One search per partition (the models' and their
 views'), batched over the entries asked, finds them; ``nearest_models`` reduces the hits to
@@ -20,7 +20,7 @@ from collections.abc import Hashable, Sequence
 
 import numpy as np
 
-from core.hubness import SCAN_HUB_NEIGHBOURS
+from core.rank.hubness import SCAN_HUB_NEIGHBOURS
 
 __all__ = ["CAPACITY", "KEPT_MODELS", "KeptEntryNeighbours", "nearest_models"]
 

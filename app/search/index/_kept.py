@@ -1,6 +1,6 @@
 """The hub-discount neighbourhoods a partition keeps, and what a change makes them forget.
 
-A similar query orders its candidates by ``d^2 + r_k`` (``core.hubness``), ``r_k`` a
+A similar query orders its candidates by ``d^2 + r_k`` (``core.rank.hubness``), ``r_k`` a
 candidate's mean cosine to its ``k`` most alike other models of the partition. Computing
 ``r_k`` costs a search per candidate (~1 ms at 10^5 models), so each partition keeps every
 neighbourhood it computed (``_neighbours``: the background pass, or a query's own

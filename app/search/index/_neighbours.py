@@ -20,7 +20,7 @@ only the choice of pairs compared is approximate. Memory: one block of vectors a
 block of products at a time (tens of MB at 10^5), never n x n.
 
 ``neighbourhood_radii`` gives a few vectors' ``r_k``, the mean cosine to their ``k`` most
-alike others (``core.hubness``: the hub discount a similar query is ordered by), from the
+alike others (``core.rank.hubness``: the hub discount a similar query is ordered by), from the
 neighbourhoods the partition keeps (``_kept``) or one batched search for those it does not;
 its cosines are exact too (an IVF partition's are recomputed from the full vectors), its
 neighbours those the partition's own search finds. ``keep_neighbourhoods`` computes every

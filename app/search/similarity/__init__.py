@@ -38,22 +38,22 @@ are searched for more and more candidates until ``k`` of them are certain: no mo
 seen can be nearer than the last hit of a partition not exhausted.
 
 Order: shape mode ranks with a hub discount (cross-domain similarity local scaling,
-``core.hubness``): the ``4 k`` nearest candidates are re-ordered by ``d^2 + r_k``, ``r_k`` a
+``core.rank.hubness``): the ``4 k`` nearest candidates are re-ordered by ``d^2 + r_k``, ``r_k`` a
 candidate's mean cosine to its 10 most alike other models of the partition (the index's
 ``neighbourhood_radii``), so a part near everything comes a little later and the rest of
 the query's kind earlier (+0.01 mAP left out over seven tuning sources; docs/results.md).
 Then, without a size term, those candidates are re-ranked k-reciprocally among themselves
-(``core.reciprocal.pool_keys``: a candidate whose own nearest hold the query comes earlier;
+(``core.rank.reciprocal.pool_keys``: a candidate whose own nearest hold the query comes earlier;
 +0.04 mAP on a tuning source that no setting had seen), the hub discount's first answer
 kept first (the re-rank alone moved right first answers down). A candidate with the query's
 own descriptor stays first. ``distance`` and ``score`` stay plain (``min_score``, the
 calibration and the duplicates report keep their meaning). Scan mode has a discount of its
-own (``core.hubness.model_radii``): of the ``core.scan_order.scan_depth(k)`` (``max(4 k,
+own (``core.rank.hubness.model_radii``): of the ``core.rank.scan_order.scan_depth(k)`` (``max(4 k,
 40)``) nearest models by best entry, the one whose best entry has the least ``d^2 + 0.5 r``,
 ``r`` the entry's mean best cosine to the 5 other models most alike it, comes first (+0.006 mAP
 of single-view scans left out over seven sources); the others, joined with the
-``core.scan_order.ANCHOR_NEIGHBOURS`` (120) models nearest that first answer's whole
-descriptor, follow in the order a shape query for it gives them (``core.scan_order``: a
+``core.rank.scan_order.ANCHOR_NEIGHBOURS`` (120) models nearest that first answer's whole
+descriptor, follow in the order a shape query for it gives them (``core.rank.scan_order``: a
 partial scan is far from every whole model, whole models find their kind well; +0.015 mAP
 of single-view scans left out over seven sources against the blend it replaced, itself
 +0.073 over the discount alone; the joined neighbours a further +0.013). An entry's
@@ -141,8 +141,8 @@ def find_similar(
 
     Shape mode orders its answer with the index's hub discount (``index.hub_neighbours``
     above 0): the ``rerank_depth(k)`` nearest candidates that pass, re-ordered by
-    ``core.hubness.hub_keys`` and, with ``index.reciprocal`` and no size term, re-ranked
-    k-reciprocally among the ``reciprocal_depth(k)`` nearest (``core.reciprocal``), the
+    ``core.rank.hubness.hub_keys`` and, with ``index.reciprocal`` and no size term, re-ranked
+    k-reciprocally among the ``reciprocal_depth(k)`` nearest (``core.rank.reciprocal``), the
     first ``k`` returned; ``distance`` and ``score`` stay the plain ones, so scores need not
     fall along the answer.
     """

@@ -21,8 +21,8 @@ from app.search.similarity._rows import (
     score_of,
 )
 from app.search.similarity._shape import exact_distances, hub_order
-from core import scan_order
-from core.hubness import (
+from core.rank import scan_order
+from core.rank.hubness import (
     SAME_DESCRIPTOR,
     SCAN_HUB_NEIGHBOURS,
     SCAN_HUB_WEIGHT,
@@ -236,7 +236,7 @@ def _nearest_wholes(index: ShapeIndex, key: PartitionKey, anchor: np.ndarray,
                     skip: set[int | None], allowed: list[int] | None, screen: bool
                     ) -> list[int]:
     """The models of partition ``key`` nearest ``anchor`` (a model's whole descriptor),
-    nearest first, up to ``core.scan_order.ANCHOR_NEIGHBOURS`` of them (four times as many
+    nearest first, up to ``core.rank.scan_order.ANCHOR_NEIGHBOURS`` of them (four times as many
     with ``screen``, for the filters to pick from), without ``skip``; among ``allowed``
     when given. By the index's own distances: a compressed partition's estimates, not
     re-ranked (which would read twice the vectors): who joins at the edge matters little,
@@ -311,9 +311,9 @@ def _scan_hub_order(
     join: Callable[[int], dict[int, np.ndarray]],
 ) -> list[int]:
     """``ids`` (the pool, nearest by best entry first) in scan mode's order
-    (``core.scan_order``), from their ``entries`` (``(1 + v, d) float32``, the model's
+    (``core.rank.scan_order``), from their ``entries`` (``(1 + v, d) float32``, the model's
     descriptor first, its views in order after it); the first alone for ``k`` 1: first
-    the model of least hub key (``core.hubness.model_radii``: a model's key is the least
+    the model of least hub key (``core.rank.hubness.model_radii``: a model's key is the least
     ``|q - e|^2 + SCAN_HUB_WEIGHT r(e)`` over its entries ``e``, ``r(e)`` the mean over the
     ``SCAN_HUB_NEIGHBOURS`` other models most alike ``e`` (not the query model ``exclude``)
     of ``e``'s largest cosine to their entries), then the others joined with the first

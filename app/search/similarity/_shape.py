@@ -18,8 +18,8 @@ from app.search.similarity._rows import (
     score_of,
     without_query,
 )
-from core.hubness import hub_keys, rerank_depth
-from core.reciprocal import pool_keys, reciprocal_depth
+from core.rank.hubness import hub_keys, rerank_depth
+from core.rank.reciprocal import pool_keys, reciprocal_depth
 
 
 def shape_matches(
@@ -159,7 +159,7 @@ def hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: l
               query: np.ndarray | None = None,
               read: dict[int, np.ndarray] | None = None) -> list[int]:
     """``ids`` (nearest first, at plain ``distances``, or combined ones with a size term) in
-    the order of the hub discount (``core.hubness.hub_keys``), the query model ``exclude``
+    the order of the hub discount (``core.rank.hubness.hub_keys``), the query model ``exclude``
     in no neighbourhood (``query_is_excluded``: the query vector is its own and the
     distances plain, so its cosines are known); ties in upload order. An id the index
     dropped since it was found (deleted a moment ago) takes the largest radius among the
@@ -181,7 +181,7 @@ def hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: l
 
 def reciprocal_keys(index: ShapeIndex, key: PartitionKey, ids: list[int], hub: np.ndarray,
                     query: np.ndarray, read: dict[int, np.ndarray]) -> np.ndarray:
-    """``core.reciprocal.pool_keys`` of ``ids`` for ``query`` (their ``hub`` keys as its
+    """``core.rank.reciprocal.pool_keys`` of ``ids`` for ``query`` (their ``hub`` keys as its
     blended term), from the vectors the index holds (those in ``read`` already read); an
     id it dropped since it was found comes after the others. ``hub`` itself when fewer than
     two are held."""

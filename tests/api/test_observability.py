@@ -1,0 +1,279 @@
+"""GET /metrics (Prometheus text), X-Request-ID, JSON log lines with request and job ids,
+and keys that never reach a log."""
+
+from __future__ import annotations
+
+import errno
+import io
+import json
+import logging
+import re
+import threading
+import time
+from collections.abc import Iterator
+from datetime import timedelta
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+from prometheus_client import generate_latest
+from prometheus_client.parser import text_string_to_metric_families
+from sqlalchemy import create_engine, select, update
+from sqlalchemy.orm import Session, sessionmaker
+
+from app.api.main import create_app
+from app.auth.keys import create_key
+from app.db.models import Model, Webhook, WebhookDelivery, utcnow
+from app.db.session import make_session_factory
+from app.jobs.queue import JobQueue
+from app.jobs.worker import Worker
+from app.observability.logs import Outage, configure_logging
+from app.observability.metrics import (
+    IndexCollector,
+    QueueCollector,
+    metrics_registry,
+    observe_index,
+)
+from app.webhooks import Deliverer, record_model_event
+from tests.conftest import PARTS, fake_describe, make_settings, wait_for_status
+
+ROOT = Path(__file__).parents[2]
+CUBE = (PARTS / "20mm-xyz-cube.stl").read_bytes()
+LOOPBACK = ("127.0.0.1", 50000)
+
+
+@pytest.fixture
+def json_logs() -> Iterator[io.StringIO]:
+    """JSON logging into the returned stream for the test (restored after it)."""
+    root = logging.getLogger()
+    handlers, level = root.handlers[:], root.level
+    stream = io.StringIO()
+    configure_logging(stream=stream)
+    yield stream
+    root.handlers[:] = handlers
+    root.setLevel(level)
+    logging.getLogger("uvicorn.access").disabled = False
+
+
+def samples(text: str) -> dict[tuple[str, tuple[tuple[str, str], ...]], float]:
+    return {
+        (sample.name, tuple(sorted(sample.labels.items()))): sample.value
+        for family in text_string_to_metric_families(text)
+        for sample in family.samples
+    }
+
+
+def log_lines(text: str) -> list[dict]:
+    return [json.loads(line) for line in text.splitlines() if line.startswith("{")]
+
+
+def test_metrics_count_requests_jobs_describes_and_the_index(database_url: str) -> None:
+    app = create_app(make_settings(database_url), embedded_worker=True, job_handler=fake_describe)
+    with TestClient(app, client=LOOPBACK) as client:
+        before = samples(client.get("/metrics").text)
+        model = client.post(
+            "/v1/models", files={"file": ("cube.stl", CUBE, "application/octet-stream")}
+        ).json()
+        wait_for_status(client, model["id"], ("ready",))
+        client.get("/v1/models/not-a-model")
+        response = client.get("/metrics")
+    assert response.status_code == 200
+    assert response.headers["content-type"].startswith("text/plain")
+    after = samples(response.text)
+
+    def grew(name: str, **labels: str) -> float:
+        key = (name, tuple(sorted(labels.items())))
+        return after.get(key, 0.0) - before.get(key, 0.0)
+
+    assert grew(
+        "shapesearch_http_requests_total", method="GET", route="/v1/models/{model_id}",
+        status="404",
+    ) == 1
+    assert grew(
+        "shapesearch_http_requests_total", method="POST", route="/v1/models", status="202"
+    ) == 1
+    assert grew(
+        "shapesearch_http_request_duration_seconds_count", method="POST", route="/v1/models"
+    ) == 1
+    assert grew("shapesearch_describe_seconds_count", stage="total") == 1
+    assert grew("shapesearch_solver_calls_total") == 2  # fake_describe: 2 solver calls
+    assert grew("shapesearch_cutoff_n_count") == 1
+    assert after[("shapesearch_jobs", (("status", "done"),))] == 1
+    assert after[("shapesearch_queue_depth", ())] == 0
+    assert after[("shapesearch_queue_oldest_age_seconds", ())] == 0
+    partition = (("descriptor_version", "fake-1"), ("tenant", "default"))
+    assert after[("shapesearch_index_partition_models", partition)] == 1
+    assert after[("shapesearch_index_models", ())] == 1
+    # One model: too few to keep neighbourhoods of, so none is missing.
+    assert after[("shapesearch_index_neighbourhoods_kept_ratio", ())] == 1
+
+
+def test_metrics_answer_loopback_clients_only(database_url: str) -> None:
+    app = create_app(make_settings(database_url))
+    with TestClient(app, client=("203.0.113.9", 50000)) as client:
+        refused = client.get("/metrics")
+    assert refused.status_code == 403
+    assert refused.json()["type"] == "urn:shapesearch:problem:forbidden"
+    opened = create_app(make_settings(database_url, metrics_from_anywhere=True))
+    with TestClient(opened, client=("203.0.113.9", 50000)) as client:
+        assert client.get("/metrics").status_code == 200
+
+
+def test_request_ids_are_returned_and_on_every_log_line(
+    database_url: str, json_logs: io.StringIO
+) -> None:
+    app = create_app(make_settings(database_url))
+    secret = None
+    with TestClient(app, raise_server_exceptions=False) as client:
+        with make_session_factory(app.state.services.engine)() as session:
+            secret = create_key(session, "acme")
+            session.commit()
+        given = client.get("/v1/models", headers={"X-Request-ID": "trace-42"})
+        made = client.get(
+            "/v1/models", headers={"Authorization": f"Bearer {secret}", "X-Request-ID": "a b"}
+        )
+    assert given.headers["x-request-id"] == "trace-42"
+    assert made.headers["x-request-id"] != "a b" and len(made.headers["x-request-id"]) == 32
+    output = json_logs.getvalue()
+    assert secret not in output
+    access = [line for line in log_lines(output) if line.get("logger") == "shapesearch.access"]
+    assert {line["request_id"] for line in access} >= {"trace-42", made.headers["x-request-id"]}
+    for line in access:
+        assert line["message"] == "request" and line["route"] == "/v1/models"
+        assert {"time", "level", "status", "duration_ms", "method"} <= set(line)
+
+
+def test_every_worker_line_carries_the_job_id(
+    database_url: str, json_logs: io.StringIO
+) -> None:
+    def refuse(content: bytes, filename: str) -> dict:
+        from core.errors import InvalidShapeError
+
+        raise InvalidShapeError("degenerate", "all points on a line")
+
+    app = create_app(make_settings(database_url), embedded_worker=True, job_handler=refuse)
+    with TestClient(app) as client:
+        model = client.post(
+            "/v1/models", files={"file": ("cube.stl", CUBE, "application/octet-stream")}
+        ).json()
+        wait_for_status(client, model["id"], ("failed",))
+    lines = log_lines(json_logs.getvalue())
+    about_jobs = [
+        line for line in lines
+        if line["logger"] == "shapesearch.worker" and line["message"].startswith("job ")
+    ]
+    assert about_jobs, lines
+    assert all("job_id" in line for line in about_jobs)
+    assert all(line["message"].startswith(f"job {line['job_id']}") for line in about_jobs)
+
+
+def test_the_grafana_dashboard_asks_for_metrics_that_exist(
+    sessions: sessionmaker[Session],
+) -> None:
+    """Every series of docs/grafana-dashboard.json is one that /metrics or a worker exports
+    (a renamed metric would leave a panel silently empty)."""
+    dashboard = json.loads((ROOT / "docs" / "grafana-dashboard.json").read_text())
+    expressions = [
+        target["expr"] for panel in dashboard["panels"] for target in panel.get("targets", [])
+    ]
+    asked = {
+        re.sub(r"_(bucket|count|sum|total)$", "", name)
+        for expr in expressions
+        for name in re.findall(r"\bshapesearch_[a-z_]+", expr)
+    }
+    observe_index(0, 1.0)  # the index gauges exist in API processes only
+    registry = metrics_registry(QueueCollector(sessions), IndexCollector(sessions))
+    exported = {family.name for family in registry.collect()}
+    assert asked and asked <= exported, asked - exported
+    assert len(dashboard["panels"]) == len({panel["id"] for panel in dashboard["panels"]})
+
+
+def test_the_webhook_outbox_is_exported_by_status_with_its_oldest_age(
+    sessions: sessionmaker[Session],
+) -> None:
+    """A backlog behind an endpoint that is down shows as pending deliveries and as the age
+    of the oldest one, on every process's scrape (read from the database)."""
+    an_hour_ago = utcnow() - timedelta(hours=1)
+    with sessions.begin() as session:
+        model = Model(tenant="t", meta={}, status="ready", file_name="a.stl", file_size=1,
+                      file_sha256="0" * 64, file_format="stl")
+        session.add_all([model, Webhook(tenant="t", url="https://plm.example/hook",
+                                        events=["model.ready"], secret="whsec_x")])
+        session.flush()
+        for _ in range(4):
+            record_model_event(session, model.id, "model.ready")
+        session.execute(update(WebhookDelivery).values(created_at=an_hour_ago))
+    deliverer = Deliverer(sessions, worker_id="m", allow_private=False, timeout=5,
+                          max_attempts=3, backoff_base=60, backoff_cap=60, lease_seconds=60)
+    try:
+        assert deliverer.claim() is not None  # one is being sent
+    finally:
+        deliverer.close()
+
+    def exported() -> dict[tuple[str, tuple[tuple[str, str], ...]], float]:
+        return samples(generate_latest(metrics_registry(QueueCollector(sessions))).decode())
+
+    def by_status(scraped: dict[tuple[str, tuple[tuple[str, str], ...]], float]) -> list[float]:
+        return [scraped[("shapesearch_webhook_deliveries", (("status", status),))]
+                for status in ("pending", "sending", "delivered", "failed")]
+
+    first = exported()
+    assert by_status(first) == [3, 1, 0, 0]
+    assert first[("shapesearch_webhook_oldest_undelivered_age_seconds", ())] >= 3600
+    with sessions.begin() as session:  # settled: two delivered, one failed for good
+        ids = session.scalars(select(WebhookDelivery.id).order_by(WebhookDelivery.turn)).all()
+        session.execute(update(WebhookDelivery).where(WebhookDelivery.id.in_(ids[:2]))
+                        .values(status="delivered"))
+        session.execute(update(WebhookDelivery).where(WebhookDelivery.id == ids[2])
+                        .values(status="failed"))
+        session.execute(update(WebhookDelivery).where(WebhookDelivery.id == ids[3])
+                        .values(created_at=utcnow()))
+    second = exported()
+    assert by_status(second) == [1, 0, 2, 1]
+    assert second[("shapesearch_webhook_oldest_undelivered_age_seconds", ())] < 3600
+
+
+def test_an_outage_is_logged_when_it_starts_once_a_minute_and_when_it_ends(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    now = [0.0]
+    outage = Outage(logging.getLogger("test.outage"), "worker w: queue", clock=lambda: now[0])
+    away = ConnectionRefusedError("connection refused")
+    with caplog.at_level(logging.INFO, logger="test.outage"):
+        for second in range(150):  # a failed poll every second for 150 s
+            now[0] = float(second)
+            outage.report(away)
+        now[0] = 160.0
+        outage.end()
+        outage.end()  # no outage: nothing more
+        outage.report(OSError(errno.ENOSPC, "No space left on device"))
+    lines = [(r.levelname, r.exc_info is not None, r.getMessage()) for r in caplog.records]
+    assert lines == [
+        ("ERROR", True, "worker w: queue unavailable"),
+        ("WARNING", False, "worker w: queue unavailable for 60 s: connection refused"),
+        ("WARNING", False, "worker w: queue unavailable for 120 s: connection refused"),
+        ("INFO", False, "worker w: queue available again after 160 s"),
+        ("ERROR", False, "worker w: queue: storage full, nothing can be stored until space is "
+                         "freed: [Errno 28] No space left on device"),
+    ]
+
+
+def test_a_worker_whose_database_is_away_logs_it_once_not_every_poll(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture,
+) -> None:
+    # No database can be opened there: every claim fails, 100 times a second.
+    engine = create_engine(f"sqlite:///{tmp_path / 'missing-folder' / 'shapesearch.db'}")
+    queue = JobQueue(make_session_factory(engine), lease_seconds=30, max_attempts=3,
+                     backoff_base=1, backoff_cap=10)
+    stop = threading.Event()
+    worker = Worker(queue, fake_describe, worker_id="w", poll_interval=0.01, stop=stop)
+    thread = threading.Thread(target=worker.run)
+    with caplog.at_level(logging.INFO, logger="shapesearch.worker"):
+        thread.start()
+        time.sleep(0.5)
+        stop.set()
+        thread.join(10)
+    failures = [r for r in caplog.records if "unavailable" in r.getMessage()]
+    assert len(failures) == 1 and failures[0].exc_info is not None  # was one per poll
+    assert "unable to open database" in str(failures[0].exc_info[1])
+    engine.dispose()
