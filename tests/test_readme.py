@@ -1,4 +1,5 @@
-"""The README documents every setting with its real default (docs that cannot drift)."""
+"""The documentation states every setting with its real default, and the README gives the
+commands CI runs (docs that cannot drift)."""
 
 from __future__ import annotations
 
@@ -7,11 +8,19 @@ from pathlib import Path
 
 from app.settings import Settings
 
-README = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
+ROOT = Path(__file__).parents[1]
+README = (ROOT / "README.md").read_text(encoding="utf-8")
+CONFIGURATION = (ROOT / "docs" / "configuration.md").read_text(encoding="utf-8")
 
 
 def documented_defaults() -> dict[str, str]:
-    rows = re.findall(r"^\| `SHAPESEARCH_([A-Z_]+)` \| ([^|]+) \|", README, flags=re.MULTILINE)
+    """{setting: default} of every ``| `SHAPESEARCH_NAME` | default |`` row of the
+    configuration page."""
+    rows = re.findall(
+        r"^\| `SHAPESEARCH_([A-Z_]+)` \| ([^|]+) \|", CONFIGURATION, flags=re.MULTILINE
+    )
+    names = [name for name, _ in rows]
+    assert len(names) == len(set(names)), "a setting is documented twice"
     return {name.lower(): default.strip().strip("`") for name, default in rows}
 
 
@@ -29,7 +38,7 @@ def test_every_setting_is_documented_with_its_default() -> None:
 
 
 def test_readme_gives_the_commands_ci_runs() -> None:
-    ci = (Path(__file__).parents[1] / ".ci" / "run").read_text(encoding="utf-8")
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
     test_command = (
         "python3 -m venv .venv && .venv/bin/pip install -e '.[test]' && .venv/bin/python -m pytest"
     )
