@@ -37,7 +37,7 @@ def serve(host: str | None = None, port: int | None = None, embedded_worker: boo
     settings = Settings()
     host = host or settings.host
     port = port or settings.port
-    configure_logging()
+    configure_logging(log_format=settings.log_format)
 
     engine = migrated_engine(settings.resolved_database_url)
     with make_session_factory(engine)() as session:
@@ -62,7 +62,7 @@ def serve(host: str | None = None, port: int | None = None, embedded_worker: boo
     return _serve_processes(settings.api_processes, host, port, embedded_worker)
 
 
-# log_config=None keeps the JSON logging configured by ``configure_logging`` (uvicorn's
+# log_config=None keeps the logging configured by ``configure_logging`` (uvicorn's
 # default config would replace it and add a second, plain access line per request).
 _UVICORN: dict[str, Any] = {"log_config": None, "access_log": False}
 
@@ -141,8 +141,8 @@ def _port_socket(host: str, port: int) -> socket.socket:
 def _api_process(host: str, port: int, embedded_worker: bool, count: int) -> None:
     """One of ``count`` API processes: the embedded worker's threads, when there is one,
     are shared out so the processes run as many describes together as one process would."""
-    configure_logging()
     settings = Settings()
+    configure_logging(log_format=settings.log_format)
     threads = -(-settings.worker_count // count)  # 0 stays 0
     app = create_app(
         settings.model_copy(update={"workers": threads}), embedded_worker=embedded_worker

@@ -1,11 +1,11 @@
 """Doorbells: the commit that creates work wakes whoever waits for that work, at once.
 
 Three kinds of work are written to the database by one process and done by another thread
-or process, which used to look for it on a timer (``SHAPESEARCH_POLL_INTERVAL`` and
-``SHAPESEARCH_INDEX_SYNC_INTERVAL``, 1 s each): a queued job (idle workers), a change-feed
-event (each API process's search index) and a webhook delivery (the deliverers). An upload
-on an idle service waited out most of a second before its describe began
-(``bench/upload_to_ready.py``). Now each has a bell:
+or process: a queued job (idle workers), a change-feed event (each API process's search
+index) and a webhook delivery (the deliverers). Looked for on a timer alone
+(``SHAPESEARCH_POLL_INTERVAL`` and ``SHAPESEARCH_INDEX_SYNC_INTERVAL``, 1 s each), an upload
+on an idle service would wait out most of a second before its describe began
+(``bench/upload_to_ready.py``). So each has a bell:
 
 * the writer calls ``announce(session, bell)`` inside its transaction; SQLAlchemy's
   ``after_commit`` hook then rings the bell in this process, so nothing rings for work

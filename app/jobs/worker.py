@@ -402,7 +402,7 @@ def run_workers(concurrency: int | None = None, metrics_port: int | None = None)
     settings = Settings()
     count = concurrency if concurrency is not None else max(1, settings.worker_count)
     port = metrics_port if metrics_port is not None else settings.worker_metrics_port
-    configure_logging()
+    configure_logging(log_format=settings.log_format)
     migrated_engine(settings.resolved_database_url).dispose()
     if count == 1:
         remove_stale_metrics()  # only with a PROMETHEUS_MULTIPROC_DIR of the operator's
@@ -461,7 +461,7 @@ def _worker_process(threads: int, metrics_port: int | None = None) -> int:
     """One worker process: first SIGTERM/SIGINT finishes the running job (within the grace
     time), a second one releases it at once. With ``metrics_port`` it serves its metrics."""
     settings = Settings()
-    configure_logging()
+    configure_logging(log_format=settings.log_format)
     pin_blas_threads()
     return _with_metrics(settings, metrics_port, lambda: _work(settings, threads))
 

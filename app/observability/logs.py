@@ -1,11 +1,13 @@
-"""Structured logs: one JSON object per line and event (python-json-logger).
+"""Logs: one JSON object per line and event (python-json-logger) for a log collector, or
+one readable line per event for a person at a terminal (``SHAPESEARCH_LOG_FORMAT``).
 
 Every line carries the request id of the HTTP request it belongs to (``X-Request-ID``: taken
 from the client when it is a sane token, else made up; always returned) and, in workers, the
 job id. Both travel in context variables, so no call site passes them along. Keys never
 reach a log: no header is logged, and routes log tenants, never credentials.
 
-    configure_logging()     JSON lines on stderr for the process (serve, worker)
+    configure_logging()     the process's log lines on stderr (serve, worker): JSON, or
+                            text when asked or, by default, when stderr is a terminal
     RequestId               ASGI middleware: request id in, out, on every line, one access line
     job_context(job_id)     context manager: the job id on every line of the block
     Outage                  a background loop's outage (its database away or full): logged
@@ -22,7 +24,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
-from typing import TextIO
+from typing import Literal, TextIO
 
 from pythonjsonlogger.json import JsonFormatter
 from starlette.datastructures import MutableHeaders
@@ -31,8 +33,12 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from app.storage import storage_full
 
 __all__ = [
-    "Outage", "RequestId", "configure_logging", "first_line", "job_context", "request_id",
+    "LogFormat", "Outage", "RequestId", "configure_logging", "first_line", "job_context",
+    "request_id",
 ]
+
+#: ``SHAPESEARCH_LOG_FORMAT``: JSON lines, readable text, or text on a terminal only.
+LogFormat = Literal["auto", "json", "text"]
 
 request_id: ContextVar[str | None] = ContextVar("request_id", default=None)
 job_id: ContextVar[str | None] = ContextVar("job_id", default=None)
@@ -62,17 +68,23 @@ class _ContextFilter(logging.Filter):
         return True
 
 
-def configure_logging(level: int = logging.INFO, stream: TextIO | None = None) -> None:
-    """JSON lines on ``stream`` (default stderr) for every logger of the process (uvicorn's
-    included)."""
+def configure_logging(
+    level: int = logging.INFO, stream: TextIO | None = None, log_format: LogFormat = "auto"
+) -> None:
+    """Log lines on ``stream`` (default stderr) for every logger of the process (uvicorn's
+    included): JSON, or text with ``log_format`` "text" or, with "auto", when ``stream``
+    is a terminal."""
     handler = logging.StreamHandler(stream)
-    handler.setFormatter(
-        JsonFormatter(
+    formatter: logging.Formatter
+    if _wants_text(log_format, handler.stream):
+        formatter = TextFormatter()
+    else:
+        formatter = JsonFormatter(
             "{asctime}{levelname}{name}{message}",
             style="{",
             rename_fields={"asctime": "time", "levelname": "level", "name": "logger"},
         )
-    )
+    handler.setFormatter(formatter)
     handler.addFilter(_ContextFilter())
     root = logging.getLogger()
     root.handlers[:] = [handler]
@@ -81,6 +93,53 @@ def configure_logging(level: int = logging.INFO, stream: TextIO | None = None) -
         logging.getLogger(name).handlers[:] = []
         logging.getLogger(name).propagate = True
     logging.getLogger("uvicorn.access").disabled = True  # RequestId writes the access line
+
+
+def _wants_text(log_format: LogFormat, stream: TextIO) -> bool:
+    if log_format != "auto":
+        return log_format == "text"
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError, OSError):  # no such method, or closed
+        return False
+
+
+# The attributes every record has; the others are the ``extra`` fields of its call, shown
+# in text but for uvicorn's copy of its message with terminal colours.
+_RECORD_ATTRIBUTES = frozenset(
+    vars(logging.LogRecord("", 0, "", 0, "", None, None))
+) | {"message", "asctime", "taskName", "color_message"}
+_IDS = ("request_id", "job_id")
+
+
+class TextFormatter(logging.Formatter):
+    """One line per record for a person (as uvicorn's are): time, level, logger and
+    message, then the record's extra fields and its request and job id as ``name=value``
+    (an access line: ``request method=GET route=/v1/models status=200 duration_ms=3.1
+    request_id=...``); a traceback on the lines below."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        fields = [
+            (name, value) for name, value in vars(record).items()
+            if name not in _RECORD_ATTRIBUTES and name not in _IDS
+        ]
+        fields += [(name, getattr(record, name)) for name in _IDS if hasattr(record, name)]
+        line = (f"{self.formatTime(record)} {record.levelname:<8} {record.name}: "
+                f"{record.getMessage()}")
+        line += "".join(f" {name}={_shown(value)}" for name, value in fields)
+        if record.exc_info and not record.exc_text:
+            record.exc_text = self.formatException(record.exc_info)
+        if record.exc_text:
+            line += "\n" + record.exc_text
+        if record.stack_info:
+            line += "\n" + self.formatStack(record.stack_info)
+        return line
+
+
+def _shown(value: object) -> str:
+    """A field's value as text, quoted when it is empty or holds a space."""
+    text = str(value)
+    return repr(text) if not text or any(c.isspace() for c in text) else text
 
 
 @contextmanager

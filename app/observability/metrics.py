@@ -161,7 +161,7 @@ def _index_models() -> Gauge:
 def _neighbourhoods_kept() -> Gauge:
     """As ``_index_models``: API processes only, the coldest live one. Below 1, similar
     queries compute the radii of candidates whose neighbourhood is not kept (about 170 ms a
-    query at 10^6 models until the background pass has kept them: README)."""
+    query at 10^6 models until the background pass has kept them: docs/operations.md)."""
     return Gauge(
         "shapesearch_index_neighbourhoods_kept_ratio", "Share of an API process's indexed "
         "models whose hub-discount neighbourhood it keeps (several processes: the smallest).",

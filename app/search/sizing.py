@@ -1,5 +1,5 @@
 """Size in search: range filters, a tolerance around the query's size, and a size term in
-the ranking (issue 21).
+the ranking.
 
 Sizes are stored in each file's own units (``Model.units``: mm, cm, m, in, or NULL) and
 compared in millimetres; a model without units is compared as given (its numbers taken as

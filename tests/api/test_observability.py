@@ -1,5 +1,5 @@
-"""GET /metrics (Prometheus text), X-Request-ID, JSON log lines with request and job ids,
-and keys that never reach a log."""
+"""GET /metrics (Prometheus text), X-Request-ID, log lines (JSON, or text on a terminal) with
+request and job ids, and keys that never reach a log."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import logging
 import re
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from datetime import timedelta
 from pathlib import Path
 
@@ -18,8 +18,13 @@ import pytest
 from fastapi.testclient import TestClient
 from prometheus_client import generate_latest
 from prometheus_client.parser import text_string_to_metric_families
+from pydantic import ValidationError
 from sqlalchemy import create_engine, select, update
 from sqlalchemy.orm import Session, sessionmaker
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import PlainTextResponse
+from starlette.routing import Route
 
 from app.api.main import create_app
 from app.auth.keys import create_key
@@ -27,13 +32,14 @@ from app.db.models import Model, Webhook, WebhookDelivery, utcnow
 from app.db.session import make_session_factory
 from app.jobs.queue import JobQueue
 from app.jobs.worker import Worker
-from app.observability.logs import Outage, configure_logging
+from app.observability.logs import LogFormat, Outage, RequestId, configure_logging, job_context
 from app.observability.metrics import (
     IndexCollector,
     QueueCollector,
     metrics_registry,
     observe_index,
 )
+from app.settings import Settings
 from app.webhooks import Deliverer, record_model_event
 from tests.conftest import PARTS, fake_describe, make_settings, wait_for_status
 
@@ -42,17 +48,33 @@ CUBE = (PARTS / "20mm-xyz-cube.stl").read_bytes()
 LOOPBACK = ("127.0.0.1", 50000)
 
 
+class Terminal(io.StringIO):
+    """A stream that says it is a terminal, as stderr does in a shell."""
+
+    def isatty(self) -> bool:
+        return True
+
+
 @pytest.fixture
-def json_logs() -> Iterator[io.StringIO]:
-    """JSON logging into the returned stream for the test (restored after it)."""
+def logs_to() -> Iterator[Callable[[io.StringIO, LogFormat], io.StringIO]]:
+    """Configures logging into a stream for the test (restored after it)."""
     root = logging.getLogger()
     handlers, level = root.handlers[:], root.level
-    stream = io.StringIO()
-    configure_logging(stream=stream)
-    yield stream
+
+    def configure(stream: io.StringIO, log_format: LogFormat) -> io.StringIO:
+        configure_logging(stream=stream, log_format=log_format)
+        return stream
+
+    yield configure
     root.handlers[:] = handlers
     root.setLevel(level)
     logging.getLogger("uvicorn.access").disabled = False
+
+
+@pytest.fixture
+def json_logs(logs_to: Callable[[io.StringIO, LogFormat], io.StringIO]) -> io.StringIO:
+    """JSON logging into the returned stream for the test: the default off a terminal."""
+    return logs_to(io.StringIO(), "auto")
 
 
 def samples(text: str) -> dict[tuple[str, tuple[tuple[str, str], ...]], float]:
@@ -277,3 +299,98 @@ def test_a_worker_whose_database_is_away_logs_it_once_not_every_poll(
     assert len(failures) == 1 and failures[0].exc_info is not None  # was one per poll
     assert "unable to open database" in str(failures[0].exc_info[1])
     engine.dispose()
+
+
+def hello(request: Request) -> PlainTextResponse:
+    logging.getLogger("test.app").info("hello %s", "there")
+    return PlainTextResponse("hi")
+
+
+# 2025-06-02 14:03:07,215 INFO     test.app: hello there request_id=trace-7
+TEXT_LINE = re.compile(r"^\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3} (?P<level>[A-Z]+) +"
+                       r"(?P<logger>[\w.]+): (?P<rest>.*)$")
+
+
+@pytest.mark.parametrize(
+    ("stream", "log_format", "text"),
+    [
+        (Terminal, "auto", True),
+        (io.StringIO, "auto", False),  # a file, a pipe, a container's log: JSON
+        (Terminal, "json", False),
+        (io.StringIO, "text", True),
+    ],
+)
+def test_log_lines_are_text_on_a_terminal_or_when_asked_and_json_otherwise(
+    logs_to: Callable[[io.StringIO, LogFormat], io.StringIO],
+    stream: type[io.StringIO], log_format: LogFormat, text: bool,
+) -> None:
+    output = logs_to(stream(), log_format)
+    app = RequestId(Starlette(routes=[Route("/hello", hello)]))
+    with TestClient(app) as client:
+        assert client.get("/hello", headers={"X-Request-ID": "trace-7"}).text == "hi"
+    lines = output.getvalue().splitlines()
+    if text:
+        assert not any(line.startswith("{") for line in lines), lines
+        parsed = [match.groupdict() for line in lines if (match := TEXT_LINE.match(line))]
+        assert len(parsed) == len(lines), lines
+        assert {"level": "INFO", "logger": "test.app",
+                "rest": "hello there request_id=trace-7"} in parsed
+        access = [line["rest"] for line in parsed if line["logger"] == "shapesearch.access"]
+        assert len(access) == 1 and re.fullmatch(
+            r"request method=GET route=/hello status=200 duration_ms=[\d.]+ "
+            r"request_id=trace-7", access[0]), access
+    else:
+        records = [json.loads(line) for line in lines]
+        assert {"logger": "test.app", "message": "hello there", "level": "INFO",
+                "request_id": "trace-7"}.items() <= next(
+            record for record in records if record["logger"] == "test.app").items()
+        access = [record for record in records if record["logger"] == "shapesearch.access"]
+        assert len(access) == 1 and access[0]["request_id"] == "trace-7"
+        assert access[0]["status"] == 200 and access[0]["route"] == "/hello"
+
+
+def test_text_lines_carry_the_job_id_and_a_traceback_below(
+    logs_to: Callable[[io.StringIO, LogFormat], io.StringIO],
+) -> None:
+    output = logs_to(io.StringIO(), "text")
+    log = logging.getLogger("test.worker")
+    with job_context("4f1c"):
+        log.info("job %s done", "4f1c", extra={"attempt": 2, "reason": "two words",
+                                                "color_message": "uvicorn's, coloured"})
+        try:
+            raise ValueError("bad mesh")
+        except ValueError:
+            log.exception("job %s failed", "4f1c")
+    lines = output.getvalue().splitlines()
+    first = TEXT_LINE.match(lines[0])
+    assert first is not None
+    assert first["rest"] == "job 4f1c done attempt=2 reason='two words' job_id=4f1c"
+    failed = TEXT_LINE.match(lines[1])
+    assert failed is not None and failed["level"] == "ERROR"
+    assert failed["rest"] == "job 4f1c failed job_id=4f1c"
+    assert lines[2] == "Traceback (most recent call last):"
+    assert lines[-1] == "ValueError: bad mesh"
+
+
+def test_the_service_on_a_terminal_logs_readable_lines_with_the_request_id(
+    database_url: str, logs_to: Callable[[io.StringIO, LogFormat], io.StringIO],
+) -> None:
+    output = logs_to(Terminal(), "auto")
+    app = create_app(make_settings(database_url))
+    with TestClient(app) as client:
+        answer = client.get("/v1/models", headers={"X-Request-ID": "trace-42"})
+    assert answer.headers["x-request-id"] == "trace-42"
+    access = [match["rest"] for line in output.getvalue().splitlines()
+              if (match := TEXT_LINE.match(line)) and match["logger"] == "shapesearch.access"]
+    assert any(line.startswith("request method=GET route=/v1/models status=200 ")
+               and line.endswith(" request_id=trace-42") for line in access), access
+
+
+def test_the_log_format_is_a_setting(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("SHAPESEARCH_LOG_FORMAT", raising=False)
+    assert Settings().log_format == "auto"
+    monkeypatch.setenv("SHAPESEARCH_LOG_FORMAT", "text")
+    assert Settings().log_format == "text"
+    monkeypatch.setenv("SHAPESEARCH_LOG_FORMAT", "xml")
+    with pytest.raises(ValidationError, match="log_format"):
+        Settings()

@@ -50,10 +50,10 @@ def test_the_api_conforms_to_its_openapi_document(tmp_path: Path) -> None:
 def test_405_names_every_method_and_the_document_says_what_schemathesis_found(
     database_url: str,
 ) -> None:
-    from conftest import make_settings
     from fastapi.testclient import TestClient
 
     from app.api.main import create_app
+    from tests.conftest import make_settings
 
     with TestClient(create_app(make_settings(database_url))) as client:
         put = client.put("/v1/models/abc")
@@ -73,10 +73,10 @@ def test_405_names_every_method_and_the_document_says_what_schemathesis_found(
 def test_the_hooks_allow_only_what_the_document_cannot_state() -> None:
     """tests/schemathesis_hooks.py lets a schema-valid request be refused for a file's
     content, a webhook host or nested metadata, and for nothing the schema states."""
-    from conftest import make_settings
     from schemathesis_hooks import UNSTATED_LIMITS
 
     from app.api.main import create_app
+    from tests.conftest import make_settings
 
     document = create_app(make_settings("sqlite://")).openapi()
     operations = {f"{m.upper()} {p}" for p, ops in document["paths"].items() for m in ops}

@@ -100,10 +100,10 @@ def test_identical_uploads_are_described_once(
 ) -> None:
     """The same bytes again are answered from the cache; bytes that a ready model of the
     tenant was made from are answered from that model; neither starts a describe."""
-    from conftest import fake_describe, make_settings, wait_for_status
     from fastapi.testclient import TestClient
 
     from app.api.main import create_app
+    from tests.conftest import fake_describe, make_settings, wait_for_status
 
     app = create_app(make_settings(database_url), embedded_worker=True)
     describer = app.state.search_describer
@@ -136,6 +136,7 @@ def test_identical_uploads_are_described_once(
             "/v1/models", files={"file": ("b.xyz", second, "text/plain")}
         ).json()
         wait_for_status(client, model["id"], ("ready",))
+        stored_app.state.services.index.sync()  # ready in the database: in the index now too
         found = client.post("/v1/search", files={"file": ("b.xyz", second, "text/plain")})
         assert found.status_code == 200
         assert calls == [first]  # answered from the stored model

@@ -28,7 +28,7 @@ the model's integer ``index_id``. A partition is
   the 2961-dim default instead of 3.0 GB) for a partition built with more than
   ``compact_min`` vectors. Its estimates err more, so it returns twice the candidates for
   the exact re-rank (``rerank_candidates``); its scan costs about what the 8-bit one does
-  (bench/search_scale.py, README).
+  (bench/search_scale.py; docs/benchmarks.md, "Search at catalogue scale").
 
 An IVF partition's codes leave out the dimensions constant over its training sample: they
 would add the same to every estimate (``_partition``). With ``projected_dims`` (off by
@@ -49,55 +49,47 @@ loads.
 Searches hold a partition's read lock and run side by side (FAISS releases the GIL);
 writes (batched per sync) take the write lock briefly. A rebuild builds new partitions
 aside and swaps them in, so searches never wait for it.
+
+``ShapeIndex`` is the face of the modules that do the work:
+
+    _held       what the index holds (partitions, each model's place) and ``apply``, the
+                one way it changes
+    _rows       the models as rows of the database: which, which columns, streamed
+    _rebuild    a rebuild from the database, built aside and swapped in
+    _feed       following the change feed
+    _keeper     the hub-discount neighbourhoods kept, saved and restored
+    _partition, _builder, _neighbours, _entry_neighbours, _kept, _saved, _projection
+                one partition, how it is built and what is computed and kept from it
 """
 
 from __future__ import annotations
 
 import logging
-import threading
 import uuid
-from collections import Counter, defaultdict
-from collections.abc import Iterable, Iterator, Sequence
+from collections import Counter
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any, cast
 
 import numpy as np
-from sqlalchemy import ColumnElement, func, null, select, true
-from sqlalchemy.orm import QueryableAttribute, Session, sessionmaker
+from sqlalchemy.orm import Session, sessionmaker
 
-from app.db.feed import event_stamp, models_touched
-from app.db.models import FeedState, IndexEvent, Model
-from app.search.index._builder import Builder
-from app.search.index._entry_neighbours import KEPT_MODELS, KeptEntryNeighbours, nearest_models
+from app.search.index import _feed, _rebuild
+from app.search.index._entry_neighbours import KeptEntryNeighbours, entry_neighbours
 from app.search.index._heap import trim_heap
-from app.search.index._neighbours import (
-    NeighbourGraph,
-    keep_neighbourhoods,
-    neighbour_graph,
-    neighbourhood_radii,
-)
+from app.search.index._held import Held
+from app.search.index._keeper import NeighbourhoodKeeper
+from app.search.index._neighbours import NeighbourGraph, neighbour_graph, neighbourhood_radii
 from app.search.index._partition import Partition
-from app.search.index._saved import (
-    SavedNeighbourhoods,
-    computing,
-    file_for,
-    load,
-    restore,
-    save,
-    tidy,
-)
+from app.search.index._rows import ModelRows
 from app.search.index._view_ids import (
     VIEW_ID_BASE,
     PartitionKey,
-    holds_views,
     view_id,
     view_ids,
     view_of,
-    views_array,
     views_key,
 )
 from core.rank.hubness import HUB_NEIGHBOURS
-from core.settings import MAX_VIEWS
 
 log = logging.getLogger("shapesearch.index")
 
@@ -110,26 +102,6 @@ __all__ = [
     "view_of",
     "views_key",
 ]
-
-# One model added: (index_id, partition, (d,) descriptor, (v, d) views or None, its public
-# id or None).
-_Added = tuple[int, PartitionKey, np.ndarray, "np.ndarray | None", "uuid.UUID | None"]
-
-_EVENT_BATCH = 5000
-_Column = QueryableAttribute[Any] | ColumnElement[Any]
-#: A row of ``_INDEXED``: index_id, tenant, descriptor_version, descriptor, views, id.
-_Row = tuple[int, str, str, bytes, "bytes | None", uuid.UUID]
-# What the index holds of a model: the rows a rebuild streams and a sync reads.
-_INDEXED: tuple[_Column, ...] = (
-    Model.index_id,
-    Model.tenant,
-    Model.descriptor_version,
-    Model.descriptor,
-    Model.view_descriptors,
-    Model.id,
-)
-
-_ROW_CHUNK = 2000  # rows per query of a streamed rebuild
 
 
 class ShapeIndex:
@@ -181,50 +153,74 @@ class ShapeIndex:
         cache_dir: Path | None = None,
         only: PartitionKey | None = None,
     ) -> None:
+        # Fixed once made: the parts below are given them.
         self.sessions = sessions
         self.only = only
-        self.exact_max = exact_max
-        self.compact_min = compact_min
-        self.nprobe = nprobe
         self.rerank_factor = rerank_factor
-        self.projected_dims = projected_dims
         self.hub_neighbours = hub_neighbours
         self.reciprocal = reciprocal
         self.cache_dir = cache_dir
-        self.revision = 0  # last change-feed revision applied
-        self.changes = 0  # moves on every applied change: answers cached before are stale
-        self._partitions: dict[PartitionKey, Partition] = {}
-        self._partition_of: dict[int, PartitionKey] = {}  # models only
-        self._views_of: dict[int, int] = {}  # model index_id -> views it has in the index
-        # Public model id (its 128-bit int) <-> index_id, both ways, so that a similar query
-        # by model id finds the query vector here (``locate``, ``vector``). Ints, not UUID
-        # objects: ~170 bytes per model for both maps.
-        self._index_id_of: dict[int, int] = {}
-        self._public_id_of: dict[int, int] = {}
+        self._held = Held(exact_max=exact_max, compact_min=compact_min, nprobe=nprobe,
+                          projected_dims=projected_dims)
+        self._rows = None if sessions is None else ModelRows(sessions, only)
+        self._keeper = NeighbourhoodKeeper(self._held, sessions, cache_dir,
+                                           every_partition=only is None)
         self._entry_neighbours = KeptEntryNeighbours()  # scan mode's, per partition pair
-        # The saved neighbourhoods' file each partition last tried to restore, by its stat.
-        self._restores_tried: dict[PartitionKey, tuple[int, int, int]] = {}
-        self._waiting: set[PartitionKey] = set()  # for another process's pass (said once)
-        self._sync_lock = threading.Lock()  # one writer of the maps at a time
+
+    @property
+    def exact_max(self) -> int:
+        return self._held.exact_max
+
+    @property
+    def compact_min(self) -> int:
+        return self._held.compact_min
+
+    @property
+    def nprobe(self) -> int:
+        return self._held.nprobe
+
+    @property
+    def projected_dims(self) -> int:
+        return self._held.projected_dims
+
+    @property
+    def revision(self) -> int:
+        """The last change-feed revision applied."""
+        return self._held.revision
+
+    @property
+    def changes(self) -> int:
+        """Moves on every applied change: answers cached before are stale."""
+        return self._held.changes
+
+    @property
+    def _partitions(self) -> dict[PartitionKey, Partition]:
+        """The partitions by key (for tests and benchmarks that look inside)."""
+        return self._held.partitions
+
+    @property
+    def _partition_of(self) -> dict[int, PartitionKey]:
+        """Each model's partition (for tests and benchmarks that look inside)."""
+        return self._held.partition_of
 
     # --- reading ----------------------------------------------------------------------
 
     def __len__(self) -> int:
         """Models held (their views not counted)."""
-        return len(self._partition_of)
+        return len(self._held.partition_of)
 
     def views_held(self, index_id: int) -> int:
         """How many view entries model ``index_id`` has in the index."""
-        return self._views_of.get(index_id, 0)
+        return self._held.views_of.get(index_id, 0)
 
     def __contains__(self, index_id: int) -> bool:
-        return index_id in self._partition_of
+        return index_id in self._held.partition_of
 
     def locate(self, tenant: str, model_id: uuid.UUID) -> tuple[int, PartitionKey] | None:
         """The ``index_id`` and partition of the tenant's model ``model_id`` as this index
         holds it, or None. The index may lag the database by a sync: confirm in SQL."""
-        index_id = self._index_id_of.get(model_id.int)
-        key = None if index_id is None else self._partition_of.get(index_id)
+        index_id = self._held.index_id_of.get(model_id.int)
+        key = None if index_id is None else self._held.partition_of.get(index_id)
         if index_id is None or key is None or key[0] != tenant:
             return None
         return index_id, key
@@ -241,48 +237,48 @@ class ShapeIndex:
         """``(m, d) float32`` vectors of ``ids`` as added to partition ``key`` (for a
         compressed partition, from its full vectors: ``app.search.full_vectors``) and a ``(m,)
         bool`` mask of those it holds; None without such a partition."""
-        partition = self._partitions.get(key)
+        partition = self._held.partitions.get(key)
         if partition is None:
             return None
         with partition.lock.reading():
             return partition.exact_vectors(ids)
 
     def partition_size(self, key: PartitionKey) -> int:
-        partition = self._partitions.get(key)
+        partition = self._held.partitions.get(key)
         return 0 if partition is None else int(partition.index.ntotal)
 
     def nbytes(self) -> int:
         """Bytes of vectors, codes, ids and centroids held (allocator slack not counted)."""
-        return sum(partition.nbytes() for partition in list(self._partitions.values()))
+        return sum(partition.nbytes() for partition in list(self._held.partitions.values()))
 
     def file_bytes(self) -> int:
         """Bytes of the compressed partitions' full-vector files (``app.search.full_vectors``:
         local disk and the kernel's page cache, not this process's own memory)."""
         return sum(
             partition.full.file_bytes
-            for partition in list(self._partitions.values())
+            for partition in list(self._held.partitions.values())
             if partition.full is not None
         )
 
     def describe(self, key: PartitionKey) -> str:
         """The kind of a partition: "flat", "ivf-sq8", "ivf-sq4" (prefixed "pcaN-" when
         the codes hold N principal components) or "empty"."""
-        partition = self._partitions.get(key)
+        partition = self._held.partitions.get(key)
         return "empty" if partition is None else partition.kind
 
     def kinds(self) -> dict[str, int]:
         """How many partitions of each kind (``describe``) the index holds: what an
         operator checks after changing the ``SHAPESEARCH_INDEX_*`` settings."""
-        return dict(Counter(partition.kind for partition in list(self._partitions.values())))
+        return dict(Counter(partition.kind for partition in list(self._held.partitions.values())))
 
     def is_approximate(self, key: PartitionKey) -> bool:
-        partition = self._partitions.get(key)
+        partition = self._held.partitions.get(key)
         return partition is not None and partition.approximate
 
     def neighbour_graph(self, key: PartitionKey, k: int) -> NeighbourGraph:
         """The ``k`` most alike others of every vector of partition ``key`` (see
         ``app.search.index._neighbours``); empty without such a partition."""
-        partition = self._partitions.get(key)
+        partition = self._held.partitions.get(key)
         if partition is None:
             return NeighbourGraph.empty(k)
         with partition.lock.reading():
@@ -299,7 +295,7 @@ class ShapeIndex:
         holds, ``exclude`` counted in no neighbourhood (see ``_neighbours``; its cosine to
         each id may be given); empty when the discount is off or the partition holds no
         other models."""
-        partition = self._partitions.get(key)
+        partition = self._held.partitions.get(key)
         if partition is None or self.hub_neighbours < 1:
             return {}
         with partition.lock.reading():
@@ -324,24 +320,11 @@ class ShapeIndex:
         average and the partitions are exact; an approximate partition's estimates
         otherwise), and kept until either partition changes.
         """
-        partitions = (self._partitions.get(key), self._partitions.get(views_key(key)))
-        stamp = tuple(None if p is None else (p.serial, p.version) for p in partitions)
-        found = self._entry_neighbours.get(key, stamp, entry_ids)
-        missing = [row for row, neighbours in enumerate(found) if neighbours is None]
-        if missing:
-            sizes = [0 if p is None else int(p.index.ntotal) for p in partitions]
-            per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
-            rows = np.ascontiguousarray(np.asarray(vectors)[missing], dtype=np.float32)
-            model_hits = self.search_batch(key, rows, KEPT_MODELS + 1)
-            view_hits = self.search_batch(views_key(key), rows, (KEPT_MODELS + 1) * per_model)
-            fresh = {}
-            for place, row in enumerate(missing):
-                hits = [(i, 1.0 - d * d / 2.0) for i, d in model_hits[place]]
-                hits += [(view_of(i)[0], 1.0 - d * d / 2.0) for i, d in view_hits[place]]
-                found[row] = fresh[entry_ids[row]] = nearest_models(hits, owners[row])
-            self._entry_neighbours.put(key, stamp, fresh)
-        kept = [neighbours for neighbours in found if neighbours is not None]
-        return np.stack([k[0] for k in kept]), np.stack([k[1] for k in kept])
+        partitions = (self._held.partitions.get(key), self._held.partitions.get(views_key(key)))
+        return entry_neighbours(self._entry_neighbours, key, partitions, self.search_batch,
+                                entry_ids, owners, vectors)
+
+    # --- hub-discount neighbourhoods (``_keeper``) --------------------------------------
 
     def keep_neighbourhoods(self) -> int:
         """Compute every model's hub-discount neighbourhood now, partition by partition
@@ -354,38 +337,7 @@ class ShapeIndex:
         process at a time and saved at its end: a process that finds another computing
         leaves the partition for now (the index still wants its neighbourhoods) and
         restores what the other saves."""
-        if self.hub_neighbours < 1:
-            return 0
-        kept = 0
-        for key, partition in list(self._partitions.items()):
-            if holds_views(key):
-                continue
-            if self.cache_dir is None:
-                kept += keep_neighbourhoods(partition, self.hub_neighbours)
-                continue
-            self._restore_neighbourhoods(key, partition)
-            if not partition.kept.passed:
-                self._compute_or_wait(key, partition)
-            kept += partition.kept.tabled
-        trim_heap()  # the pass's blocks, freed: most of what it grew the process by
-        return kept
-
-    def _compute_or_wait(self, key: PartitionKey, partition: Partition) -> None:
-        """Compute partition ``key``'s pass and save it, unless another process of the
-        cache directory is computing it (then this one restores what that one saves)."""
-        assert self.cache_dir is not None
-        with computing(file_for(self.cache_dir, key, self.hub_neighbours)) as ours:
-            if ours:
-                self._waiting.discard(key)
-                # The last holder may have saved its pass since the caller's look.
-                self._restore_neighbourhoods(key, partition)
-                if not partition.kept.passed:
-                    keep_neighbourhoods(partition, self.hub_neighbours)
-                    self._save_neighbourhoods(key, partition)
-            elif key not in self._waiting:
-                log.info("another process computes the hub-discount neighbourhoods of %s: "
-                         "restoring what it saves", key)
-                self._waiting.add(key)
+        return self._keeper.keep(self.hub_neighbours)
 
     def save_neighbourhoods(self) -> int:
         """Save each partition's kept hub-discount neighbourhoods that changed since it
@@ -393,108 +345,25 @@ class ShapeIndex:
         and remove the files there that no partition reads (``_saved.tidy``); the count of
         files written. A directory that cannot be written is said in the log, and nothing
         else happens."""
-        if self.cache_dir is None or self.hub_neighbours < 1:
-            return 0
-        partitions = [(key, partition) for key, partition in list(self._partitions.items())
-                      if not holds_views(key)]
-        written = sum(self._save_neighbourhoods(key, partition) for key, partition in partitions)
-        if self.only is None:  # it knows every partition: what none reads can go
-            read = [file_for(self.cache_dir, key, self.hub_neighbours)
-                    for key, partition in partitions if partition.index.ntotal > 0]
-            removed = tidy(self.cache_dir, read)
-            if removed:
-                log.info("removed %d saved hub-discount neighbourhood files no partition "
-                         "reads from %s", len(removed), self.cache_dir)
-        return written
-
-    def _save_neighbourhoods(self, key: PartitionKey, partition: Partition) -> bool:
-        """Save partition ``key``'s kept neighbourhoods if they changed since it last did;
-        whether it wrote them (a failure is said in the log)."""
-        assert self.cache_dir is not None and self.sessions is not None
-        kept = partition.kept
-        with self._sync_lock:  # no change between the table, the revision and the probes
-            state = (kept.version, len(kept))
-            if kept.k != self.hub_neighbours or state == kept.saved_as:
-                return False
-            table = kept.saved()
-            if len(table.ids) == 0:
-                return False
-            with self.sessions() as session:
-                stamp = event_stamp(session, self.revision)
-            if stamp is None:  # pruned already: no restore could recognise the file
-                return False
-            saved = SavedNeighbourhoods.of(partition, key, kept.k, self.revision, stamp, table)
-        path = file_for(self.cache_dir, key, saved.k)
-        try:
-            save(path, saved)
-        except OSError as error:
-            log.warning("hub-discount neighbourhoods not saved to %s: %s", path, error)
-            return False
-        kept.saved_as = state
-        return True
-
-    def _restore_neighbourhoods(self, key: PartitionKey, partition: Partition) -> int | None:
-        """Restore partition ``key``'s saved neighbourhoods (``_saved``; those queries
-        computed meanwhile stay) when no pass went through it since its last change, the
-        file is not one tried before, and it keeps more than what the partition's passes
-        kept (a restore, or a pass stopped by a change); the count kept, or None."""
-        assert self.cache_dir is not None
-        k = self.hub_neighbours
-        path = file_for(self.cache_dir, key, k)
-        if self.sessions is None or partition.kept.passed or not path.is_file():
-            return None
-        stamp = path.stat()
-        seen = (stamp.st_mtime_ns, stamp.st_size, stamp.st_ino)
-        if self._restores_tried.get(key) == seen:
-            return None
-        self._restores_tried[key] = seen
-        saved = load(path, key, k)
-        if saved is None:
-            return None
-        with self._sync_lock:  # the partition as of the revision
-            version, revision = partition.kept.version, self.revision
-        with self.sessions() as session:
-            touched = None
-            if event_stamp(session, saved.revision) == saved.stamp:  # this database's feed
-                touched = models_touched(session, saved.revision, revision)
-        restored = None if touched is None else restore(partition, saved, touched, version)
-        if restored is None:
-            log.info("saved hub-discount neighbourhoods of %s (revision %d) not restored at "
-                     "revision %d", key, saved.revision, revision)
-        else:
-            log.info("hub-discount neighbourhoods of %d models of %s restored (revision %d, "
-                     "%d models changed since)", restored, key, saved.revision,
-                     0 if touched is None else len(touched))
-            kept = partition.kept  # no need to write back what the file holds
-            kept.saved_as = (kept.version, len(kept))
-        return restored
+        return self._keeper.save(self.hub_neighbours)
 
     def wants_neighbourhoods(self) -> bool:
         """Whether ``keep_neighbourhoods`` would keep more: a partition large enough to keep
         them has changed since a pass last went through it, and holds fewer than half or
         its last pass was stopped by a change (``_kept.KeptNeighbourhoods.wanted``)."""
-        return self.hub_neighbours > 0 and any(
-            partition.kept.wanted(self.hub_neighbours, int(partition.index.ntotal))
-            for key, partition in list(self._partitions.items()) if not holds_views(key))
+        return self._keeper.wanted(self.hub_neighbours)
 
     def neighbourhoods_kept(self) -> float:
         """The share of models, in partitions large enough to keep them, whose hub-discount
         neighbourhood is kept (1.0 with none such, or the discount off)."""
-        if self.hub_neighbours < 1:
-            return 1.0
-        sizes = [
-            (min(len(partition.kept), held), held)
-            for key, partition in list(self._partitions.items())
-            if not holds_views(key)
-            and (held := int(partition.index.ntotal)) >= self.hub_neighbours + 2
-        ]
-        total = sum(held for _, held in sizes)
-        return sum(kept for kept, _ in sizes) / total if total else 1.0
+        return self._keeper.share_kept(self.hub_neighbours)
+
+    # --- searching ----------------------------------------------------------------------
 
     def rerank_candidates(self, key: PartitionKey, k: int) -> int:
         """How many candidates to fetch from partition ``key`` for ``k`` exact results:
         ``k`` from an exact one, a margin for re-ranking from an approximate one."""
-        partition = self._partitions.get(key)
+        partition = self._held.partitions.get(key)
         scale = 0 if partition is None else partition.rerank_scale
         return k if scale == 0 else scale * max(self.rerank_factor * k, k + 10)
 
@@ -522,7 +391,7 @@ class ShapeIndex:
     ) -> list[list[tuple[int, float]]]:
         """``search`` for each row of ``queries : (m, d) float``, in one FAISS call."""
         queries = np.ascontiguousarray(queries, dtype=np.float32)
-        partition = self._partitions.get(key)
+        partition = self._held.partitions.get(key)
         if partition is None or partition.dim != queries.shape[1]:
             return [[] for _ in queries]
         allowed_ids = None if allowed is None else np.asarray(allowed, dtype=np.int64)
@@ -551,12 +420,12 @@ class ShapeIndex:
         allowed_views = None
         if allowed is not None:
             allowed_views = [
-                entry for i in allowed for entry in view_ids(i, self._views_of.get(i, 0))
+                entry for i in allowed for entry in view_ids(i, self._held.views_of.get(i, 0))
             ]
         hits = self.search(views_key(key), vector, k, allowed=allowed_views)
         return [(*view_of(entry), distance) for entry, distance in hits]
 
-    # --- writing ----------------------------------------------------------------------
+    # --- writing (``_held``) ------------------------------------------------------------
 
     def add(
         self,
@@ -568,193 +437,33 @@ class ShapeIndex:
     ) -> None:
         """Add (or replace) model ``index_id`` (public id ``model_id``) with ``vector : (d,)``
         and its scan-mode ``views : (v, d)`` (v <= ``MAX_VIEWS``)."""
-        with self._sync_lock:
-            self._apply([index_id], [(index_id, key, vector, views, model_id)])
+        with self._held.lock:
+            self._held.apply([index_id], [(index_id, key, vector, views, model_id)])
 
     def remove(self, index_id: int) -> None:
         self.remove_many([index_id])
 
     def remove_many(self, index_ids: Iterable[int]) -> None:
         """Remove ids in one batch per partition (unknown ids are ignored)."""
-        with self._sync_lock:
-            self._apply(index_ids, [])
+        with self._held.lock:
+            self._held.apply(index_ids, [])
 
     def build_partition(
         self, key: PartitionKey, batches: Iterable[tuple[int, np.ndarray]], expected: int
     ) -> None:
         """Fill partition ``key`` from ``(first_id, (m, d) float32)`` batches whose ids run
         on from ``first_id`` (benchmarks, and any bulk load without a database)."""
-        with self._sync_lock:
-            built = self._builder(expected)
-            for first, vectors in batches:
-                ids = np.arange(first, first + len(vectors), dtype=np.int64)
-                built.add(ids, vectors)
-            partition = built.finish()
-            if partition is not None:
-                self._partitions[key] = partition
-                for index_id in built.ids:
-                    self._partition_of[index_id] = key
+        self._held.build_partition(key, batches, expected)
 
-    def _builder(self, expected: int) -> Builder:
-        return Builder(expected, exact_max=self.exact_max, compact_min=self.compact_min,
-                       nprobe=self.nprobe, projected_dims=self.projected_dims,
-                       chunk=_ROW_CHUNK)
-
-    def _apply(self, removed: Iterable[int], added: Iterable[_Added]) -> None:
-        """Remove, then add, models with their views, grouped by partition; call with
-        ``_sync_lock`` held."""
-        self.changes += 1
-        gone: dict[PartitionKey, list[int]] = defaultdict(list)
-        for index_id in removed:
-            key = self._partition_of.pop(index_id, None)
-            public = self._public_id_of.pop(index_id, None)
-            if public is not None:
-                self._index_id_of.pop(public, None)
-            if key is not None:
-                gone[key].append(index_id)
-                gone[views_key(key)].extend(view_ids(index_id, self._views_of.pop(index_id, 0)))
-        for key, gone_ids in gone.items():
-            partition = self._partitions.get(key)
-            if partition is not None and gone_ids:
-                with partition.lock.writing():
-                    partition.remove(np.asarray(gone_ids, dtype=np.int64))
-        fresh: dict[PartitionKey, list[tuple[int, np.ndarray]]] = defaultdict(list)
-        for index_id, key, vector, views, model_id in added:
-            if index_id in self._partition_of:  # re-adding replaces, views and all
-                self._apply([index_id], [])
-            if model_id is not None:
-                self._index_id_of[model_id.int] = index_id
-                self._public_id_of[index_id] = model_id.int
-            fresh[key].append((index_id, np.asarray(vector, dtype=np.float32)))
-            if views is not None and len(views):
-                views = np.asarray(views, dtype=np.float32)[:MAX_VIEWS]
-                fresh[views_key(key)].extend(
-                    zip(view_ids(index_id, len(views)), views, strict=True)
-                )
-                self._views_of[index_id] = len(views)
-        for key, rows in fresh.items():
-            ids = np.array([i for i, _ in rows], dtype=np.int64)
-            vectors = np.ascontiguousarray(np.stack([v for _, v in rows]))
-            partition = self._partitions.get(key)
-            if partition is None:
-                partition = Partition(vectors.shape[1], self.nprobe, self.projected_dims)
-                self._partitions[key] = partition
-            with partition.lock.writing():
-                if not partition.approximate and partition.index.ntotal + len(ids) > self.exact_max:
-                    flat = partition.index.index
-                    held = flat.reconstruct_n(0, flat.ntotal)[:, : partition.dim]
-                    sample = np.concatenate([held, vectors])
-                    partition.compress(sample, expected=len(sample))
-                partition.add(ids, vectors)
-            if not holds_views(key):
-                for index_id in ids.tolist():
-                    self._partition_of[index_id] = key
-
-    # --- following the database -------------------------------------------------------
+    # --- following the database (``_rebuild``, ``_feed``) -----------------------------
 
     def rebuild(self) -> None:
         """Stream every ready descriptor from the database into new partitions, swap them
         in, then catch up with the change feed."""
-        assert self.sessions is not None
-        with self._sync_lock:
-            with self.sessions() as session:
-                # Read the revision first: every change after it is replayed by sync, and
-                # replaying a change already loaded here is harmless.
-                revision = session.execute(
-                    select(FeedState.revision).where(FeedState.id == 1)
-                ).scalar_one()
-                sizes: dict[PartitionKey, int] = {}
-                view_bytes_of = (
-                    null() if self.only else func.sum(func.length(Model.view_descriptors))
-                )
-                for tenant, version, count, view_bytes, vector_bytes in session.execute(
-                    select(
-                        Model.tenant,
-                        Model.descriptor_version,
-                        func.count(),
-                        view_bytes_of,
-                        func.max(func.length(Model.descriptor)),
-                    )
-                    .where(
-                        Model.status == "ready",
-                        Model.descriptor_version.is_not(None),
-                        self._in_scope(),
-                    )
-                    .group_by(Model.tenant, Model.descriptor_version)
-                ):
-                    sizes[(tenant, version)] = int(count)
-                    if view_bytes and vector_bytes:
-                        sizes[views_key((tenant, version))] = int(view_bytes) // int(vector_bytes)
-            builders = {key: self._builder(size) for key, size in sizes.items()}
-            views_of: dict[int, int] = {}
-            index_id_of: dict[int, int] = {}
-            for index_id, tenant, version, descriptor, view_blob, model_id in self._ready_rows():
-                builder = builders.get((tenant, version))
-                if builder is None:  # became ready after the count: sync replays it
-                    continue
-                vector = np.frombuffer(descriptor, dtype=np.float32)
-                builder.add_one(index_id, vector)
-                index_id_of[model_id.int] = index_id
-                views = views_array(view_blob, len(vector))
-                view_builder = builders.get(views_key((tenant, version)))
-                if views is not None and view_builder is not None:
-                    for entry, view in zip(view_ids(index_id, len(views)), views, strict=True):
-                        view_builder.add_one(entry, view)
-                    views_of[index_id] = len(views)
-            partitions: dict[PartitionKey, Partition] = {}
-            partition_of: dict[int, PartitionKey] = {}
-            for key, builder in builders.items():
-                partition = builder.finish()
-                if partition is not None:
-                    partitions[key] = partition
-                    if not holds_views(key):
-                        partition_of.update(dict.fromkeys(builder.ids, key))
-            self._partitions, self._partition_of = partitions, partition_of
-            self._views_of = views_of
-            self._index_id_of = index_id_of
-            self._public_id_of = {index_id: public for public, index_id in index_id_of.items()}
-            self.revision = int(revision)
-            self.changes += 1
+        assert self._rows is not None
+        _rebuild.rebuild(self._held, self._rows)
         trim_heap()  # the rows streamed and the builders' buffers, freed
         self.sync()
-
-    def _in_scope(self) -> ColumnElement[bool]:
-        """The models this index holds: all, or those of partition ``only``."""
-        if self.only is None:
-            return true()
-        tenant, version = self.only
-        return (Model.tenant == tenant) & (Model.descriptor_version == version)
-
-    def _indexed(self) -> tuple[_Column, ...]:
-        """The columns read of each model: with ``only``, no views (never used there, and
-        up to 16 times the descriptor's bytes)."""
-        if self.only is None:
-            return _INDEXED
-        return tuple(null() if column is Model.view_descriptors else column for column in _INDEXED)
-
-    def _ready_rows(self) -> Iterator[_Row]:
-        """Every ready descriptor with its views, ``_ROW_CHUNK`` rows per query (keyset on
-        index_id)."""
-        assert self.sessions is not None
-        last = -1
-        while True:
-            with self.sessions() as session:
-                rows = cast(list[_Row], session.execute(
-                    select(*self._indexed())
-                    .where(
-                        Model.index_id > last,
-                        Model.status == "ready",
-                        Model.descriptor.is_not(None),
-                        Model.descriptor_version.is_not(None),
-                        self._in_scope(),
-                    )
-                    .order_by(Model.index_id)
-                    .limit(_ROW_CHUNK)
-                ).all())
-            if not rows:
-                return
-            yield from rows
-            last = rows[-1][0]
 
     def sync(self) -> int:
         """Apply the change-feed events newer than ``revision``; returns how many.
@@ -762,63 +471,10 @@ class ShapeIndex:
         An index behind the feed's pruning (``app.db.retention``: it stopped following for
         longer than the history is kept) may have missed events that are gone; it rebuilds
         from the models instead."""
-        applied, missed = self._follow()
+        assert self._rows is not None
+        applied, missed = _feed.follow(self._held, self._rows)
         if missed:
             log.warning("search index at change-feed revision %d, behind the feed's pruning: "
                         "rebuilding it from the models", self.revision)
             self.rebuild()
         return applied
-
-    def _follow(self) -> tuple[int, bool]:
-        """Apply the events newer than ``revision``: how many, and whether some of them
-        were pruned before they could be read."""
-        assert self.sessions is not None
-        applied = 0
-        with self._sync_lock:
-            while True:
-                with self.sessions() as session:
-                    events = session.execute(
-                        select(IndexEvent.revision, IndexEvent.index_id, IndexEvent.kind)
-                        .where(IndexEvent.revision > self.revision)
-                        .order_by(IndexEvent.revision)
-                        .limit(_EVENT_BATCH)
-                    ).all()
-                    # Read after the events: a pruning that deleted one of them before
-                    # that read had committed, and so shows here.
-                    pruned_through = session.execute(
-                        select(FeedState.pruned_through).where(FeedState.id == 1)
-                    ).scalar_one()
-                    if pruned_through > self.revision:
-                        return applied, True
-                    if not events:
-                        return applied, False
-                    latest = {event.index_id: event.kind for event in events}  # last one wins
-                    wanted = [i for i, kind in latest.items() if kind == "ready"]
-                    rows = cast(list[_Row], (
-                        session.execute(
-                            select(*self._indexed()).where(
-                                Model.index_id.in_(wanted),
-                                Model.status == "ready",
-                                self._in_scope(),
-                            )
-                        ).all()
-                        if wanted
-                        else []
-                    ))
-                # Models deleted meanwhile are simply not found; their views go with them.
-                self._apply(latest, [_added(*row) for row in rows if row[3] and row[2]])
-                self.revision = int(events[-1].revision)
-                applied += len(events)
-
-
-def _added(
-    index_id: int,
-    tenant: str,
-    version: str,
-    descriptor: bytes,
-    view_blob: bytes | None,
-    model_id: uuid.UUID,
-) -> _Added:
-    """A ready row as ``_apply`` adds it."""
-    vector = np.frombuffer(descriptor, dtype=np.float32)
-    return index_id, (tenant, version), vector, views_array(view_blob, len(vector)), model_id

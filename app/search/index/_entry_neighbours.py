@@ -16,13 +16,17 @@ Python objects and its place in the dict, measured with tracemalloc: 46 MB in al
 from __future__ import annotations
 
 import threading
-from collections.abc import Hashable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 
 import numpy as np
 
+from app.search.index._partition import Partition
+from app.search.index._view_ids import PartitionKey, view_of, views_key
 from core.rank.hubness import SCAN_HUB_NEIGHBOURS
 
-__all__ = ["CAPACITY", "KEPT_MODELS", "KeptEntryNeighbours", "nearest_models"]
+__all__ = [
+    "CAPACITY", "KEPT_MODELS", "KeptEntryNeighbours", "entry_neighbours", "nearest_models",
+]
 
 #: Models kept per entry: one more than the discount averages, for a query's own model,
 #: which leaves the catalogue for its own search.
@@ -31,6 +35,41 @@ CAPACITY = 100_000
 
 # (model ids (KEPT_MODELS,) int64, -1 where there are fewer; cosines (KEPT_MODELS,) float64)
 Neighbours = tuple[np.ndarray, np.ndarray]
+# A partition's search: (key, (m, d) queries, k) -> each query's (id, L2 distance), nearest first.
+Search = Callable[[PartitionKey, np.ndarray, int], list[list[tuple[int, float]]]]
+
+
+def entry_neighbours(
+    kept: KeptEntryNeighbours,
+    key: PartitionKey,
+    partitions: tuple[Partition | None, Partition | None],
+    search: Search,
+    entry_ids: Sequence[int],
+    owners: Sequence[int],
+    vectors: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``nearest_models`` of each entry ``entry_ids`` (owned by ``owners``, ``vectors : (e,
+    d)``) of partition ``key``, whose models' and views' partitions are ``partitions``:
+    those ``kept`` while neither changed, the others found by ``search`` (``KEPT_MODELS + 1``
+    models and as many times the views a model has on average) and kept. As ``(e,
+    KEPT_MODELS)`` model ids and cosines."""
+    stamp = tuple(None if p is None else (p.serial, p.version) for p in partitions)
+    found = kept.get(key, stamp, entry_ids)
+    missing = [row for row, neighbours in enumerate(found) if neighbours is None]
+    if missing:
+        sizes = [0 if p is None else int(p.index.ntotal) for p in partitions]
+        per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
+        rows = np.ascontiguousarray(np.asarray(vectors)[missing], dtype=np.float32)
+        model_hits = search(key, rows, KEPT_MODELS + 1)
+        view_hits = search(views_key(key), rows, (KEPT_MODELS + 1) * per_model)
+        fresh = {}
+        for place, row in enumerate(missing):
+            hits = [(i, 1.0 - d * d / 2.0) for i, d in model_hits[place]]
+            hits += [(view_of(i)[0], 1.0 - d * d / 2.0) for i, d in view_hits[place]]
+            found[row] = fresh[entry_ids[row]] = nearest_models(hits, owners[row])
+        kept.put(key, stamp, fresh)
+    held = [neighbours for neighbours in found if neighbours is not None]
+    return np.stack([k[0] for k in held]), np.stack([k[1] for k in held])
 
 
 def nearest_models(hits: Sequence[tuple[int, float]], own: int) -> Neighbours:

@@ -33,7 +33,7 @@ TRAIN_PER_LIST = 16  # k-means training vectors per inverted list
 _TRAIN_ITERATIONS = 8
 _QUANTIZERS = {8: faiss.ScalarQuantizer.QT_8bit, 4: faiss.ScalarQuantizer.QT_4bit}
 # Exact re-rank candidates per wanted result, relative to 8-bit codes: 4-bit distance
-# estimates err more, so the true top 10 of 2787-dim (ss5) descriptors needs about 40 candidates
+# estimates err more, so the true top 10 of 2787-dim descriptors needs about 40 candidates
 # where 8-bit codes need 20 (a one-off comparison at 2x10^5: recall@10 0.988 with 20, 0.998
 # with 40; at 10^6 with 40, 0.994: bench/search_scale.py --phases index).
 _RERANK_SCALE = {8: 1, 4: 2}

@@ -5,7 +5,7 @@ An IVF partition's codes only choose the candidates; the exact re-rank reads the
 vectors (``app.search.full_vectors``). The codes therefore need not hold every dimension of
 a descriptor, only enough of it to keep the true neighbours among the candidates. Projected
 onto the 256 leading principal directions of the partition's training sample, the default
-descriptor's 2832 padded dimensions scan ~5x faster and take ~9x fewer bytes (README,
+descriptor's 2832 padded dimensions scan ~5x faster and take ~9x fewer bytes (docs/benchmarks.md,
 "Search at catalogue scale"). What it costs depends on the catalogue:
 
 * the components are orthonormal rows, so the distance between two projections is never

@@ -2,10 +2,11 @@
 
 A whole pass over a partition's neighbourhoods (``_neighbours.keep_neighbourhoods``) takes
 about 17 minutes of a core at 10^6 models, and until it has kept a query's candidates the
-query computes their own (~170 ms instead of 0.06 ms). Every API process paid that after
-each start. Now the index saves what a pass kept, a file per partition (``save``), and a
-process that starts restores it (``restore``) instead of computing it again, forgetting
-what the changes since have moved, as a running process does for each change (``_kept``):
+query computes their own (~170 ms instead of 0.06 ms). So that an API process does not
+pay that after each start, the index saves what a pass kept, a file per partition
+(``save``), and a process that starts restores it (``restore``) instead of computing it
+again, forgetting what the changes since have moved, as a running process does for each
+change (``_kept``):
 
 * the file says the change-feed revision it is of, and the feed's events after it name
   the models added, replaced or deleted since (the ``touched``);
@@ -25,8 +26,8 @@ A file is written whole and renamed into place, so a reader never sees part of o
 processes that share the directory share the files (the last one saved wins; any is right
 for its revision). They share the work too: one process at a time computes a partition's
 (``computing``: a lock beside its file) and saves what it kept, and the others restore that
-instead of computing the same (two API processes on a host of two cores used to spend a
-core each on the same pass).
+instead of computing the same (two API processes on a host of two cores would otherwise
+spend a core each on the same pass).
 
 Files no process reads any more are removed (``tidy``): those of a partition the database
 no longer holds (a retired descriptor version, a tenant's last model deleted) or of another

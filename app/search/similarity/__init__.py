@@ -41,7 +41,7 @@ Order: shape mode ranks with a hub discount (cross-domain similarity local scali
 ``core.rank.hubness``): the ``4 k`` nearest candidates are re-ordered by ``d^2 + r_k``, ``r_k`` a
 candidate's mean cosine to its 10 most alike other models of the partition (the index's
 ``neighbourhood_radii``), so a part near everything comes a little later and the rest of
-the query's kind earlier (+0.01 mAP left out over seven tuning sources; docs/results.md).
+the query's kind earlier (+0.01 mAP left out over seven tuning sources).
 Then, without a size term, those candidates are re-ranked k-reciprocally among themselves
 (``core.rank.reciprocal.pool_keys``: a candidate whose own nearest hold the query comes earlier;
 +0.04 mAP on a tuning source that no setting had seen), the hub discount's first answer

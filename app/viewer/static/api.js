@@ -170,7 +170,7 @@ export function statusBadge(status) {
   return el("span", { class: `status ${status}`, "data-status": status }, status);
 }
 
-// "34.3 x 34 x 25.4 mm": a model's size (issue 21), or "" without one.
+// "34.3 x 34 x 25.4 mm": a model's size, or "" without one.
 export function sizeLabel(size) {
   if (!size) return "";
   const fmt = (v) => Number(v.toPrecision(3)).toString();
