@@ -9,7 +9,8 @@ The science only: no web, no database. The public face::
 
 Modules: ``io`` (files to points), ``normalise``, ``laplacian`` (L, M), ``eigen``
 (incremental generalised eigen-solver), ``cutoff``, ``signatures`` (HKS, WKS),
-``descriptor`` (histograms), ``pipeline`` (``describe``), ``evaluation`` (retrieval scores).
+``descriptor`` (weighted blocks), ``extrinsic`` (measurements of the embedding),
+``pipeline`` (``describe``), ``evaluation`` (retrieval scores).
 Names are imported on first use, so ``import core.cutoff`` does not load trimesh.
 """
 

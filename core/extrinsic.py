@@ -8,26 +8,25 @@ part's description does not depend on how it was placed or exported:
 
 - ``pair_distance_ratios``: D2, distances of random point pairs (Osada et al. 2002);
 - ``centroid_distance_ratios``: D1, distances from the centroid (Osada et al. 2002);
-- ``spread_profile``: the extents along the principal axes;
-- ``axis_offsets``: where along each principal axis the surface lies;
 - ``normal_axis_cosines``: how the surface faces the principal axes (prismatic parts put
   their faces square to their own axes; an L, U and Z profile differ in how much);
 - ``reflection_symmetry``: how far the surface is from its mirror images in its principal
   planes and its images under half-turns and inversion (Kazhdan et al. 2002 measure
   symmetry over all planes; the principal planes are where parts have theirs);
 - ``angular_spectrum``: what repeats around the first and third principal axes (gear and
-  sprocket teeth, bolt holes, hex heads and sockets), by (optionally soft) shells of
-  distance from the axis.
+  sprocket teeth, bolt holes, hex heads and sockets), by soft shells of distance from the
+  axis;
 - ``end_profiles``: how each end of the part looks, along the first and third principal
   axes, in the part's own radius: a screw's head is the same one diameter deep whatever
-  the screw's length; optionally each axis averaged over the directions it could take
+  the screw's length; each axis averaged over the directions it could take
   (``soft_axis_weights``) when the shape does not define it.
 
-``shortened_runs`` is not a measurement but what the blocks measure: the part with each
-long run of one cross-section along its first axis (a shank, a shaft, a key's length)
-shortened to a few radii, so that a kind made in many lengths looks alike to them.
+``shortened_runs``, ``evened_spreads`` and ``evened_areas`` are not measurements but what
+the measurements see: the part with each long run of one cross-section along its first axis
+(a shank, a shaft, a key's length) shortened to a few radii, and its principal spreads
+evened, so that a kind made in many lengths looks alike and its head or hub counts.
 
-``core.descriptor`` turns them into histogram blocks.
+``core.descriptor``'s blocks turn them into the descriptor.
 """
 
 from __future__ import annotations
@@ -37,10 +36,12 @@ from scipy.spatial import cKDTree
 
 __all__ = [
     "ANGULAR_BANDS",
+    "ANGULAR_SHELLS",
+    "CAPS_SHARPNESS",
     "END_DIRECTIONS",
+    "SHELL_CENTRES",
     "SIGN_FLIPS",
     "angular_spectrum",
-    "axis_offsets",
     "centroid_distance_ratios",
     "end_profiles",
     "evened_areas",
@@ -53,7 +54,6 @@ __all__ = [
     "shell_spectrum",
     "shortened_runs",
     "soft_axis_weights",
-    "spread_profile",
     "surface_normals",
 ]
 
@@ -73,14 +73,25 @@ SIGN_FLIPS: np.ndarray = np.array(
 #: an octave each, from a part's overall lobes to the teeth of a fine gear.
 ANGULAR_BANDS: tuple[tuple[int, int], ...] = ((1, 3), (3, 6), (6, 12), (12, 24), (24, 48))
 
-#: Shells of distance from the axis in ``angular_spectrum`` (equal shares of the area).
+#: Shells of distance from the axis in ``angular_spectrum``.
 ANGULAR_SHELLS = 3
+
+#: The shells' centres, in the area-weighted median distance from the axis: a point belongs
+#: to the shells by linear interpolation between them (``shell_spectrum``). Chosen by
+#: leave-one-source-out on third-party sources (+0.0011 mAP over shells cut at thirds of
+#: the area; see the changelog), and re-sampled copies of a part come closer with them.
+SHELL_CENTRES: tuple[float, float, float] = (0.5, 1.0, 1.5)
 
 #: ``end_profiles``: the radial range of its histograms, in the part's median radius, and
 #: the area share beyond each end that may be stray points (a scan's outlier does not
 #: move an end).
 END_RADIAL_RANGE = 2.5
 END_QUANTILE = 0.005
+
+#: ``end_profiles``: the sharpness of the kernel that averages each axis over the directions
+#: it could take (``soft_axis_weights``). Chosen by leave-one-source-out on third-party
+#: sources (+0.0024 mAP over the principal axes themselves; see the changelog).
+CAPS_SHARPNESS = 4096.0
 
 #: ``evened_spreads``: an axis is grown at most this many times (a washer stays a flat ring
 #: rather than becoming a ball).
@@ -92,8 +103,7 @@ EVEN_FLATTEST = 10.0
 #: Wasserstein-1 distance, which a section with two modes of distance, flats and corners,
 #: does not jump in as its median does), and a run stays one cross-section while every
 #: slice is within ``RUN_SPREAD`` of the run's median quantiles; a slice of fewer points is
-#: not judged (and ends a run). Fixed before the study that chose them
-#: (``bench/selection/collapsed_runs_select.py``, round 2).
+#: not judged (and ends a run). Fixed before the study that chose ``runs_longest``.
 RUN_SLICE_WIDTH = 0.5
 RUN_QUANTILES = tuple(np.linspace(0.05, 0.95, 19).tolist())
 RUN_STEP = 0.04
@@ -138,8 +148,8 @@ def evened_spreads(points: np.ndarray, areas: np.ndarray,
     middle axis' (an axis thinner than ``1 / flattest`` of it is grown ``flattest`` times
     only). Distances measured on the result (D2, D1) describe how the surface is laid out
     apart from its proportions: a long and a short screw of one head come closer, while the
-    head, whose share of the length grows, counts more (issue 24: a kind comes in many
-    lengths). Rotation, translation, uniform scale and point order do not change it beyond
+    head, whose share of the length grows, counts more (a kind comes in many lengths).
+    Rotation, translation, uniform scale and point order do not change it beyond
     the principal axes' signs, which distances do not see.
 
     Parameters
@@ -170,8 +180,8 @@ def evened_areas(points: np.ndarray, areas: np.ndarray, normals: np.ndarray,
     normal ``nu`` to ``det(F) |F^-1 nu|`` times its area; ``det(F)`` is one constant, so each
     area is multiplied by ``|F^-1 nu|`` and the total restored. A screw's shank, its normal
     across the long axis that the evening shortens, keeps the share it has per unit length
-    of the evened part, and the head's share no longer follows the screw's length (issue 24:
-    area shares weigh every histogram). Rotation, translation, uniform scale, point order and
+    of the evened part, and the head's share no longer follows the screw's length (area
+    shares weigh every histogram). Rotation, translation, uniform scale, point order and
     the normals' signs do not change it.
 
     Parameters
@@ -185,7 +195,7 @@ def evened_areas(points: np.ndarray, areas: np.ndarray, normals: np.ndarray,
         As in ``evened_spreads``.
     power : float
         The factor ``|F^-1 nu|`` is raised to it: 1 for the evened surface (the descriptor),
-        0 for the sample's own areas; the selection studies weigh others.
+        0 for the sample's own areas.
 
     Returns
     -------
@@ -216,10 +226,10 @@ def shortened_runs(points: np.ndarray, areas: np.ndarray, longest: float
 
     What a screw's shank, a shaft or a key adds when it grows is more of one cross-section;
     the extrinsic blocks measured on the shortened part see a kind made in many lengths
-    alike, and what differs (a head, a neck, a groove) at its own size (issue 24). The
-    radius ``rho`` is the area-weighted median distance from the axis. The part is cut into
-    slices ``RUN_SLICE_WIDTH`` radii wide, laid from the centroid so that a flipped axis
-    gives the same slices; a slice's cross-section is its ``RUN_QUANTILES`` of the
+    alike, and what differs (a head, a neck, a groove) at its own size. The radius ``rho``
+    is the area-weighted median distance from the axis. The part is cut into slices
+    ``RUN_SLICE_WIDTH`` radii wide, laid from the centroid so that a flipped axis gives the
+    same slices; a slice's cross-section is its ``RUN_QUANTILES`` of the
     distance from the axis, over ``rho``. A run is a maximal chain of neighbouring slices
     that are alike (``RUN_STEP``) and stay one cross-section over the whole run
     (``RUN_SPREAD``); a run longer than ``longest`` radii is scaled along the axis to
@@ -297,29 +307,6 @@ def _run_factors(profiles: np.ndarray, width: float, longest: float) -> np.ndarr
     return factors
 
 
-def spread_profile(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
-    """How the surface spreads along its principal axes, ``(3,) float`` of unit norm.
-
-    Square roots of the principal variances of ``points : (n, 3)`` (``principal_frame``),
-    largest first, over their sum: the variances do not change under rotation and the ratio
-    does not change under scaling (a rod ~ (1, 0, 0), a plate ~ (0.71, 0.71, 0)).
-    """
-    _, variances, _ = principal_frame(points, areas)
-    total = variances.sum()
-    return np.sqrt(variances / total) if total > 0 else np.zeros(3)
-
-
-def axis_offsets(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
-    """``|offset|`` of each point from the centroid along each principal axis, over the
-    surface's RMS radius, ``(n, 3) float`` (columns largest extent first).
-
-    Absolute values: an axis' sign is arbitrary. Zeros for a single point.
-    """
-    coordinates, variances, _ = principal_frame(points, areas)
-    radius = float(np.sqrt(variances.sum()))
-    return np.abs(coordinates) / radius if radius > 0 else np.zeros_like(coordinates)
-
-
 def pair_distance_ratios(
     points: np.ndarray, areas: np.ndarray, pairs: int, seed: int
 ) -> np.ndarray:
@@ -394,13 +381,13 @@ def reflection_symmetry(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
 
 
 def angular_spectrum(points: np.ndarray, areas: np.ndarray,
-                     shell_centres: tuple[float, float, float] | None = None) -> np.ndarray:
+                     shell_centres: tuple[float, float, float] = SHELL_CENTRES) -> np.ndarray:
     """What repeats around the first and the third principal axis, ``(2, 3, 5) float``.
 
     The symmetry axis of a turned part is its first principal axis when it is long (a
     screw) and its third when it is flat (a washer, a flange, a gear). About each, the
-    points fall into ``ANGULAR_SHELLS`` shells of distance from the axis (the area-weighted
-    tertiles: hub, web, rim), and in each shell the area-weighted angular Fourier
+    points fall into ``ANGULAR_SHELLS`` soft shells of distance from the axis (hub, web,
+    rim: ``shell_spectrum``), and in each shell the area-weighted angular Fourier
     coefficients ``c_k = sum(w e^(-ik theta)) / sum(w)`` measure ``k``-fold repetition: a
     20-tooth sprocket's rim has its power at ``k = 20``, four bolt holes at ``k = 4``, a hex
     head at ``k = 6``, a plain cylinder none. Each value is the root mean ``|c_k|^2`` over one
@@ -416,8 +403,8 @@ def angular_spectrum(points: np.ndarray, areas: np.ndarray,
     points : (n, 3) float
     areas : (n,) float
         Non-negative, not all zero.
-    shell_centres : (3,) float, optional
-        Soft shells (see ``shell_spectrum``); ``None``: the area tertiles.
+    shell_centres : (3,) float
+        The soft shells' centres (``shell_spectrum``).
 
     Returns
     -------
@@ -436,7 +423,7 @@ def angular_spectrum(points: np.ndarray, areas: np.ndarray,
 
 
 def shell_spectrum(across: np.ndarray, weights: np.ndarray,
-                   centres: tuple[float, float, float] | None = None) -> np.ndarray:
+                   centres: tuple[float, float, float] = SHELL_CENTRES) -> np.ndarray:
     """The band powers of ``angular_spectrum`` about one axis, ``(ANGULAR_SHELLS, bands)``.
 
     Parameters
@@ -444,18 +431,22 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray,
     across : (n,) complex
         Each point's position across the axis, ``x - i y`` in the plane normal to it.
     weights : (n,) float
-        Non-negative; by default the shells are their weighted tertiles of distance from
-        the axis.
-    centres : (3,) float, optional
-        Soft shells instead: a point at distance ``r`` from the axis, over the weighted
-        median distance, belongs to the shells by linear interpolation between these
-        centres (all to the first below the first centre, to the last beyond the last).
-        Tertiles cut through a wall whose points all lie at one distance, and which side
-        of the cut a point falls on then follows the axis' sampling noise; a membership
-        that changes continuously with ``r`` does not jump. A soft shell's coefficients
-        are over its mass or a third of the whole, whichever is larger: a nearly empty
-        shell (the sliver of a wall just beyond a centre, lopsided by the same noise)
-        counts by its share, not as if it were a whole shell.
+        Non-negative.
+    centres : (3,) float
+        The soft shells: a point at distance ``r`` from the axis, over the weighted median
+        distance, belongs to the shells by linear interpolation between these centres (all
+        to the first below the first centre, to the last beyond the last). Shells cut at
+        fixed shares of the area would cut through a wall whose points all lie at one
+        distance, and which side of the cut a point falls on would follow the axis'
+        sampling noise; a membership that changes continuously with ``r`` does not jump. A
+        shell's coefficients are over its mass or a third of the whole, whichever is
+        larger: a nearly empty shell (the sliver of a wall just beyond a centre, lopsided
+        by the same noise) counts by its share, not as if it were a whole shell.
+
+    Returns
+    -------
+    (ANGULAR_SHELLS, len(ANGULAR_BANDS)) float
+        Each band's root mean power per shell, in [0, 1].
     """
     highest = max(high for _, high in ANGULAR_BANDS)
     radius = np.abs(across)
@@ -467,20 +458,11 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray,
     share = np.cumsum(weights[order])
     # One product for all shells: each row holds the weights of one shell's points.
     by_shell = np.zeros((ANGULAR_SHELLS, len(radius)))
-    if centres is None:
-        shells = np.empty(len(radius), dtype=np.int64)
-        shells[order] = np.minimum(
-            (ANGULAR_SHELLS * share / share[-1]).astype(np.int64), ANGULAR_SHELLS - 1
-        )
-        by_shell[shells, np.arange(len(radius))] = weights
-    else:
-        median = radius[order][min(np.searchsorted(share, 0.5 * share[-1]), len(radius) - 1)]
-        relative = radius / median if median > 0 else np.zeros_like(radius)
-        for shell, indicator in enumerate(np.eye(ANGULAR_SHELLS)):
-            by_shell[shell] = weights * np.interp(relative, centres, indicator)
-    mass = by_shell.sum(axis=1)
-    if centres is not None:
-        mass = np.maximum(mass, share[-1] / ANGULAR_SHELLS)
+    median = radius[order][min(np.searchsorted(share, 0.5 * share[-1]), len(radius) - 1)]
+    relative = radius / median if median > 0 else np.zeros_like(radius)
+    for shell, indicator in enumerate(np.eye(ANGULAR_SHELLS)):
+        by_shell[shell] = weights * np.interp(relative, centres, indicator)
+    mass = np.maximum(by_shell.sum(axis=1), share[-1] / ANGULAR_SHELLS)
     coefficients = (by_shell @ powers) / np.where(mass > 0, mass, 1.0)[:, None]
     power = np.abs(coefficients) ** 2
     return np.stack([np.sqrt(power[:, low - 1 : high - 1].mean(axis=1))
@@ -488,7 +470,7 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray,
 
 
 def end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float,
-                 sharpness: float | None = None) -> np.ndarray:
+                 sharpness: float = CAPS_SHARPNESS) -> np.ndarray:
     """Each end's depth-radius profile in the part's own radius, ``(2, 2, bins, bins)``.
 
     About each of the first and the third principal axis (the symmetry axis of a long and
@@ -515,26 +497,28 @@ def end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float,
         Bins per coordinate.
     depth : float
         How deep an end reaches, in radii.
-    sharpness : float, optional
-        When given, each axis' profile is the kernel-weighted mean of the profiles along
+    sharpness : float
+        Each axis' profile is the kernel-weighted mean of the profiles along
         ``END_DIRECTIONS`` (see ``soft_axis_weights``), so that an axis the shape does not
         define (a square plate's first, a cube's every) is averaged over the directions it
-        could take instead of following the sampling. ``None``: along the axes themselves.
+        could take instead of following the sampling; the sharper, the nearer the axis
+        itself when the shape defines it.
 
     Returns
     -------
     profiles : (2, 2, bins, bins) float
         Axis (first, third), end (wider first), depth bin, radius bin.
     """
-    if sharpness is not None:
-        return _soft_end_profiles(points, areas, bins, depth, sharpness)
-    coordinates, _, _ = principal_frame(points, areas)
+    coordinates, variances, _ = principal_frame(points, areas)
     weights = areas / areas.sum()
+    kernels = soft_axis_weights(variances, END_DIRECTIONS, sharpness)
+    used = (kernels > _NEGLIGIBLE * kernels.max(axis=1, keepdims=True)).any(axis=0)
     profiles = np.zeros((2, 2, bins, bins))
-    for row, (along, across) in enumerate(((0, (1, 2)), (2, (0, 1)))):
-        z = coordinates[:, along]
-        r = np.hypot(coordinates[:, across[0]], coordinates[:, across[1]])
-        profiles[row] = _direction_ends(z, r, weights, bins, depth)
+    for direction, kernel in zip(END_DIRECTIONS[used], kernels[:, used].T, strict=True):
+        z = coordinates @ direction
+        r = np.linalg.norm(coordinates - z[:, None] * direction, axis=1)
+        ends = _direction_ends(z, r, weights, bins, depth)
+        profiles += kernel[:, None, None, None] * ends[None]
     return profiles
 
 
@@ -554,7 +538,7 @@ def _hemisphere(count: int) -> np.ndarray:
     return np.vstack([np.eye(3), *mirrors])
 
 
-#: Directions of the principal frame that ``end_profiles(..., sharpness=...)`` averages over.
+#: Directions of the principal frame that ``end_profiles`` averages over.
 END_DIRECTIONS: np.ndarray = _hemisphere(128)
 
 #: ``soft_axis_weights`` below this share of the largest are left out (they cannot change
@@ -592,22 +576,6 @@ def soft_axis_weights(variances: np.ndarray, directions: np.ndarray,
     third = ((variances - variances[2]) / scale) ** 2 @ (directions**2).T
     kernels = np.exp(-sharpness * np.vstack([first, third]))
     return kernels / kernels.sum(axis=1, keepdims=True)
-
-
-def _soft_end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float,
-                       sharpness: float) -> np.ndarray:
-    """``end_profiles`` averaged over ``END_DIRECTIONS`` by ``soft_axis_weights``."""
-    coordinates, variances, _ = principal_frame(points, areas)
-    weights = areas / areas.sum()
-    kernels = soft_axis_weights(variances, END_DIRECTIONS, sharpness)
-    used = (kernels > _NEGLIGIBLE * kernels.max(axis=1, keepdims=True)).any(axis=0)
-    profiles = np.zeros((2, 2, bins, bins))
-    for direction, kernel in zip(END_DIRECTIONS[used], kernels[:, used].T, strict=True):
-        z = coordinates @ direction
-        r = np.linalg.norm(coordinates - z[:, None] * direction, axis=1)
-        ends = _direction_ends(z, r, weights, bins, depth)
-        profiles += kernel[:, None, None, None] * ends[None]
-    return profiles
 
 
 def _direction_ends(z: np.ndarray, r: np.ndarray, weights: np.ndarray, bins: int,

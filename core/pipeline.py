@@ -77,6 +77,9 @@ class Description:
         asks for K; a view with fewer than ``min_points`` points, or that fails, is left out).
     size : ShapeSize or None
         Extents, area and volume in the file's units (``core.size``).
+    sample : (n, 3) float or None
+        ``points`` as loaded: in the file's units and coordinates, before centring and
+        scaling (what ``core.compare`` aligns and measures).
     """
 
     points: np.ndarray
@@ -92,6 +95,7 @@ class Description:
     scan_descriptor: np.ndarray | None = None
     views: np.ndarray = field(default_factory=lambda: np.empty((0, 0), dtype=np.float32))
     size: ShapeSize | None = None
+    sample: np.ndarray | None = None
 
     @property
     def n_points(self) -> int:
@@ -347,6 +351,7 @@ def _describe_loaded(
         features=features,
         scan_descriptor=scan_descriptor,
         size=size,
+        sample=shape.points,
     )
 
 

@@ -1,7 +1,7 @@
 """Partial views of a shape, and weights that discount the open rim of a partial surface.
 
 A scan sees only the side of a part that faced the sensor. Two measures make a partial query
-match its whole catalogue model better (docs/results.md, "Scan-robust retrieval"):
+match its whole catalogue model better (``core.evaluation.scan_retrieval`` measures both):
 
 - ``virtual_views``: what a few fixed, spread viewpoints see of a model (hidden point
   removal, ``hidden_point_removal``); each view is described and indexed as an extra entry
@@ -97,8 +97,8 @@ def frame_directions(points: np.ndarray, tilt: float) -> np.ndarray:
     The signed principal axes (``signed_principal_axes``) turned by ``tilt`` radians about
     their diagonal ``(1, 1, 1)``: direction ``k`` still leans towards axis ``k`` (an end
     view, a side view, a top view) but lies in no principal plane, so that a flat part is
-    never seen exactly edge-on. Measured as scan mode's views and declined
-    (``bench/selection/scan_frame_select.py``): the evaluation's scan kind ``fview``.
+    never seen exactly edge-on. Measured as scan mode's views and declined: the
+    evaluation's scan kind ``fview``.
 
     Parameters
     ----------

@@ -50,7 +50,7 @@ _EXTRA = 4
 _NUDGE = 1e-3
 # Lanczos basis size of a band, in units of the eigenpairs asked: ARPACK's default (2k + 1)
 # spends more on orthogonalising the basis than the extra vectors save in restarts; 1.5k was
-# about 20 % faster at 3000 points (three parts, bench notes of issue 7). Exactness is
+# about 20 % faster at 3000 points (three parts). Exactness is
 # unchanged: ARPACK still converges to tol=0 and the inertia count certifies the band.
 _BASIS_FACTOR = 1.5
 

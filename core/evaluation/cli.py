@@ -350,7 +350,7 @@ def evaluate(
     (``core.rank.hubness``), under each variant's ``hub`` entry: the order the search service
     gives shape-mode answers (``app.search.similarity``; the same as long as a query's
     ``k`` is at least a quarter of the catalogue, else its re-rank of the plain nearest
-    ``4 k`` agreed with this for most queries: bench/selection/hubness_select.py).
+    ``4 k`` agreed with this for most queries).
     """
     from core.eigen import pin_blas_threads
 

@@ -1,4 +1,4 @@
-"""Feature-aware sampling: spend more of the point budget where the surface bends (issue 24).
+"""Feature-aware sampling: spend more of the point budget where the surface bends.
 
 Uniform sampling gives a screw's hex socket, a flange's hub fillet or a sprocket's teeth
 their share of the *area*, which at 3000 points is a few dozen points. Here a dense uniform
@@ -13,9 +13,8 @@ features. The cap keeps corners (the largest ``sigma``) from taking the whole bu
 later stage weighs points by the area they stand for (the Laplacian's lumped mass), so a
 denser edge gets finer resolution, not more weight, in the area-weighted blocks.
 
-Used by the evaluation's ``Sampling`` (``feature_share``) and by
-``bench/selection/extraction_select.py``, which decides by the leave-one-source-out rule whether the
-service should sample this way.
+Used by the evaluation's ``Sampling`` (``feature_share``), to decide by leave-one-source-out
+on third-party sources whether the service should sample this way.
 """
 
 from __future__ import annotations

@@ -12,9 +12,8 @@ whose normals cross the side of the part and still meet the axis); ``revolve`` s
 completed surface. Flat faces whose normals run along the axis agree with every axis, so they
 do not count as agreement: a plate is not taken for a disc.
 
-Measured for scan mode's queries (the ``+rev`` step of ``core.evaluation.runner``,
-``bench/selection/scan_revolve_select.py``) and declined: the service does not complete
-scans (docs/results.md, "Completing a scan about its axis of revolution").
+Measured for scan mode's queries (the ``+rev`` step of ``core.evaluation.runner``) and
+declined: the service does not complete scans.
 """
 
 from __future__ import annotations

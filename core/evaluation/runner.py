@@ -60,7 +60,7 @@ __all__ = [
 #: many times denser and then thinned by the loader's own rule, like an uploaded scan.
 SCAN_OVERSAMPLING = 3
 #: Cache layout generation: bump when what is cached changes meaning.
-_CACHE_VERSION = "e2"  # e2: "+sor" is the median-spacing outlier rule (issue 12)
+_CACHE_VERSION = "e2"  # e2: "+sor" is the median-spacing outlier rule
 
 
 @dataclass(frozen=True)

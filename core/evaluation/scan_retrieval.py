@@ -1,4 +1,4 @@
-"""Scan-robust retrieval, measured at descriptor level (issue 12).
+"""Scan-robust retrieval, measured at descriptor level.
 
 Two ideas, each measured against the global descriptor of the service today:
 
@@ -45,17 +45,7 @@ from core.evaluation.runner import (
     sampling_of,
 )
 from core.evaluation.scans import view_kind
-from core.evaluation.variants import (
-    EVAL_POINTS,
-    SS4_DESCRIPTOR,
-    SS5_DESCRIPTOR,
-    SS6_DESCRIPTOR,
-    SS7_DESCRIPTOR,
-    SS8_DESCRIPTOR,
-    SS9_DESCRIPTOR,
-    SS10_DESCRIPTOR,
-    SS11_DESCRIPTOR,
-)
+from core.evaluation.variants import EVAL_POINTS, SS11_DESCRIPTOR
 from core.pipeline import descriptor_from_eigenpairs
 from core.rank.scan_order import scan_mode_positions
 from core.settings import DESCRIPTOR_FAMILIES, DescriptorSettings, EngineSettings
@@ -83,17 +73,7 @@ _DEFAULT = DescriptorSettings()
 #: Descriptor variant -> (descriptor settings, down-weight the boundary?).
 DESCRIPTORS: dict[str, tuple[DescriptorSettings, bool]] = {
     "default": (_DEFAULT, False),
-    # Issue 24: the defaults before it, before its ring block, before its caps block,
-    # before the caps block's soft axes, before the ring block's soft shells, before the
-    # evened D2 and D1, before the evened surface's areas and before the shortened runs,
-    # and the family for bendable shapes.
-    "ss4": (SS4_DESCRIPTOR, False),
-    "ss5": (SS5_DESCRIPTOR, False),
-    "ss6": (SS6_DESCRIPTOR, False),
-    "ss7": (SS7_DESCRIPTOR, False),
-    "ss8": (SS8_DESCRIPTOR, False),
-    "ss9": (SS9_DESCRIPTOR, False),
-    "ss10": (SS10_DESCRIPTOR, False),
+    # The layout before the shortened runs, and the family for bendable shapes.
     "ss11": (SS11_DESCRIPTOR, False),
     "bendable": (DESCRIPTOR_FAMILIES["bendable"], False),
     "boundary": (_DEFAULT, True),

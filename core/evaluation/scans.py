@@ -188,7 +188,7 @@ def simulate_scan(
 #
 # - only the side facing the camera is seen (hidden point removal, as above);
 # - depth is measured along the optical axis, quantised in steps that grow with depth squared
-#   (disparity is quantised; about 1 cm at object distance, as the issue states) and noisy
+#   (disparity is quantised; about 1 cm at object distance) and noisy
 #   with a standard deviation that also grows with depth squared (Khoshelham & Elberink 2012);
 #   both act along the camera ray, so the pixel's direction is kept;
 # - dark or shiny patches return nothing, from every view (they are a property of the surface);

@@ -30,26 +30,19 @@ __all__ = [
     "NAIVE_DESCRIPTOR",
     "SCAN_VARIANTS",
     "SPECTRAL_DESCRIPTOR",
-    "SS4_DESCRIPTOR",
-    "SS5_DESCRIPTOR",
-    "SS6_DESCRIPTOR",
-    "SS7_DESCRIPTOR",
-    "SS8_DESCRIPTOR",
-    "SS9_DESCRIPTOR",
-    "SS10_DESCRIPTOR",
     "SS11_DESCRIPTOR",
     "VARIANTS",
     "resolve_variants",
 ]
 
 #: Points per model in the evaluation: the engine's default ``max_points`` (chosen by the
-#: budget sweep, docs/results.md).
+#: budget sweep).
 EVAL_POINTS = EngineSettings().max_points
 
-#: Point budgets of the budget sweep (variants ``points-<N>``; see docs/results.md).
+#: Point budgets of the budget sweep (variants ``points-<N>``).
 BUDGET_POINTS: tuple[int, ...] = (2000, 3000, 5000, 10000, 20000)
 
-#: The naive baseline descriptor of issue 4: heat-trace-scaled log-HKS at 16 log-spaced times
+#: The naive baseline descriptor: heat-trace-scaled log-HKS at 16 log-spaced times
 #: in [1e-3, 1e-1], 32 area-weighted bins on [-3, 3] per time, square root, L2.
 NAIVE_DESCRIPTOR = DescriptorSettings(
     hks_times=tuple(np.geomspace(1e-3, 1e-1, 16).tolist()),
@@ -63,54 +56,17 @@ NAIVE_DESCRIPTOR = DescriptorSettings(
 ).intrinsic()
 
 
-#: The default before issue 12: spectral blocks only, WKS-dominated (HKS weight 0.2, WKS slope
+#: The spectral descriptor: spectral blocks only, WKS-dominated (HKS weight 0.2, WKS slope
 #: 1.0), chosen on capod alone; kept to compare against and as the base of the signature
-#: variants below, so their figures stay those of docs/results.md.
+#: variants below.
 SPECTRAL_DESCRIPTOR = replace(
     DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0, local_weight=0.0
 )
 
-#: The default before issue 24's shortened runs (``ss11``); every earlier default below
-#: starts from it.
+#: The layout before the shortened runs (``ss11``): today's with the extrinsic blocks
+#: measuring the part as it is. Kept so that a deployment's redescribe on upgrade can be
+#: compared with what it replaces.
 SS11_DESCRIPTOR = replace(DescriptorSettings(), runs_longest=None)
-
-#: The defaults before issue 24's evening measured on the sample as it is (D2 and D1 on it,
-#: every block weighed by its areas).
-_AS_SAMPLED: dict[str, Any] = {"evened_distances": False, "evened_areas": False}
-
-#: The default of issue 12 (``ss4``): the present one without the local, ring and caps
-#: blocks of issue 24, with the spread and axis-offset blocks it then had, D2 and D1 of the
-#: sample as it is.
-SS4_DESCRIPTOR = replace(
-    SS11_DESCRIPTOR, local_weight=0.0, ring_weight=0.0, caps_weight=0.0,
-    spread_weight=1.0, axis_weight=0.5, **_AS_SAMPLED,
-)
-
-#: The first default of issue 24 (``ss5``): the present one without the ring and caps blocks,
-#: D2 and D1 of the sample as it is.
-SS5_DESCRIPTOR = replace(SS11_DESCRIPTOR, ring_weight=0.0, caps_weight=0.0,
-                         **_AS_SAMPLED)
-
-#: The second default of issue 24 (``ss6``): the present one without the caps block, the
-#: ring block's shells the area tertiles, D2 and D1 of the sample as it is.
-SS6_DESCRIPTOR = replace(SS11_DESCRIPTOR, caps_weight=0.0, ring_shells=None,
-                         **_AS_SAMPLED)
-
-#: The third default of issue 24 (``ss7``): the caps block along the principal axes alone,
-#: the ring block's shells the area tertiles, D2 and D1 of the sample as it is.
-SS7_DESCRIPTOR = replace(SS11_DESCRIPTOR, caps_sharpness=None, ring_shells=None,
-                         **_AS_SAMPLED)
-
-#: The fourth default of issue 24 (``ss8``): the ring block's shells the area tertiles, D2
-#: and D1 of the sample as it is.
-SS8_DESCRIPTOR = replace(SS11_DESCRIPTOR, ring_shells=None, **_AS_SAMPLED)
-
-#: The fifth default of issue 24 (``ss9``): D2 and D1 of the sample as it is.
-SS9_DESCRIPTOR = replace(SS11_DESCRIPTOR, **_AS_SAMPLED)
-
-#: The sixth default of issue 24 (``ss10``): D2 and D1 of the evened sample, every block
-#: weighed by the sample's areas.
-SS10_DESCRIPTOR = replace(SS11_DESCRIPTOR, evened_areas=False)
 
 
 def _without(settings: DescriptorSettings, weight: str) -> DescriptorSettings:
@@ -146,7 +102,7 @@ def _variants() -> dict[str, EngineSettings]:
     spectral = SPECTRAL_DESCRIPTOR
     hks_only = replace(spectral, hks_weight=1.0, wks_energies=0, dna_count=0)
     variants = {
-        # The issue's naive baseline, with the paper's fixed 300 eigenpairs.
+        # The naive baseline, with the paper's fixed 300 eigenpairs.
         "baseline": _engine(_fixed(300), NAIVE_DESCRIPTOR),
         # ... and with the cutoff defaults it shipped with (t = 1e-3: always n_max = 500).
         "baseline-adaptive": _engine(_adaptive(1e-10, 1e-3), NAIVE_DESCRIPTOR),
@@ -168,23 +124,10 @@ def _variants() -> dict[str, EngineSettings]:
         ),
         "wks+slope": _engine(descriptor=replace(spectral, hks_weight=0.0, dna_count=0)),
         "hks+wks+slope": _engine(descriptor=replace(spectral, dna_count=0)),
-        # Issue 12: the spectral default before it, the first extrinsic default (ss3: D2 and
-        # spread), and the present one without each extrinsic block or with nothing else.
+        # The spectral descriptor, the layout before the shortened runs (ss11), the family
+        # for bendable shapes, and the default without each block or with only the blocks
+        # measured on the points.
         "spectral": _engine(descriptor=spectral),
-        "ss3": _engine(descriptor=replace(
-            default.intrinsic(), d2_weight=1.0, spread_weight=1.0, local_weight=0.0)),
-        # Issue 24: the defaults before it (ss4), before its ring block (ss5), before its
-        # caps block (ss6), before the caps block's soft axes (ss7), before the ring
-        # block's soft shells (ss8), before the evened D2 and D1 (ss9), before the evened
-        # surface's areas (ss10) and before the shortened runs (ss11), and the descriptor
-        # family for bendable shapes.
-        "ss4": _engine(descriptor=SS4_DESCRIPTOR),
-        "ss5": _engine(descriptor=SS5_DESCRIPTOR),
-        "ss6": _engine(descriptor=SS6_DESCRIPTOR),
-        "ss7": _engine(descriptor=SS7_DESCRIPTOR),
-        "ss8": _engine(descriptor=SS8_DESCRIPTOR),
-        "ss9": _engine(descriptor=SS9_DESCRIPTOR),
-        "ss10": _engine(descriptor=SS10_DESCRIPTOR),
         "ss11": _engine(descriptor=SS11_DESCRIPTOR),
         "bendable": _engine(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
         "default-no-local": _engine(descriptor=replace(default, local_weight=0.0)),

@@ -4,14 +4,14 @@ Depth sensors add stray points off the surface. The robust Laplacian gives such 
 point a huge area (measured on simulated capod scans: up to 110 times the median area, against
 6-8 times on clean samples), which distorts the mass matrix, the unit-area scaling and every
 area-weighted histogram; on simulated three-view scans it made retrieval no better than
-chance (docs/results.md). A point is an outlier when the mean distance to its nearest
+chance. A point is an outlier when the mean distance to its nearest
 neighbours exceeds ``ratio`` times the median of that distance over the cloud.
 
 The median, not the classic mean + 2 standard deviations: the mean and the spread move with
 the outliers themselves, and on a clean random sample (an ``.xyz`` export of a part) the
 classic rule cut the 3-4 % of points in the sparsest spots, opening holes that moved the
-descriptor by a third to a half of the distance to the nearest other model (issue 12,
-measured on capod and the generated parts); the median rule keeps such a sample whole.
+descriptor by a third to a half of the distance to the nearest other model (measured on
+capod and the generated parts); the median rule keeps such a sample whole.
 Uniform strays in the bounding box lie tens of spacings from the surface and go either way.
 
 It runs before thinning on purpose: even thinning keeps one point per occupied voxel, so it
@@ -25,7 +25,7 @@ from scipy.spatial import cKDTree
 
 __all__ = ["OUTLIER_RATIO", "spacing_inliers"]
 
-#: Default ``ratio``, chosen on the capod tune subset between 2 and 3 (issue 12 notes): at 3 a
+#: Default ``ratio``, chosen on the capod tune subset between 2 and 3: at 3 a
 #: clean sample keeps every point and scans retrieve as well as or better than at 2.
 OUTLIER_RATIO = 3.0
 

@@ -1,6 +1,6 @@
 """Laplace-Beltrami estimates of point clouds: ``build_laplacian(points) -> (L, M)``.
 
-Two methods (``docs/method.md`` section 1):
+Two methods (the method documentation, section 1):
 
 ``"robust"`` (default)
     Sharp & Crane's robust point-cloud Laplacian: very sparse (~7 non-zeros per row), so the

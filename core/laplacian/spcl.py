@@ -1,4 +1,4 @@
-"""Symmetric kernel point-cloud Laplacian (SPCL), as in ``docs/method.md`` section 1.
+"""Symmetric kernel point-cloud Laplacian (SPCL), as in the method documentation, section 1.
 
 For samples p of a surface with areas A_p,
 

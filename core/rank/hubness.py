@@ -9,9 +9,9 @@ Nothing is fitted; it uses only the catalogue searched.
 
 For unit vectors ``|q - x|^2 = 2 - 2 cos(q, x)``, so the key ``|q - x|^2 + weight r_k(x)``,
 lower first, ranks exactly as CSLS does; it is what ``hub_discounted_keys`` returns.
-Chosen by ``bench/selection/hubness_select.py`` (``k`` 10, ``weight`` 1: +0.011 mAP left out
-over seven tuning sources, docs/results.md); ``shapesearch eval --hub-discount 10`` scores
-it. The search service ranks shape-mode answers this way (``app.search.similarity``): it
+Chosen by leave-one-source-out on third-party sources (``k`` 10, ``weight`` 1: +0.011 mAP
+left out over seven tuning sources; see the changelog); ``shapesearch eval --hub-discount
+10`` scores it. The search service ranks shape-mode answers this way (``app.search.similarity``): it
 fetches the ``rerank_depth(k)`` nearest models in plain distance order, takes their radii
 from the index and re-orders them by ``hub_keys``; a model whose descriptor equals the
 query's (``SAME_DESCRIPTOR``: the same part) stays first.
@@ -21,9 +21,9 @@ discount of its own, since a scan is a query from another domain than whole mode
 catalogue entry's radius is its nearness to the *other models* as a scan could meet them,
 the mean over its ``SCAN_HUB_NEIGHBOURS`` most alike other models of its largest cosine to
 any of their entries (``model_radii``), weight ``SCAN_HUB_WEIGHT``; a model's key is its
-best entry's ``hub_keys``. Chosen by ``bench/selection/scan_hubs_select.py`` (+0.006 mAP
-of single-view scans left out over seven sources, every pre-registered test passed;
-docs/results.md). It places scan mode's first answer; ``core.rank.scan_order`` orders the rest.
+best entry's ``hub_keys``. Chosen by the same rule (+0.006 mAP of single-view scans left
+out over seven sources, every pre-registered test passed). It places scan mode's first
+answer; ``core.rank.scan_order`` orders the rest.
 """
 
 from __future__ import annotations
@@ -46,19 +46,19 @@ __all__ = [
     "scan_hub_keys",
 ]
 
-#: ``k`` and ``weight`` of the rule's choice (bench/selection/hubness_select.py, round 1).
+#: ``k`` and ``weight`` of the rule's choice.
 HUB_NEIGHBOURS = 10
 HUB_WEIGHT = 1.0
 #: Candidates per wanted result that a search re-orders by ``hub_keys``: the plain top
 #: ``rerank_depth(k)``. Chosen for agreement with the discount over the whole catalogue,
-#: not for a score (``bench/selection/hubness_select.py``, "re-rank depth").
+#: not for a score.
 HUB_RERANK_FACTOR = 4
 #: Distance at or below which two unit descriptors count as the same (float32 rounding of
 #: one file described twice): such a candidate is the query's own part and is never
 #: discounted below another.
 SAME_DESCRIPTOR = 1e-4
-#: Scan mode's ``k`` and ``weight`` (bench/selection/scan_hubs_select.py: radii over every
-#: entry of the other models, the smallest ``k`` and ``weight`` of its grid).
+#: Scan mode's ``k`` and ``weight`` (radii over every entry of the other models, the
+#: smallest ``k`` and ``weight`` of the grid chosen from).
 SCAN_HUB_NEIGHBOURS = 5
 SCAN_HUB_WEIGHT = 0.5
 def rerank_depth(k: int) -> int:
@@ -187,7 +187,7 @@ def scan_hub_keys(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
         ``k`` and the weight of ``r``.
     pool : (e,) bool, optional
         The entries a radius looks at (default all: ``model_radii``'s choice; the views
-        alone were a candidate of ``bench/selection/scan_hubs_select.py``).
+        alone were a candidate, not chosen).
 
     Returns
     -------

@@ -16,24 +16,22 @@ A model near a query is more likely of the query's kind when the query is near i
    hub discount's order decides;
 5. with that term, the hub discount's first answer stays first (``first_kept``): the
    re-rank lifts mAP but moves right first answers down more often than it lifts wrong ones
-   (``bench/selection/reciprocal_seeds_check.py``, four extractions of eight sources: the
-   re-rank alone lowers the first answer of a catalogue of 326 third-party parts from 0.847
-   to 0.835; with the first answer kept it stays 0.847 and mAP is the re-rank's, 0.712
-   against the discount's 0.676).
+   (four extractions of eight sources: the re-rank alone lowers the first answer of a
+   catalogue of 326 third-party parts from 0.847 to 0.835; with the first answer kept it
+   stays 0.847 and mAP is the re-rank's, 0.712 against the discount's 0.676).
 
-Chosen by ``bench/selection/reciprocal_rerank_select.py`` (``k1`` 5, ``k2`` 3, ``blend`` 0.3:
-round 2's candidate, +0.017 mAP left out over seven sources) and confirmed on an eighth
-source that no setting had seen, OpenSCAD's MCAD parts (``bench/selection/mcad_check.py``:
-+0.039, 95 % +0.026 .. +0.052). ``blend`` 0.1 since the twenty-first session
-(``bench/selection/reciprocal_blend_select.py``: ``k1`` {3, 5, 7} x ``lambda`` {0.1, 0.2,
-0.3, 0.5} on ``ss11``, +0.0034 mAP left out over eight sources, 95 % +0.0006 .. +0.0062;
-fixed, on two extractions no score had read, +0.0062 and +0.0055, 95 % +0.0045 .. +0.0082
-and +0.0038 .. +0.0075): the Jaccard distance of the neighbourhoods decides more and the hub
-discount's order less, and since its first answer is kept, no first answer moves.
+Chosen by leave-one-source-out on third-party sources (see the changelog): ``k1`` 5,
+``k2`` 3 (+0.017 mAP left out over seven sources with ``blend`` 0.3), confirmed on an eighth
+source that no setting had seen, OpenSCAD's MCAD parts (+0.039, 95 % +0.026 .. +0.052); then
+``blend`` 0.1 (``k1`` {3, 5, 7} x ``lambda`` {0.1, 0.2, 0.3, 0.5}, +0.0034 mAP left out over
+eight sources, 95 % +0.0006 .. +0.0062; fixed, on two extractions no score had read,
++0.0062 and +0.0055, 95 % +0.0045 .. +0.0082 and +0.0038 .. +0.0075): the Jaccard distance
+of the neighbourhoods decides more and the hub discount's order less, and since its first
+answer is kept, no first answer moves.
 ``reciprocal_keys`` ranks a whole catalogue (the evaluation); ``pool_keys`` ranks one query's
 nearest candidates among themselves (the search service, which re-orders the
 ``reciprocal_depth(k)`` nearest: a neighbourhood is then taken within those candidates,
-measured against the whole catalogue's order by ``bench/selection/reciprocal_depth.py``).
+measured against the whole catalogue's order).
 """
 
 from __future__ import annotations
@@ -51,10 +49,9 @@ EXPANSION = 3
 BLEND = 0.1
 #: The fewest plain nearest candidates a search re-ranks among themselves: 4 per result for
 #: 10 results, the hub discount's own depth, chosen for cost after the measurement
-#: (``bench/selection/reciprocal_depth.py`` on 326 parts: precision at 10 0.555 against the
-#: whole catalogue's re-rank 0.569 and the discount's 0.539, NN level; 160, where that
-#: script's fallback points, gives 0.563 at 3.2x the discount's time per query in-process at
-#: 10^5 models, 40 at 1.4-1.6x: ``bench/search_scale.py --reciprocal-pools``).
+#: (on 326 parts: precision at 10 0.555 against the whole catalogue's re-rank 0.569 and
+#: the discount's 0.539, NN level; 160 gives 0.563 at 3.2x the discount's time per query
+#: in-process at 10^5 models, 40 at 1.4-1.6x: ``bench/search_scale.py --reciprocal-pools``).
 RECIPROCAL_POOL = 40
 
 
@@ -160,8 +157,8 @@ def reciprocal_keys(rows: np.ndarray, term: np.ndarray | None = None,
     neighbours, expansion, blend : int, int, float
         ``k1``, ``k2`` and ``lambda``.
     keep_first : bool
-        With ``term``, keep its first answer first (step 5); False gives the re-rank as the
-        studies before the thirteenth session measured it.
+        With ``term``, keep its first answer first (step 5); False gives the plain
+        blended re-rank.
 
     Returns
     -------

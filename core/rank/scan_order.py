@@ -12,12 +12,11 @@ scan's own keys no longer order the rest; they choose the pool and the first ans
 first answer's own ``ANCHOR_NEIGHBOURS`` nearest models (by whole descriptor) join the pool
 for the rest: models of its kind that the scan's partial view put far off.
 
-Chosen by ``bench/selection/scan_expansion_select.py --round 2`` (thirty-eighth session):
-single-view scans +0.015 mAP left out over seven sources (95 % +0.010 .. +0.021) against
-the round-1 order it replaces (the rest by ``(1 - 0.75) key + 0.75 |x - a|^2``), with
-merged scans, clean queries, BOSL2 (no choice saw it) and the ``bendable`` family up, and
-chosen again on a second draw of every scan (docs/results.md). The first answer's neighbours
-joined by ``bench/selection/scan_anchor_pool_select.py`` (forty-first session): +0.013 mAP of
+Chosen by leave-one-source-out on third-party sources (see the changelog): single-view
+scans +0.015 mAP left out over seven sources (95 % +0.010 .. +0.021) against ordering the
+rest by ``(1 - 0.75) key + 0.75 |x - a|^2``, with merged scans, clean queries, BOSL2 (no
+choice saw it) and the ``bendable`` family up, and chosen again on a second draw of every
+scan. The first answer's neighbours joined the pool by the same rule: +0.013 mAP of
 single-view scans left out over seven sources (95 % +0.007 .. +0.019) on a third draw of
 every scan, merged scans, clean queries, BOSL2 and the ``bendable`` family level or up.
 """
@@ -40,15 +39,13 @@ __all__ = ["ANCHOR_NEIGHBOURS", "SCAN_POOL", "scan_depth", "scan_mode_positions"
 
 #: The fewest models nearest by plain best entry that scan mode re-orders: shape mode's pool
 #: size. 160 lifts single views a little (+0.007 left out) at 2.5x the search (3.7x before
-#: the pool was ordered from the index's vectors), more than the 1.5x allowed
-#: (``bench/selection/scan_pool_select.py``).
+#: the pool was ordered from the index's vectors), more than the 1.5x allowed.
 SCAN_POOL = 40
 
 #: How many models nearest the first answer's whole descriptor join the pool for the rest
 #: of the answer (0: none). The pool of 160 reached some of them, at every entry of every
 #: model read and bounded; these cost their vectors alone (``bench/scan_search.py
-#: --anchor-neighbours``). Chosen among {0, 40, 120} by
-#: ``bench/selection/scan_anchor_pool_select.py``.
+#: --anchor-neighbours``). Chosen among {0, 40, 120} by leave-one-source-out.
 ANCHOR_NEIGHBOURS = 120
 
 
@@ -65,7 +62,7 @@ def scan_ranking(keys: np.ndarray, whole: np.ndarray, depth: int, radii: np.ndar
     ``neighbours`` nearest models (by whole descriptor, among those of finite key), in the
     first answer's shape-mode order among them; the others after them by key. The search
     service orders its pool so, with ``depth = scan_depth(k)``; its pool is the nearest by
-    plain best entry rather than by key (``bench/selection/scan_expansion_pool_check.py``).
+    plain best entry rather than by key (which changes the answers little).
 
     Parameters
     ----------

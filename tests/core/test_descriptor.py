@@ -1,8 +1,10 @@
-"""Histogram descriptor: layout, weighting, normalisation and versioning."""
+"""Histogram descriptor: its blocks, layout, weighting, normalisation and versioning."""
 
 from __future__ import annotations
 
-from dataclasses import replace
+import hashlib
+from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import numpy as np
 import pytest
@@ -10,13 +12,19 @@ import pytest
 from core.descriptor import (
     BLOCK_WEIGHTS,
     VERSION_LENGTH,
+    Block,
     DescriptorSpec,
+    Sample,
     area_histograms,
     distance_distribution,
     load_vocabulary,
 )
+from core.descriptor import _sample as sample_module
+from core.descriptor._version import canonical_text
+from core.descriptor.blocks import CapsBlock, D2Block, DnaBlock, NormalsBlock, RingBlock
 from core.evaluation.scans import random_rotation
-from core.extrinsic import ANGULAR_BANDS, spread_profile
+from core.evaluation.variants import NAIVE_DESCRIPTOR, SPECTRAL_DESCRIPTOR, SS11_DESCRIPTOR
+from core.extrinsic import ANGULAR_BANDS, principal_frame
 from core.settings import DESCRIPTOR_FAMILIES, CutoffSettings, DescriptorSettings, EngineSettings
 from tests.shapes import plate_points, sphere_points, torus_points
 
@@ -65,14 +73,13 @@ def local_length(settings: DescriptorSettings) -> int:
         DescriptorSettings(local_weight=0.0),
         DescriptorSettings(hks_weight=0.0, wks_weight=0.0),
         DescriptorSettings(d2_weight=0.0),
-        DescriptorSettings(spread_weight=0.0, bins=8),
-        DescriptorSettings(d1_weight=0.0, normal_bins=4),
-        DescriptorSettings(normal_weight=0.0, symmetry_weight=0.0, axis_bins=5),
-        DescriptorSettings(axis_weight=0.5),
+        DescriptorSettings(bins=8),
+        DescriptorSettings(d1_weight=0.0),
+        DescriptorSettings(normal_weight=0.0, symmetry_weight=0.0),
         DescriptorSettings(ring_weight=0.0),
         DescriptorSettings(caps_weight=0.0),
         DescriptorSettings(caps_bins=4, caps_depth=2.0),
-        DescriptorSettings(caps_sharpness=None),
+        DescriptorSettings(runs_longest=None),
         DescriptorSettings(
             hks_weight=0.0, wks_weight=0.0, wks_slope_weight=0.0, dna_weight=0.0
         ),
@@ -84,10 +91,9 @@ def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> No
     signature = spec.signature(eigenvalues, eigenvectors)
     descriptor = spec.histogram(signature, areas, eigenvalues, fake_points())
     # Blocks: HKS (times x bins), WKS (energies x bins), WKS slope ((energies - 1) x bins),
-    # eigenvalue channel (dna_count), D2 (bins), spread (3), D1 (bins), normals (3 x
-    # normal_bins), symmetry (7), axes (3 x axis_bins), ring (2 axes x 3 shells x bands),
-    # caps (2 axes x 2 ends x caps_bins^2), local (words, x columns for VLAD); a block with
-    # weight 0 is left out.
+    # eigenvalue channel (dna_count), D2 (bins), D1 (bins), normals (3 x 10 bins), symmetry
+    # (7), ring (2 axes x 3 shells x bands), caps (2 axes x 2 ends x caps_bins^2), local
+    # (words, x columns for VLAD); a block with weight 0 is left out.
     energies = settings.wks_energies
     length = (
         (len(settings.hks_times) * settings.bins if settings.hks_weight > 0 else 0)
@@ -95,11 +101,9 @@ def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> No
         + ((energies - 1) * settings.bins if energies > 1 and settings.wks_slope_weight else 0)
         + (settings.dna_count if settings.dna_weight > 0 else 0)
         + (settings.bins if settings.d2_weight > 0 else 0)
-        + (3 if settings.spread_weight > 0 else 0)
         + (settings.bins if settings.d1_weight > 0 else 0)
-        + (3 * settings.normal_bins if settings.normal_weight > 0 else 0)
+        + (3 * 10 if settings.normal_weight > 0 else 0)
         + (7 if settings.symmetry_weight > 0 else 0)
-        + (3 * settings.axis_bins if settings.axis_weight > 0 else 0)
         + (2 * 3 * len(ANGULAR_BANDS) if settings.ring_weight > 0 else 0)
         + (4 * settings.caps_bins**2 if settings.caps_weight > 0 else 0)
         + (local_length(settings) if settings.local_weight > 0 else 0)
@@ -108,51 +112,35 @@ def test_descriptor_is_unit_norm_float32_of_the_announced_length(settings) -> No
     assert descriptor.shape == (length,)
     assert np.linalg.norm(descriptor) == pytest.approx(1.0, abs=1e-6)
     assert np.all(np.isfinite(descriptor))
+    assert sum(spec.widths.values()) == length
 
 
 def test_eigenvalue_channel_skips_zero_modes_of_multi_part_models() -> None:
-    spec = DescriptorSpec.from_settings(DescriptorSettings(dna_count=10))
+    dna = DnaBlock(10)
     one_body = 4 * np.pi * np.arange(0, 40, dtype=np.float64) * 1.1
     two_bodies = np.concatenate([[0.0], one_body])  # a second zero: two components
-    np.testing.assert_allclose(
-        spec._eigenvalue_channel(one_body), spec._eigenvalue_channel(two_bodies)
-    )
+    np.testing.assert_allclose(dna.channel(one_body), dna.channel(two_bodies))
 
 
 def test_wks_block_uses_its_own_log_range_centred_near_zero() -> None:
     # M-orthonormal eigenvectors on unit area: the WKS has area-weighted mean 1 at every
     # energy, so log WKS must sit near 0, inside the default bin range.
-    spec = DescriptorSpec.from_settings(DescriptorSettings(wks_range=(2.0, 6.0)))
+    settings = DescriptorSettings(wks_range=(2.0, 6.0))
+    spec = DescriptorSpec.from_settings(settings)
     eigenvalues, eigenvectors, areas = fake_spectrum()
-    log_wks = spec.signature(eigenvalues, eigenvectors)[:, len(spec.times) :]
+    log_wks = spec.signature(eigenvalues, eigenvectors)[:, len(spec.grid.times) :]
     assert abs(np.median(log_wks)) < 1.0
-    low, high = spec.wks_edges[0], spec.wks_edges[-1]
+    low, high = settings.wks_log_range
     assert np.mean((log_wks > low) & (log_wks < high)) > 0.95
 
 
 def test_a_descriptor_without_blocks_is_refused() -> None:
     with pytest.raises(ValueError, match="no block"):
         DescriptorSettings(
-            hks_weight=0.0, wks_energies=0, dna_count=0, d2_weight=0.0, spread_weight=0.0,
-            d1_weight=0.0, normal_weight=0.0, symmetry_weight=0.0, axis_weight=0.0,
-            ring_weight=0.0, caps_weight=0.0, local_weight=0.0,
+            hks_weight=0.0, wks_energies=0, dna_count=0, d2_weight=0.0, d1_weight=0.0,
+            normal_weight=0.0, symmetry_weight=0.0, ring_weight=0.0, caps_weight=0.0,
+            local_weight=0.0,
         ).validate()
-
-
-@pytest.mark.parametrize("sharpness", [0.0, -4096.0, float("nan")])
-def test_a_caps_sharpness_that_is_not_positive_is_refused(sharpness: float) -> None:
-    with pytest.raises(ValueError, match="caps_sharpness"):
-        DescriptorSettings(caps_sharpness=sharpness).validate()
-    DescriptorSettings(caps_sharpness=None).validate()  # along the principal axes: allowed
-
-
-@pytest.mark.parametrize("centres", [(1.0, 0.5, 1.5), (0.0, 1.0, 2.0), (0.5, 1.0)])
-def test_ring_shells_that_are_not_three_increasing_positive_centres_are_refused(
-    centres: tuple[float, ...]
-) -> None:
-    with pytest.raises(ValueError, match="ring_shells"):
-        DescriptorSettings(ring_shells=centres).validate()  # type: ignore[arg-type]
-    DescriptorSettings(ring_shells=None).validate()  # the area tertiles: allowed
 
 
 @pytest.mark.parametrize("longest", [0.0, -4.0, float("nan")])
@@ -175,7 +163,7 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         replace(base, cutoff=CutoffSettings(xi=1e-12)),
     ]
     versions = {spec.version(base)} | {spec.version(v) for v in variants}
-    for descriptor in (
+    descriptors = (
         DescriptorSettings(bins=16),
         DescriptorSettings(hks_scaled=False),
         DescriptorSettings(wks_energies=8),
@@ -191,33 +179,23 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(dna_weight=0.3),
         DescriptorSettings(d2_weight=0.5),
         DescriptorSettings(d2_pairs=5000),
-        DescriptorSettings(d2_seed=1),
-        DescriptorSettings(d2_range=(0.0, 2.5)),
-        DescriptorSettings(spread_weight=0.5),
         DescriptorSettings(d1_weight=0.5),
-        DescriptorSettings(d1_range=(0.0, 2.5)),
         DescriptorSettings(normal_weight=1.0),
-        DescriptorSettings(normal_bins=8),
         DescriptorSettings(normal_neighbours=16),
         DescriptorSettings(symmetry_weight=0.5),
-        DescriptorSettings(axis_weight=1.0),
-        DescriptorSettings(axis_range=(0.0, 2.0)),
-        DescriptorSettings(axis_bins=8),
         DescriptorSettings(ring_weight=2.0),
         DescriptorSettings(caps_weight=2.0),
         DescriptorSettings(caps_bins=4),
         DescriptorSettings(caps_depth=2.0),
-        DescriptorSettings(caps_sharpness=None),
-        DescriptorSettings(caps_sharpness=1024.0),
-        DescriptorSettings(ring_shells=None),
-        DescriptorSettings(ring_shells=(0.25, 1.0, 1.75)),
-        DescriptorSettings(evened_distances=False),
-        DescriptorSettings(evened_areas=False),
         DescriptorSettings(runs_longest=None),
         DescriptorSettings(runs_longest=3.0),
-    ):
-        versions.add(DescriptorSpec.from_settings(descriptor).version(base))
-    assert len(versions) == 47
+    )
+    versions |= {DescriptorSpec.from_settings(d).version(base) for d in descriptors}
+    # The blocks' own parameters, which no setting reaches, are in the digest too.
+    blocks = (D2Block(32, seed=1), D2Block(32, bounds=(0.0, 2.5)), NormalsBlock(bins=8),
+              RingBlock(shells=(0.25, 1.0, 1.75)), CapsBlock(sharpness=1024.0))
+    versions |= {spec.with_block(b, spec.weight(b.name)).version(base) for b in blocks}
+    assert len(versions) == 1 + len(variants) + len(descriptors) + len(blocks)
     # Readable too: D2 and D1 of the evened sample ("e") and the blocks weighed by the evened
     # surface's areas ("a") are marked.
     assert "ext=d2ea,d1ea,nrma:0.5,syma," in spec.version(base)
@@ -225,11 +203,6 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
     assert ";runs=4;" in spec.version(base)
     unshortened = DescriptorSpec.from_settings(DescriptorSettings(runs_longest=None))
     assert "runs=" not in unshortened.version(base)
-    sample_areas = DescriptorSpec.from_settings(DescriptorSettings(evened_areas=False))
-    assert "ext=d2e,d1e,nrm:0.5,sym," in sample_areas.version(base)
-    plain = DescriptorSpec.from_settings(
-        DescriptorSettings(evened_distances=False, evened_areas=False))
-    assert "ext=d2,d1,nrm:0.5,sym," in plain.version(base)
     assert max(len(version) for version in versions) <= VERSION_LENGTH
     assert spec.version(base) == DescriptorSpec.from_settings(base.descriptor).version(base)
 
@@ -241,7 +214,7 @@ def test_a_long_version_keeps_its_digest_within_the_column() -> None:
     times = tuple(np.geomspace(1.23456e-4, 0.123456, 16).tolist())
     base = EngineSettings(max_points=100000, cutoff=cutoff,
                           descriptor=DescriptorSettings(hks_times=times, d2_weight=0.75,
-                                                                d1_weight=0.25, spread_weight=0.5))
+                                                        d1_weight=0.25, caps_weight=0.125))
     other = replace(base, descriptor=replace(base.descriptor, symmetry_weight=0.5))
     first, second = (DescriptorSpec.from_settings(s.descriptor).version(s) for s in (base, other))
     assert len(first) == len(second) == VERSION_LENGTH
@@ -285,19 +258,7 @@ def test_extrinsic_blocks_ignore_rotation_translation_and_scale() -> None:
     rotation = random_rotation(np.random.default_rng(2))
     moved = 3.7 * points @ rotation.T + np.array([5.0, -2.0, 1.0])
     np.testing.assert_allclose(_d2(moved, areas), _d2(points, areas), atol=1e-12)
-    np.testing.assert_allclose(spread_profile(moved, areas), spread_profile(points, areas))
     np.testing.assert_allclose(_extrinsic(moved, areas), _extrinsic(points, areas), atol=1e-6)
-
-
-def test_spread_of_a_rod_a_plate_and_a_sphere() -> None:
-    rod = np.column_stack([np.linspace(-1, 1, 200), np.zeros(200), np.zeros(200)])
-    uniform = np.full(200, 1.0)
-    np.testing.assert_allclose(spread_profile(rod, uniform), [1.0, 0.0, 0.0], atol=1e-9)
-    plate = spread_profile(plate_points(4000), np.ones(4000))
-    np.testing.assert_allclose(plate, [np.sqrt(0.5), np.sqrt(0.5), 0.0], atol=0.03)
-    sphere = spread_profile(sphere_points(4000), np.ones(4000))
-    np.testing.assert_allclose(sphere, np.full(3, np.sqrt(1 / 3)), atol=0.03)
-    assert np.linalg.norm(sphere) == pytest.approx(1.0)
 
 
 def _extrinsic(
@@ -317,10 +278,10 @@ def _extrinsic(
 # The caps block measures each end in a window one radius deep, a few per cent of the
 # points, and about an axis that a square plate does not define (its first axis turns between
 # an edge and a diagonal from one sampling to the next): it brings more sampling noise than
-# whole-part histograms. Measured at 1500 points (ss9), two samplings of a plate lie 0.45 of
-# the way to the nearest other shape with it and under 0.25 without it (square plate 0.13,
-# sphere 0.19, torus 0.06); on real parts the lowest copy score (the README's score table,
-# bench/selection/score_calibration.py) is lower than without the block.
+# whole-part histograms. Measured at 1500 points, two samplings of a plate lie 0.45 of the
+# way to the nearest other shape with it and under 0.25 without it (square plate 0.13,
+# sphere 0.19, torus 0.06); on real parts the lowest copy score is lower than without the
+# block.
 @pytest.mark.parametrize(("caps_weight", "bound"), [(0.0, 0.25), (1.0, 0.5)])
 def test_two_samplings_of_one_shape_are_closer_than_two_shapes(
     caps_weight: float, bound: float
@@ -376,14 +337,13 @@ def test_extrinsic_blocks_need_the_points() -> None:
 
 
 def test_unit_blocks_reweighted_give_the_descriptor_of_those_weights() -> None:
-    # What the weight search (bench/selection/descriptor_weights.py) relies on: the blocks of a spec
-    # with every weight 1, scaled by w and joined, are the descriptor of weights w.
+    # What a weight search relies on: the blocks of a spec with every weight 1, scaled by w
+    # and joined, are the descriptor of weights w.
     ones = DescriptorSpec.from_settings(
         DescriptorSettings(**dict.fromkeys(BLOCK_WEIGHTS.values(), 1.0))
     )
-    weights = {"hks": 0.5, "wks": 1.0, "slope": 0.0, "dna": 0.2, "d2": 1.5, "spread": 1.0,
-               "d1": 0.0, "normals": 0.5, "symmetry": 2.0, "axes": 1.0, "ring": 4.0,
-               "caps": 1.5, "local": 0.7}
+    weights = {"hks": 0.5, "wks": 1.0, "slope": 0.0, "dna": 0.2, "d2": 1.5, "d1": 0.0,
+               "normals": 0.5, "symmetry": 2.0, "ring": 4.0, "caps": 1.5, "local": 0.7}
     chosen = DescriptorSpec.from_settings(
         DescriptorSettings(**{BLOCK_WEIGHTS[block]: weight for block, weight in weights.items()})
     )
@@ -398,3 +358,140 @@ def test_unit_blocks_reweighted_give_the_descriptor_of_those_weights() -> None:
         joined / np.linalg.norm(joined),
         atol=1e-6,
     )
+
+
+# --- the union of blocks -------------------------------------------------------------------
+
+
+def _default_parts() -> tuple[DescriptorSpec, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    spec = DescriptorSpec.from_settings(DescriptorSettings())
+    eigenvalues, eigenvectors, areas = fake_spectrum()
+    return spec, spec.signature(eigenvalues, eigenvectors), areas, eigenvalues, fake_points()
+
+
+def test_the_union_holds_the_blocks_in_layout_order_and_their_widths_make_the_vector() -> None:
+    spec, signature, areas, eigenvalues, points = _default_parts()
+    assert spec.names == tuple(BLOCK_WEIGHTS)
+    assert list(spec.widths) == list(BLOCK_WEIGHTS)  # every block is on by default
+    blocks = spec.blocks(signature, areas, eigenvalues, points)
+    assert {name: len(block) for name, block in blocks.items()} == spec.widths
+    vector = spec.histogram(signature, areas, eigenvalues, points)
+    assert len(vector) == sum(spec.widths.values())
+    joined = np.concatenate(list(blocks.values()))
+    np.testing.assert_array_equal(vector, (joined / np.linalg.norm(joined)).astype(np.float32))
+    # Each block's weight is that of its setting.
+    settings = DescriptorSettings()
+    for name, field in BLOCK_WEIGHTS.items():
+        assert spec.weight(name) == getattr(settings, field)
+
+
+@pytest.mark.parametrize("name", list(BLOCK_WEIGHTS))
+def test_a_block_of_weight_zero_is_left_out_and_the_others_stay_as_they_were(name: str) -> None:
+    spec, signature, areas, eigenvalues, points = _default_parts()
+    without = DescriptorSpec.from_settings(
+        replace(DescriptorSettings(), **{BLOCK_WEIGHTS[name]: 0.0}))
+    assert name not in without.widths and name in without.names
+    before = spec.blocks(signature, areas, eigenvalues, points)
+    after = without.blocks(signature, areas, eigenvalues, points)
+    assert list(after) == [other for other in before if other != name]
+    for other, block in after.items():
+        np.testing.assert_array_equal(block, before[other])
+    assert len(without.histogram(signature, areas, eigenvalues, points)) == (
+        sum(spec.widths.values()) - spec.widths[name])
+
+
+@dataclass(frozen=True)
+class SpreadBlock(Block):
+    """A block outside the layout: the principal spreads over their sum, ``(3,)``."""
+
+    name: ClassVar[str] = "spread"
+    extrinsic: ClassVar[bool] = True
+    tag: ClassVar[str | None] = "spr"
+
+    @property
+    def width(self) -> int:
+        return 3
+
+    def measure(self, sample: Sample) -> np.ndarray:
+        _, variances, _ = principal_frame(sample.body_points, sample.body_areas)
+        return np.sqrt(variances / variances.sum())
+
+
+def test_a_block_composed_in_changes_only_its_slice() -> None:
+    spec, signature, areas, eigenvalues, points = _default_parts()
+    composed = spec.with_block(SpreadBlock(), 2.0)
+    assert composed.names == (*spec.names, "spread")
+    assert composed.widths == {**spec.widths, "spread": 3}
+    before = spec.blocks(signature, areas, eigenvalues, points)
+    after = composed.blocks(signature, areas, eigenvalues, points)
+    for name, block in before.items():
+        np.testing.assert_array_equal(after[name], block)
+    sample = composed.sample(signature, areas, eigenvalues, points)
+    np.testing.assert_array_equal(after["spread"], 2.0 * SpreadBlock().measure(sample))
+    # In the unit vector, the old blocks keep their directions: only the new slice is new.
+    old = spec.histogram(signature, areas, eigenvalues, points).astype(np.float64)
+    new = composed.histogram(signature, areas, eigenvalues, points).astype(np.float64)
+    head = new[: len(old)]
+    np.testing.assert_allclose(head / np.linalg.norm(head), old, atol=1e-6)
+    # A new block is a new version: readable in the ext= list, and in the digest.
+    base = EngineSettings()
+    assert ",caps,spr:2;runs=4;" in composed.version(base)
+    assert composed.version(base).rsplit(";", 1)[1] != spec.version(base).rsplit(";", 1)[1]
+    # A block replaced in place keeps its slot, and changes only its own slice.
+    replaced = spec.with_block(D2Block(32, pairs=5000), 1.0)
+    assert replaced.names == spec.names
+    again = replaced.blocks(signature, areas, eigenvalues, points)
+    assert [name for name in before if not np.array_equal(before[name], again[name])] == ["d2"]
+
+
+def test_block_names_are_unique() -> None:
+    spec = DescriptorSpec.from_settings(DescriptorSettings())
+    with pytest.raises(ValueError, match="unique"):
+        replace(spec, parts=(*spec.parts, (RingBlock(), 1.0)))
+
+
+def test_the_sample_derives_what_blocks_share_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Normals serve the normals block and the evened areas (which D2, D1, normals and
+    # symmetry weigh by): one estimate for all; none when no block needs them.
+    calls = []
+    real = sample_module.surface_normals
+
+    def counted(points: np.ndarray, neighbours: int) -> np.ndarray:
+        calls.append(neighbours)
+        return real(points, neighbours)
+
+    monkeypatch.setattr(sample_module, "surface_normals", counted)
+    spec, signature, areas, eigenvalues, points = _default_parts()
+    spec.histogram(signature, areas, eigenvalues, points)
+    assert calls == [12]
+    calls.clear()
+    ring_only = DescriptorSpec.from_settings(replace(
+        DescriptorSettings(), d2_weight=0.0, d1_weight=0.0, normal_weight=0.0,
+        symmetry_weight=0.0))
+    ring_only.histogram(signature, areas, eigenvalues, points)
+    assert calls == []
+
+
+# The digest's canonical text opens with these settings' descriptor part, whose SHA-256
+# begins so: stored versions were made with exactly this text, and a release that changes
+# it makes every stored model stale although its vector did not change.
+DIGEST_TEXTS = {
+    "parts": (DESCRIPTOR_FAMILIES["parts"], "41f00960a849386d"),
+    "bendable": (DESCRIPTOR_FAMILIES["bendable"], "6fecff2d83b34f8b"),
+    "naive": (NAIVE_DESCRIPTOR, "32a361589317588d"),
+    "spectral": (SPECTRAL_DESCRIPTOR, "49c39e7458ecc5fe"),
+    "ss11": (SS11_DESCRIPTOR, "85e9366d3e160112"),
+}
+
+
+@pytest.mark.parametrize("name", list(DIGEST_TEXTS))
+def test_the_digest_text_is_that_of_the_stored_versions(name: str) -> None:
+    settings, expected = DIGEST_TEXTS[name]
+    engine = EngineSettings(descriptor=settings)
+    spec = DescriptorSpec.from_settings(settings)
+    text = canonical_text(spec, engine)
+    described = text[1 : text.index(f", {engine.laplacian!r}, ")]
+    assert described.startswith("DescriptorSpec(times=(0.001, ")
+    assert hashlib.sha256(described.encode()).hexdigest()[:16] == expected
+    digest = hashlib.sha256(text.encode()).hexdigest()[:10]
+    assert spec.version(engine).endswith(f";{digest}")

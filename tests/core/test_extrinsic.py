@@ -3,6 +3,7 @@ the profile families they were added to tell apart."""
 
 from __future__ import annotations
 
+from functools import cached_property
 from types import ModuleType
 
 import numpy as np
@@ -10,14 +11,15 @@ import pytest
 import trimesh
 from manifold3d import CrossSection
 
-from core.descriptor import DescriptorSpec
+from core.descriptor import DescriptorSpec, Sample, area_histograms, distance_distribution
 from core.evaluation.scans import random_rotation
 from core.extrinsic import (
     ANGULAR_BANDS,
+    CAPS_SHARPNESS,
     END_DIRECTIONS,
+    SHELL_CENTRES,
     SIGN_FLIPS,
     angular_spectrum,
-    axis_offsets,
     centroid_distance_ratios,
     end_profiles,
     evened_areas,
@@ -103,25 +105,6 @@ def test_principal_frame_orders_the_axes_by_extent() -> None:
     np.testing.assert_allclose(axes.T @ axes, np.eye(3), atol=1e-12)
 
 
-def test_axis_offsets_of_a_rod_and_a_box() -> None:
-    # A uniform rod on [-1, 1] has RMS radius ~1 / sqrt(3): its offsets |x| / RMS are
-    # uniform on [0, ~sqrt(3)], and nothing lies off its other axes.
-    x = np.linspace(-1.0, 1.0, 2001)
-    rod = np.column_stack([x, np.zeros_like(x), np.zeros_like(x)])
-    rotation = random_rotation(np.random.default_rng(4))
-    offsets = axis_offsets(rod @ rotation.T + 5.0, np.ones(len(x)))
-    np.testing.assert_allclose(offsets[:, 0], np.abs(x) / np.sqrt(np.mean(x**2)), atol=1e-9)
-    np.testing.assert_allclose(offsets[:, 1:], 0.0, atol=1e-9)
-    # The surface of a 4 x 2 x 1 box: a quarter of its area (the 4 x 1 faces) lies at the
-    # half-width 1 along the second axis; over the RMS radius that is 1 / RMS.
-    box = trimesh.creation.box(extents=(4.0, 2.0, 1.0))
-    points, _ = trimesh.sample.sample_surface_even(box, 4000, seed=0)
-    offsets = axis_offsets(points, np.ones(len(points)))
-    radius = np.sqrt(np.trace(np.cov(points.T, bias=True)))
-    on_sides = np.isclose(offsets[:, 1], 1.0 / radius, atol=0.01)
-    assert on_sides.mean() == pytest.approx(8.0 / 28.0, abs=0.03)
-
-
 def test_a_box_is_symmetric_under_every_flip() -> None:
     box = trimesh.creation.box(extents=(4.0, 2.0, 1.0))
     points, _ = trimesh.sample.sample_surface_even(box, 4000, seed=0)
@@ -186,9 +169,8 @@ def test_angular_spectrum_ignores_point_order() -> None:
     )
 
 
-@pytest.mark.parametrize("measure", ["centroid", "normals", "symmetry", "axes", "ring", "caps",
-                                     "soft caps", "soft shells", "evened centroid",
-                                     "evened areas"])
+@pytest.mark.parametrize("measure", ["centroid", "normals", "symmetry", "ring", "caps",
+                                     "broad caps", "evened centroid", "evened areas"])
 def test_measurements_ignore_rotation_translation_scale_and_normal_signs(measure: str) -> None:
     points = torus_points(1200, r=0.3) * np.array([1.0, 1.6, 1.0])  # no degenerate axes
     areas = np.random.default_rng(1).uniform(0.5, 1.5, 1200)
@@ -202,13 +184,12 @@ def test_measurements_ignore_rotation_translation_scale_and_normal_signs(measure
         before = measurement(points, areas, surface_normals(points, 12))
         after = measurement(moved, areas, flipped)
     else:
-        measurement = {"symmetry": reflection_symmetry, "axes": axis_offsets,
+        measurement = {"symmetry": reflection_symmetry,
                        "ring": angular_spectrum,
                        "caps": lambda p, a: end_profiles(p, a, 6, 1.0),
                        # A broad kernel: many directions count, so the directions must map
                        # onto themselves when the eigensolver flips an axis.
-                       "soft caps": lambda p, a: end_profiles(p, a, 6, 1.0, 64.0),
-                       "soft shells": lambda p, a: angular_spectrum(p, a, (0.5, 1.0, 1.5)),
+                       "broad caps": lambda p, a: end_profiles(p, a, 6, 1.0, 64.0),
                        "evened centroid": lambda p, a: centroid_distance_ratios(
                            evened_spreads(p, a), a),
                        }[measure]
@@ -257,7 +238,8 @@ def test_end_profiles_keep_the_wider_end_first_and_ignore_point_order_and_strays
     widths = [(end.sum(axis=0) * radial_centres).sum() for end in profiles[0]]
     assert widths[0] > widths[1] + 0.3
     order = np.random.default_rng(3).permutation(len(points))
-    np.testing.assert_array_equal(end_profiles(points[order], areas[order], 6, 1.0), profiles)
+    np.testing.assert_allclose(end_profiles(points[order], areas[order], 6, 1.0), profiles,
+                               atol=1e-12)
     # A stray point on the axis a radius and a half beyond an end, with a point's area,
     # does not move the end (it lies beyond the 0.5 % quantile): were the ends the extreme
     # points, this end's window would shift past most of its head.
@@ -272,8 +254,7 @@ def test_end_profiles_keep_the_wider_end_first_and_ignore_point_order_and_strays
 def test_screw_ends_do_not_change_with_length_but_with_the_head() -> None:
     # pymadcad's standard screws: about the first axis, an M8 socket-head screw 16 long and
     # one 48 long have nearly the same ends; a button head of the same length does not.
-    # Measured: 0.095 between the lengths, 0.82 to the button head
-    # (bench/selection/end_caps_select.py chose the block that holds these profiles).
+    # Measured: 0.095 between the lengths, 0.82 to the button head.
     standard = pytest.importorskip(
         "madcad.standard", reason="pymadcad (the test extra) is not installed"
     )
@@ -314,32 +295,32 @@ def test_soft_axis_weights_follow_the_eigen_gap() -> None:
 def test_soft_axes_keep_a_cube_s_ends_from_following_the_sampling() -> None:
     # A cube defines no axis: along the principal axes its ends turn with every sampling
     # (an edge or a diagonal first); averaged over the directions the axis could take they
-    # do not. Measured, four samplings at 3000 points: 0.37 along the axes, 0.12 soft.
+    # do not. A kernel so sharp that each axis keeps all its weight is the principal axes
+    # themselves. Measured, four samplings at 3000 points: 0.37 along the axes, 0.12 soft.
     cube = trimesh.creation.box((20.0, 20.0, 20.0))
-    sharpness = DescriptorSettings().caps_sharpness
-    assert sharpness is not None
+    sharpness, along_the_axes = CAPS_SHARPNESS, 1e12
 
-    def unit_ends(seed: int, soft: float | None) -> np.ndarray:
+    def unit_ends(seed: int, soft: float) -> np.ndarray:
         points, _ = trimesh.sample.sample_surface(cube, 3000, seed=seed)
         rotated = np.asarray(points) @ random_rotation(np.random.default_rng(seed)).T
         ends = np.sqrt(end_profiles(rotated, np.ones(3000), 6, 1.0, soft)).ravel()
         return ends / np.linalg.norm(ends)
 
-    def spread(soft: float | None) -> float:
+    def spread(soft: float) -> float:
         first = unit_ends(0, soft)
         return max(np.linalg.norm(first - unit_ends(seed, soft)) for seed in (1, 2, 3))
 
-    assert spread(sharpness) < 0.5 * spread(None)
+    assert spread(sharpness) < 0.5 * spread(along_the_axes)
 
 
 def test_soft_shells_hold_a_ring_of_points_at_the_median_distance_in_the_middle_shell() -> None:
     # Six points at one distance from the axis, a hexagon: with soft shells they all lie at
     # the median distance, so the middle shell holds them whole and the others nothing; its
     # coefficients are 1 at k = 6, 12, 18, ... and 0 elsewhere, so each band's root mean
-    # power is sqrt(multiples of 6 in the band / orders in the band). Tertiles would split
-    # the six two by two.
+    # power is sqrt(multiples of 6 in the band / orders in the band). Shells cut at thirds of
+    # the area would split the six two by two.
     angles = 2 * np.pi * np.arange(6) / 6 + 0.3
-    spectrum = shell_spectrum(np.exp(-1j * angles), np.full(6, 1 / 6), (0.5, 1.0, 1.5))
+    spectrum = shell_spectrum(np.exp(-1j * angles), np.full(6, 1 / 6), SHELL_CENTRES)
     expected = [np.sqrt(sum(k % 6 == 0 for k in range(low, high)) / (high - low))
                 for low, high in ANGULAR_BANDS]
     np.testing.assert_allclose(spectrum[1], expected, atol=1e-12)
@@ -347,25 +328,21 @@ def test_soft_shells_hold_a_ring_of_points_at_the_median_distance_in_the_middle_
 
 
 def test_soft_shells_keep_a_cylinder_wall_from_following_the_sampling() -> None:
-    # A cylinder's wall lies at one distance from its axis; area tertiles cut through it,
-    # and which wall points fall inside the cut follows the axis' sampling noise, so k = 1
-    # and 2 jump. Measured, four samplings at 3000 points: 0.35 apart with tertiles, 0.07
-    # with soft shells (0.23 had each soft shell counted over its own mass: the sliver of
-    # wall just beyond the middle centre then counted as a whole shell).
+    # A cylinder's wall lies at one distance from its axis; shells cut at thirds of the area
+    # would cut through it, and which wall points fall inside the cut would follow the
+    # axis' sampling noise, so k = 1 and 2 would jump. Measured, four samplings at 3000
+    # points: 0.35 apart with such cuts, 0.07 with soft shells (0.23 had each soft shell
+    # counted over its own mass: the sliver of wall just beyond the middle centre then
+    # counted as a whole shell).
     cylinder = trimesh.creation.cylinder(radius=3.0, height=40.0)
-    shells = DescriptorSettings().ring_shells
-    assert shells is not None
 
-    def spectrum(seed: int, centres: tuple[float, float, float] | None) -> np.ndarray:
+    def spectrum(seed: int) -> np.ndarray:
         points, _ = trimesh.sample.sample_surface(cylinder, 3000, seed=seed)
         rotated = np.asarray(points) @ random_rotation(np.random.default_rng(seed)).T
-        return angular_spectrum(rotated, np.ones(3000), centres).ravel()
+        return angular_spectrum(rotated, np.ones(3000), SHELL_CENTRES).ravel()
 
-    def spread(centres: tuple[float, float, float] | None) -> float:
-        first = spectrum(0, centres)
-        return max(np.linalg.norm(first - spectrum(seed, centres)) for seed in (1, 2, 3))
-
-    assert spread(shells) < 0.4 * spread(None)
+    first = spectrum(0)
+    assert max(np.linalg.norm(first - spectrum(seed)) for seed in (1, 2, 3)) < 0.14
 
 
 def _weighted_spreads(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
@@ -389,42 +366,61 @@ def test_evened_spreads_even_a_box_and_keep_a_plate_flat() -> None:
     assert spreads[0] < 0.15 * middle
 
 
-def _screw_blocks(standard: ModuleType, length: float, head: str, spec: DescriptorSpec,
-                  keys: tuple[str, ...]) -> np.ndarray:
-    """The extrinsic blocks ``keys`` of pymadcad's M8 screw ``length`` long with ``head``
-    (``madcad.standard``), joined: 3000 evenly drawn points, each of equal area."""
+def _screw(standard: ModuleType, length: float, head: str) -> tuple[np.ndarray, np.ndarray]:
+    """pymadcad's M8 screw ``length`` long with ``head`` (``madcad.standard``): 3000 evenly
+    drawn points and their (equal) areas."""
     from core.evaluation.sources.madcad_parts import _to_trimesh
 
     mesh = _to_trimesh(standard.screw(8, length, head=head))
     points, _ = trimesh.sample.sample_surface_even(mesh, 3000, seed=0)
-    points = np.asarray(points)
-    blocks = spec._extrinsic_blocks(points, np.full(len(points), mesh.area / len(points)),
-                                    len(points))
-    return np.concatenate([blocks[key] for key in keys])
+    return np.asarray(points), np.full(len(points), mesh.area / len(points))
+
+
+def _screw_blocks(standard: ModuleType, length: float, head: str, spec: DescriptorSpec,
+                  keys: tuple[str, ...], sample: type[Sample] = Sample) -> np.ndarray:
+    """The weighted extrinsic blocks ``keys`` of ``spec`` of a screw (``_screw``), joined,
+    measured on a ``sample``."""
+    points, areas = _screw(standard, length, head)
+    measured = sample(np.zeros((len(points), 0)), areas, np.zeros(0), points, hks_count=0,
+                      normal_neighbours=spec.normal_neighbours, runs_longest=spec.runs_longest)
+    return np.concatenate([spec.weight(key) * spec.block(key).measure(measured)
+                           for key in keys])
+
+
+class _SampledAreas(Sample):
+    """A sample whose blocks weigh each point by the area it has on the sample itself."""
+
+    @cached_property
+    def evened_areas(self) -> np.ndarray:
+        return self.body_areas
 
 
 def test_evened_distances_put_a_screws_head_before_its_length() -> None:
     # pymadcad's M8 screws: on the sample as it is, D2 and D1 part a socket-head screw 16
     # long from one 48 long far more than from a button head of its length (the length
     # dominates: measured 0.68 against 0.28); evened, the head parts them more than the
-    # length (0.39 against 0.44). bench/selection/stretch_blocks_select.py chose it.
+    # length (0.39 against 0.44).
     standard = pytest.importorskip(
         "madcad.standard", reason="pymadcad (the test extra) is not installed"
     )
-    from dataclasses import replace
+    edges = np.linspace(0.0, 3.0, 33)
 
-    from core.evaluation.variants import SS10_DESCRIPTOR
+    def unit(histogram: np.ndarray) -> np.ndarray:
+        root = np.sqrt(histogram).ravel()
+        return root / np.linalg.norm(root)
 
-    # Both weigh the points by the sample's areas (ss10 and ss9): the distances alone.
-    evened = DescriptorSpec.from_settings(SS10_DESCRIPTOR)
-    plain = replace(evened, evened_distances=False)
+    def distances(length: float, head: str, evened: bool) -> np.ndarray:
+        # Both weigh the points by the sample's areas: the distances alone.
+        points, areas = _screw(standard, length, head)
+        if evened:
+            points = evened_spreads(points, areas)
+        d2 = distance_distribution(points, areas, edges, 20000, 0)
+        d1 = area_histograms(centroid_distance_ratios(points, areas)[:, None], areas, edges)
+        return np.concatenate([unit(d2), unit(d1)])
 
-    def distances(length: float, head: str, spec: DescriptorSpec) -> np.ndarray:
-        return _screw_blocks(standard, length, head, spec, ("d2", "d1"))
-
-    for spec, length_over_head in ((plain, 2.0), (evened, None)):
-        short, long_ = distances(16, "SH", spec), distances(48, "SH", spec)
-        button = distances(48, "BH", spec)
+    for evened, length_over_head in ((False, 2.0), (True, None)):
+        short, long_ = distances(16, "SH", evened), distances(48, "SH", evened)
+        button = distances(48, "BH", evened)
         by_length, by_head = np.linalg.norm(short - long_), np.linalg.norm(long_ - button)
         if length_over_head:
             assert by_length > length_over_head * by_head
@@ -482,20 +478,22 @@ def test_evened_areas_put_a_screws_head_before_its_length() -> None:
     # pymadcad's M8 screws: D2, D1, normals and symmetry weighed by the sample's areas part a
     # button-head screw 16 long from one 48 long more than from a socket head of its length
     # (measured 0.57 against 0.45); weighed by the evened surface's areas the lengths of one
-    # head come close (0.17-0.20) and the heads stay apart (0.49-0.50).
-    # bench/selection/evened_areas_select.py chose it.
+    # head come close (0.17-0.20) and the heads stay apart (0.49-0.50). Both on the part as
+    # it is (no shortened runs).
     standard = pytest.importorskip(
         "madcad.standard", reason="pymadcad (the test extra) is not installed"
     )
-    from core.evaluation.variants import SS10_DESCRIPTOR, SS11_DESCRIPTOR
+    from core.evaluation.variants import SS11_DESCRIPTOR
 
-    def layout(length: float, head: str, spec: DescriptorSpec) -> np.ndarray:
-        return _screw_blocks(standard, length, head, spec, ("d2", "d1", "normals", "symmetry"))
+    spec = DescriptorSpec.from_settings(SS11_DESCRIPTOR)
+
+    def layout(length: float, head: str, sample: type[Sample]) -> np.ndarray:
+        return _screw_blocks(standard, length, head, spec, ("d2", "d1", "normals", "symmetry"),
+                             sample)
 
     distances = {}
-    for name, settings in (("sample", SS10_DESCRIPTOR), ("evened", SS11_DESCRIPTOR)):
-        spec = DescriptorSpec.from_settings(settings)
-        screws = {(length, head): layout(length, head, spec)
+    for name, sample in (("sample", _SampledAreas), ("evened", Sample)):
+        screws = {(length, head): layout(length, head, sample)
                   for length in (16, 48) for head in ("SH", "BH")}
         by_length = [np.linalg.norm(screws[16, head] - screws[48, head]) for head in ("SH", "BH")]
         by_head = [np.linalg.norm(screws[length, "SH"] - screws[length, "BH"])
@@ -558,7 +556,6 @@ def test_shortened_runs_put_a_screws_head_before_its_length() -> None:
     # button-head screw 16 long is nearly as far from one 48 long as from the other head
     # (measured 0.67-0.69 against 0.72-0.75); with its runs shortened to 4 radii the lengths
     # come close (0.09-0.20) and the heads stay apart (0.73-0.75).
-    # bench/selection/collapsed_runs_select.py chose it.
     standard = pytest.importorskip(
         "madcad.standard", reason="pymadcad (the test extra) is not installed"
     )

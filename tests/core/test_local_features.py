@@ -8,8 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from core import descriptor as descriptor_module
 from core.descriptor import DescriptorSpec, load_vocabulary
+from core.descriptor.blocks import local as local_module
 from core.local_features import (
     Vocabulary,
     encode_bof,
@@ -110,7 +110,9 @@ def test_shipped_vocabularies_match_their_family(family: str) -> None:
     assert settings.local_weight > 0
     vocabulary = load_vocabulary(settings.local_vocabulary)
     spec = DescriptorSpec.from_settings(settings)
-    signature = len(spec.times) + (len(spec.energies) if spec.local_columns == "hks+wks" else 0)
+    signature = len(spec.grid.times) + (
+        len(spec.grid.energies) if settings.local_columns == "hks+wks" else 0
+    )
     assert vocabulary.width == signature + len(settings.local_neighbours)
     version = spec.version(EngineSettings(descriptor=settings))
     assert f"@{vocabulary.digest()[:6]}" in version
@@ -124,7 +126,7 @@ def test_a_changed_vocabulary_changes_the_version(tmp_path, monkeypatch) -> None
     shipped = load_vocabulary(settings.local_vocabulary)
     refitted = replace(shipped, centres=shipped.centres * (1 + 1e-9))
     refitted.save(tmp_path / f"{settings.local_vocabulary}.npz")
-    monkeypatch.setattr(descriptor_module, "VOCABULARY_DIR", tmp_path)
+    monkeypatch.setattr(local_module, "VOCABULARY_DIR", tmp_path)
     load_vocabulary.cache_clear()
     try:
         after = spec.version(EngineSettings())

@@ -9,7 +9,13 @@ from fastapi.testclient import TestClient
 
 from app.api.main import create_app
 from app.ingest.describing import descriptor_version
-from core.rank.score_calibration import ScoreCalibration, calibration_for, layout_of
+from core.rank.score_calibration import (
+    LIKENESS,
+    ScoreCalibration,
+    calibration_for,
+    in_words,
+    layout_of,
+)
 from core.settings import EngineSettings
 from tests.conftest import PARTS, fake_describe, make_settings, upload, wait_for_status
 
@@ -56,3 +62,18 @@ def test_results_of_the_default_layout_carry_it(database_url: str) -> None:
     assert calibration is not None and len(results) == 2
     for result in results:
         assert result["calibrated_score"] == pytest.approx(calibration(result["score"]))
+        assert result["likeness"] == in_words(result["calibrated_score"])
+
+
+def test_a_calibrated_score_reads_in_words() -> None:
+    assert [words for _, words in LIKENESS] == ["copy", "same kind", "different kind"]
+    assert in_words(0.999) == in_words(0.995) == "copy"
+    assert in_words(0.99) == in_words(0.95) == "same kind"
+    assert in_words(0.9) == in_words(0.0) == "different kind"
+    # On the default layout's raw scale: copies score about 0.985 and up, same-kind pairs
+    # about 0.96 and up (README, "What a score means").
+    calibration = calibration_for(descriptor_version(EngineSettings()))
+    assert calibration is not None
+    assert in_words(calibration(0.99)) == "copy"
+    assert in_words(calibration(0.97)) == "same kind"
+    assert in_words(calibration(0.93)) == "different kind"

@@ -222,11 +222,10 @@ def identity_parts() -> Iterator[tuple[str, str, trimesh.Trimesh]]:
 
 
 def bend_check_shapes() -> dict[str, trimesh.Trimesh]:
-    """The shapes of the bend check (``tests/test_families.py``,
-    ``bench/selection/families_check.py``): a straight tube and the same tube bent by 90 degrees
-    along its whole length (arc length kept), a finger and the same finger with its knuckles turned
-    by 70 and 40 degrees, and three other shapes (box, torus, cone) to compare the bend's distance
-    with."""
+    """The shapes of the bend check (``tests/core/test_families.py``): a straight tube and
+    the same tube bent by 90 degrees along its whole length (arc length kept), a finger and
+    the same finger with its knuckles turned by 70 and 40 degrees, and three other shapes
+    (box, torus, cone) to compare the bend's distance with."""
     length = 100.0
     return {
         "straight": tube_mesh(centre_line(length, lambda s: 0 * s), 6.0),

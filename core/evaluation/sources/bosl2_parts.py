@@ -1,7 +1,7 @@
 """Parts of the BOSL2 OpenSCAD library (BSD-2-Clause), a third-party source.
 
 The ninth source, added after every search and descriptor setting had been chosen on the
-others, so that it can judge them (``bench/selection/bosl2_check.py``). Its kinds are the
+others, so that it can judge them. Its kinds are the
 held-out set's kind of part: ISO screws of five head types (socket, button, countersunk,
 hex, pan) and set screws (``screws.scad``), hex and square nuts of the ISO and DIN
 thicknesses, deep-groove ball bearings (``ball_bearings.scad``'s trade sizes), LMxUU linear

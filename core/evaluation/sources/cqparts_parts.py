@@ -1,7 +1,7 @@
 """Fasteners and bearings of the cqparts libraries (GPL-3.0), a third-party source.
 
-The eleventh library, added after every setting had been chosen, to judge them
-(``bench/selection/cqparts_check.py``). Its kinds are the held-out set's weakest: screws that
+The eleventh library, added after every setting had been chosen, to judge them. Its
+kinds are the held-out set's weakest: screws that
 differ by their head, hex and square nuts, ball and tapered roller bearings (no other
 library here draws a tapered roller bearing). Another maker than every library before it:
 ``cqparts_fasteners`` draws heads, drives and nuts, ``cqparts_bearings`` the bearings as

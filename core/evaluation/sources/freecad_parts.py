@@ -1,7 +1,7 @@
 """Parts drawn by FreeCAD's own modules (LGPL-2.1+, Debian's ``freecad``), a third-party source.
 
-The tenth library, added after every setting had been chosen, to judge them
-(``bench/selection/freecad_check.py``) and to bring a kind that no other library here makes:
+The tenth library, added after every setting had been chosen, to judge them and to bring
+a kind that no other library here makes:
 roller-chain sprockets, one of the held-out set's weakest kinds. One class per kind, eight
 sizes each:
 

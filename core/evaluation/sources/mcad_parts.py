@@ -1,7 +1,7 @@
 """Parts of OpenSCAD's MCAD library (LGPL-2.1, Debian's ``openscad-mcad``), a third-party source.
 
 The eighth tuning source, added after every search and descriptor setting had been chosen
-on the other seven, so that it can judge them (``bench/selection/mcad_check.py``). One class
+on the other seven, so that it can judge them. One class
 per kind of part MCAD models: cap, countersunk and hex bolts (``metric_fastners.scad``), deep
 groove ball bearings (``bearing.scad``'s own table), spur and helical gears with hubs and
 bevel gears (``involute_gears.scad``), NEMA stepper motors (``stepper.scad``), brick-built
