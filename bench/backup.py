@@ -15,8 +15,8 @@ With ``--database-url`` (an empty PostgreSQL database) the backup is
 archive read back) and the baseline a plain ``pg_dump --format=custom`` of the same
 database.
 
-    .venv/bin/python bench/backup.py --models 20000 --file-kb 40 --repeats 3
-    .venv/bin/python bench/backup.py --database-url postgresql+psycopg://postgres@127.0.0.1/bench
+    .venv/bin/python -m bench.backup --models 20000 --file-kb 40 --repeats 3
+    .venv/bin/python -m bench.backup --database-url postgresql+psycopg://postgres@127.0.0.1/bench
 """
 
 from __future__ import annotations

@@ -15,8 +15,8 @@ of the load's jobs finished meanwhile; the round ends when the load has drained.
 The baseline is the same upload on the idle service, measured in the same run. Prints
 medians over ``--rounds``.
 
-    nice -n 5 .venv/bin/python bench/bulk_fairness.py --load redescribe [--size 100] [--rounds 3]
-    nice -n 5 .venv/bin/python bench/bulk_fairness.py --load import [--size 100] [--rounds 3]
+    nice -n 5 .venv/bin/python -m bench.bulk_fairness --load redescribe [--size 100] [--rounds 3]
+    nice -n 5 .venv/bin/python -m bench.bulk_fairness --load import [--size 100] [--rounds 3]
 """
 
 from __future__ import annotations
@@ -29,14 +29,14 @@ import uuid
 from pathlib import Path
 
 import httpx
-from queue_fairness import keys, post, wait_ready
-from servers import running_server  # queue_fairness put tests/ on the path
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import Job
 from app.db.session import make_engine, make_session_factory
 from app.ingest.redescribe import enqueue_models
+from bench.queue_fairness import keys, post, wait_ready
+from tests.servers import running_server
 
 
 def finished(sessions: sessionmaker[Session], job_ids: list[uuid.UUID]) -> int:

@@ -6,7 +6,7 @@ and point counts as the worker stores them), then the route through the API (``T
 over the app, no workers) ``--repeat`` times: the median seconds, the answer's size and the
 process's peak memory growth, against ``GET /healthz`` in the same run.
 
-    .venv/bin/python bench/cutoff_stats.py [--models 100000] [--repeat 5]
+    .venv/bin/python -m bench.cutoff_stats [--models 100000] [--repeat 5]
 """
 
 from __future__ import annotations
@@ -14,22 +14,17 @@ from __future__ import annotations
 import argparse
 import resource
 import statistics
-import sys
 import tempfile
 import time
 import uuid
-from pathlib import Path
 
 from fastapi.testclient import TestClient
 from sqlalchemy import insert
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from app.api.main import create_app  # noqa: E402
-from app.db.models import Model, utcnow  # noqa: E402
-from app.db.session import make_engine  # noqa: E402
-from app.settings import Settings  # noqa: E402
+from app.api.main import create_app
+from app.db.models import Model, utcnow
+from app.db.session import make_engine
+from app.settings import Settings
 
 # A stored cutoff record (core.cutoff.CutoffRecord.to_json) of a typical part.
 RECORD = {"mode": "adaptive", "n": 185, "solver_calls": 2, "predicted": [180],

@@ -7,30 +7,25 @@ busy catalogue leave them), then the newest ``--limit`` are listed through the A
 index (``ix_webhook_deliveries_endpoint_created``, revision 0013), then without it (dropped:
 the baseline, in the same run). Prints both medians and their ratio.
 
-    .venv/bin/python bench/delivery_history.py [--deliveries 200000] [--repeat 7]
+    .venv/bin/python -m bench.delivery_history [--deliveries 200000] [--repeat 7]
 """
 
 from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 import tempfile
 import time
 import uuid
 from datetime import timedelta
-from pathlib import Path
 
 from fastapi.testclient import TestClient
 from sqlalchemy import insert, text
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from app.api.main import create_app  # noqa: E402
-from app.db.models import WebhookDelivery, utcnow  # noqa: E402
-from app.db.session import make_engine  # noqa: E402
-from app.settings import Settings  # noqa: E402
+from app.api.main import create_app
+from app.db.models import WebhookDelivery, utcnow
+from app.db.session import make_engine
+from app.settings import Settings
 
 
 def fill(database_url: str, webhook_id: uuid.UUID, count: int) -> None:

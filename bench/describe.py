@@ -6,7 +6,7 @@ thread:
 
 (a) the previous default: 20000 points, seeded adaptive cutoff (t = 0.01, xi = 1e-10, seed 50,
     margin 10, n in [80, 500]), described with ``core.pipeline.describe`` on the previous
-    solver (banded SuperLU LDLᵀ, ARPACK basis 2k + 1: ``bench/previous_solver.py``). The
+    solver (banded SuperLU LDLᵀ, ARPACK basis 2k + 1: ``bench.previous_solver``). The
     settings are spelled out here so that (a) stays this baseline when the defaults change;
     the cutoff rule is today's (a function of the spectrum alone), which moves n by a few.
 (b) the new default end to end: ``describe(path, EngineSettings())``.
@@ -22,9 +22,9 @@ other jobs the wall clock is stretched by them, the CPU seconds of the child muc
 
 Usage::
 
-    .venv/bin/python bench/describe.py                        # all parts + 30 capod models
-    .venv/bin/python bench/describe.py --capod 5 --models angle_block bunny   # quick
-    .venv/bin/python bench/describe.py --no-throughput --json rows.json
+    .venv/bin/python -m bench.describe                        # all parts + 30 capod models
+    .venv/bin/python -m bench.describe --capod 5 --models angle_block bunny   # quick
+    .venv/bin/python -m bench.describe --no-throughput --json rows.json
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ import argparse
 import json
 import os
 import random
-import resource
 import statistics
 import subprocess
 import sys
@@ -47,10 +46,11 @@ from typing import Any
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
-REPO = Path(__file__).resolve().parent.parent
+from bench._common import REPO, peak_rss_mb  # noqa: E402
+from core.evaluation.sources import SHARED  # noqa: E402
 
-PARTS = Path("/work/shared/datasets/parts")
-CAPOD = Path("/work/shared/datasets/capod")
+PARTS = SHARED / "parts"
+CAPOD = SHARED / "capod"
 SUFFIXES = {".stl", ".ply", ".obj", ".off"}
 STOCK_COUNT = 300
 KINDS = ("a", "b", "c")
@@ -83,11 +83,6 @@ def label(path: Path) -> str:
     return f"{path.parent.name}/{path.name}" if path.parent != PARTS else path.stem
 
 
-def peak_rss_mb() -> float:
-    """Peak resident set size of this process so far (Linux reports KiB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
 def _prediction(cutoff: Any) -> bool | None:
     """Whether a predicted n held (None: no prediction, the seed round ran; this bench
     describes each part as into an empty database; ``bench/eigensolve.py --predict``
@@ -106,7 +101,7 @@ def measure(kind: str, path: Path) -> dict[str, Any]:
     with pin_blas_threads():
         if kind in ("a", "b"):
             if kind == "a":
-                from previous_solver import use_previous_solver
+                from bench.previous_solver import use_previous_solver
 
                 use_previous_solver()
             settings = previous_default() if kind == "a" else EngineSettings()
@@ -137,8 +132,8 @@ def measure(kind: str, path: Path) -> dict[str, Any]:
 
 def spawn(kind: str, path: Path) -> dict[str, Any]:
     """``measure`` in a child process; a failure becomes a row with ``error``."""
-    command = [sys.executable, __file__, "--measure", kind, str(path)]
-    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    command = [sys.executable, "-m", "bench.describe", "--measure", kind, str(path)]
+    done = subprocess.run(command, capture_output=True, text=True, check=False, cwd=REPO)
     if done.returncode != 0:
         return {"model": label(path), "kind": kind, "error": done.stderr.strip()[-300:]}
     return json.loads(done.stdout.strip().splitlines()[-1])

@@ -11,7 +11,7 @@ API quick-checks (up to 16 MiB) also get that check's seconds, in-process (its s
 start aside): the data behind ``SHAPESEARCH_UPLOAD_CHECK_TIMEOUT_SECONDS``. A limit
 must stay above these on the slowest machine it runs on (these machines differ about 3x).
 
-    .venv/bin/python bench/describe_by_size.py [--sizes-mb 1 4 16 64]
+    .venv/bin/python -m bench.describe_by_size [--sizes-mb 1 4 16 64]
         [--formats stl obj ply xyz step] [--shape sphere|cylinder] [--service-limits]
 """
 

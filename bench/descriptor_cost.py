@@ -1,20 +1,18 @@
-"""Benchmark: what the local, ring and caps blocks of issue 24 cost per part, against ``ss4``
+"""Benchmark: what the descriptor's blocks cost per part, against the blocks before issue 24
 in one run.
 
 Every loadable part of the shared parts folder and a seeded sample of capod is described end
-to end (``core.pipeline.describe``) with the default before issue 24 (``ss4``: no local
-block), its first default (``ss5``: no ring block), its second (``ss6``: no caps block), its
-third (``ss7``: the caps block along the principal axes alone), its fourth (``ss8``: the
-ring block's shells the area tertiles), its fifth (``ss9``: D2 and D1 of the sample as it
-is), its sixth (``ss10``: every block weighed by the sample's areas), its seventh
-(``ss11``: the part's runs of one cross-section as they are), the present default and the
-``bendable`` family,
-interleaved per part (so drifting machine load falls on all alike), ``--repeats`` times;
-BLAS pinned to one thread. Prints per-kind medians of wall and CPU seconds, the ratios to
-``ss4`` and the descriptor widths (index memory and exact-search time grow with the
-width)::
+to end (``core.pipeline.describe``) with the blocks the default had before issue 24
+(``pre-24``: the spectral blocks, D2, D1, normals and symmetry as today, without the local,
+ring and caps blocks and the shortened runs; ``ss4``, the layout of that time, also had
+spread and axis-offset blocks, which the engine no longer has), the intrinsic ``spectral``
+layout, the layout before today's (``ss11``: the part's runs of one cross-section as they
+are), the present default and the ``bendable`` family, interleaved per part (so drifting
+machine load falls on all alike), ``--repeats`` times; BLAS pinned to one thread. Prints
+per-kind medians of wall and CPU seconds, the ratios to ``pre-24`` and the descriptor widths
+(index memory and exact-search time grow with the width)::
 
-    .venv/bin/python bench/descriptor_cost.py [--capod 12] [--repeats 3]
+    .venv/bin/python -m bench.descriptor_cost [--capod 12] [--repeats 3]
 """
 
 from __future__ import annotations
@@ -24,6 +22,7 @@ import os
 import random
 import statistics
 import time
+from dataclasses import replace
 from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -31,28 +30,16 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 from core.errors import InvalidShapeError  # noqa: E402
 from core.evaluation.sources import SHARED  # noqa: E402
-from core.evaluation.variants import (  # noqa: E402
-    SS4_DESCRIPTOR,
-    SS5_DESCRIPTOR,
-    SS6_DESCRIPTOR,
-    SS7_DESCRIPTOR,
-    SS8_DESCRIPTOR,
-    SS9_DESCRIPTOR,
-    SS10_DESCRIPTOR,
-    SS11_DESCRIPTOR,
-)
+from core.evaluation.variants import SPECTRAL_DESCRIPTOR, SS11_DESCRIPTOR  # noqa: E402
 from core.pipeline import describe  # noqa: E402
 from core.settings import DESCRIPTOR_FAMILIES, EngineSettings  # noqa: E402
 
 SUFFIXES = {".stl", ".ply", ".obj", ".off"}
+BASELINE = "pre-24"
 KINDS = {
-    "ss4": EngineSettings(descriptor=SS4_DESCRIPTOR),
-    "ss5": EngineSettings(descriptor=SS5_DESCRIPTOR),
-    "ss6": EngineSettings(descriptor=SS6_DESCRIPTOR),
-    "ss7": EngineSettings(descriptor=SS7_DESCRIPTOR),
-    "ss8": EngineSettings(descriptor=SS8_DESCRIPTOR),
-    "ss9": EngineSettings(descriptor=SS9_DESCRIPTOR),
-    "ss10": EngineSettings(descriptor=SS10_DESCRIPTOR),
+    BASELINE: EngineSettings(descriptor=replace(
+        SS11_DESCRIPTOR, local_weight=0.0, ring_weight=0.0, caps_weight=0.0)),
+    "spectral": EngineSettings(descriptor=SPECTRAL_DESCRIPTOR),
     "ss11": EngineSettings(descriptor=SS11_DESCRIPTOR),
     "default": EngineSettings(),
     "bendable": EngineSettings(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
@@ -86,10 +73,10 @@ def main(argv: list[str] | None = None) -> int:
                 cpu[kind].append(time.process_time() - started_cpu)
                 widths[kind] = description.descriptor.size
     load = os.getloadavg()[0]
-    print(f"{len(wall['ss4'])} describes per kind; load average {load:.2f}")
-    print("| kind | width | wall median s | CPU median s | wall / ss4 | CPU / ss4 |")
+    print(f"{len(wall[BASELINE])} describes per kind; load average {load:.2f}")
+    print(f"| kind | width | wall median s | CPU median s | wall / {BASELINE} | CPU / {BASELINE} |")
     print("|---|---|---|---|---|---|")
-    base_wall, base_cpu = statistics.median(wall["ss4"]), statistics.median(cpu["ss4"])
+    base_wall, base_cpu = statistics.median(wall[BASELINE]), statistics.median(cpu[BASELINE])
     for kind in KINDS:
         w, c = statistics.median(wall[kind]), statistics.median(cpu[kind])
         print(f"| {kind} | {widths[kind]} | {w:.3f} | {c:.3f} | {w / base_wall:.2f} | "

@@ -22,13 +22,13 @@ calls and eigen-solve seconds of both paths, and checks that n is the same.
 
 Usage::
 
-    /work/venv/bin/python bench/eigensolve.py                 # all parts, 20k and 50k points
-    /work/venv/bin/python bench/eigensolve.py --quick         # 3 parts, 20k points
-    /work/venv/bin/python bench/eigensolve.py --points 20000 --models bunny teapot
-    nice -n 10 .venv/bin/python bench/eigensolve.py --compare --points 3000 5000 20000 \
+    .venv/bin/python -m bench.eigensolve                 # all parts, 20k and 50k points
+    .venv/bin/python -m bench.eigensolve --quick         # 3 parts, 20k points
+    .venv/bin/python -m bench.eigensolve --points 20000 --models bunny teapot
+    nice -n 10 .venv/bin/python -m bench.eigensolve --compare --points 3000 5000 20000 \
         --models angle_block bunny teapot plate_holes cycloidal
-    nice -n 10 .venv/bin/python bench/eigensolve.py --compare --repeats 1 --points 20000
-    nice -n 10 .venv/bin/python bench/eigensolve.py --predict --points 3000
+    nice -n 10 .venv/bin/python -m bench.eigensolve --compare --repeats 1 --points 20000
+    nice -n 10 .venv/bin/python -m bench.eigensolve --predict --points 3000
 """
 
 from __future__ import annotations
@@ -36,7 +36,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -49,9 +48,10 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-REPO = Path(__file__).resolve().parent.parent
+from bench._common import REPO, peak_rss_mb  # noqa: E402
+from core.evaluation.sources import SHARED  # noqa: E402
 
-PARTS = Path("/work/shared/datasets/parts")
+PARTS = SHARED / "parts"
 MESH_SUFFIXES = {".stl", ".ply", ".obj", ".off"}
 QUICK_MODELS = ("angle_block", "bunny", "teapot")
 FIXED_COUNT = 300
@@ -63,11 +63,6 @@ def part_files(selected: list[str] | None) -> list[Path]:
     if selected:
         files = [path for path in files if path.stem in selected]
     return files
-
-
-def peak_rss_mb() -> float:
-    """Peak resident set size of this process so far (Linux reports KiB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def run_worker(path: Path, max_points: int) -> dict:
@@ -125,11 +120,11 @@ def run_worker(path: Path, max_points: int) -> dict:
 
 def run_compare(path: Path, max_points: int, repeats: int = 3) -> dict:
     """Old banded vs new banded vs stock at the adaptive n, on the same operators."""
-    from previous_solver import PREVIOUS_BASIS_FACTOR, superlu_ldl
     from scipy.sparse.linalg import eigsh
 
     import core.eigen._factor as factor_module
     import core.eigen._solver as solver_module
+    from bench.previous_solver import PREVIOUS_BASIS_FACTOR, superlu_ldl
     from core.cutoff import make_cutoff
     from core.eigen import SpectralSolver, default_shift, pin_blas_threads
     from core.io import load_points
@@ -267,9 +262,9 @@ def run_predict(paths: list[Path], max_points: int) -> None:
 
 def spawn_worker(path: Path, max_points: int, compare: bool = False, repeats: int = 3) -> dict:
     """Run ``run_worker`` (or ``run_compare``) in a child process and return its JSON result."""
-    command = [sys.executable, __file__, "--worker", str(path), str(max_points)]
+    command = [sys.executable, "-m", "bench.eigensolve", "--worker", str(path), str(max_points)]
     command += ["--compare", "--repeats", str(repeats)] if compare else []
-    completed = subprocess.run(command, capture_output=True, text=True, check=False)
+    completed = subprocess.run(command, capture_output=True, text=True, check=False, cwd=REPO)
     if completed.returncode != 0:
         return {"model": path.stem, "max_points": max_points, "error": completed.stderr[-400:]}
     return json.loads(completed.stdout.strip().splitlines()[-1])

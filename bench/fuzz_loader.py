@@ -10,7 +10,7 @@ flipped or inserted, a chunk repeated, numbers replaced by huge, negative, NaN o
 ones, binary integers and floats overwritten, the header cut off) and reads every mutant in
 a child process limited to 3 GiB of address space, 30 s per file.
 
-    .venv/bin/python bench/fuzz_loader.py --cases 2500 --seed 7 [--formats step pcd las]
+    .venv/bin/python -m bench.fuzz_loader --cases 2500 --seed 7 [--formats step pcd las]
 
 It prints how many files were read, and refused by reason, and lists every other outcome:
 ``CRASH`` (an exception other than the engine's), ``DIED`` (the child ended by a signal: a
@@ -58,10 +58,8 @@ import numpy as np
 import trimesh
 
 from core.io import CRASHING_FORMATS, EXPANDING_FORMATS
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from hostile_files import iges_part, opencascade_imports, step_part  # noqa: E402
-from scan_files import e57_file, las_file, pcd_compressed_file  # noqa: E402
+from tests.hostile_files import iges_part, opencascade_imports, step_part
+from tests.scan_files import e57_file, las_file, pcd_compressed_file
 
 #: The child: reads each listed file, prints one ``@@``-prefixed JSON line per file (native
 #: readers print to stdout too).

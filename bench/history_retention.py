@@ -17,7 +17,7 @@ against its baseline, and what is left; last, what an idle search index's sync c
 that it reads ``feed_state.pruned_through`` after the events, against the events' read
 alone (all a sync read before the feed was pruned).
 
-    .venv/bin/python bench/history_retention.py [--models 100000] [--history 2]
+    .venv/bin/python -m bench.history_retention [--models 100000] [--history 2]
         [--deliveries 300000] [--batch 1000] [--database-url URL]
 """
 
@@ -25,20 +25,15 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 import tempfile
 import time
 import uuid
 from datetime import timedelta
-from pathlib import Path
 
 from sqlalchemy import func, insert, select, update
 from sqlalchemy.orm import Session, sessionmaker
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from app.db.models import (  # noqa: E402
+from app.db.models import (
     FeedState,
     IndexEvent,
     Job,
@@ -48,10 +43,10 @@ from app.db.models import (  # noqa: E402
     WebhookDelivery,
     utcnow,
 )
-from app.db.retention import prune_history  # noqa: E402
-from app.db.session import make_session_factory, migrated_engine  # noqa: E402
-from app.search.index import ShapeIndex  # noqa: E402
-from bench.uploads_beside import beside_uploads, upload_once  # noqa: E402
+from app.db.retention import prune_history
+from app.db.session import make_session_factory, migrated_engine
+from app.search.index import ShapeIndex
+from bench.uploads_beside import beside_uploads, upload_once
 
 CHUNK = 20000
 

@@ -6,7 +6,7 @@ median seconds until the refusal arrives (target: < 2 s each), its status, and t
 peak resident memory. Baseline in the same run: the same requests with a small valid part
 (and a small valid STEP part where OpenCascade imports).
 
-    nice -n 10 .venv/bin/python bench/hostile.py [--repeats 3]
+    nice -n 10 .venv/bin/python -m bench.hostile [--repeats 3]
 """
 
 from __future__ import annotations
@@ -20,13 +20,11 @@ from pathlib import Path
 
 import httpx
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+from bench._common import PARTS
+from tests.hostile_files import HOSTILE_FILES, opencascade_imports, step_part
+from tests.servers import peak_memory_bytes, running_server
 
-from hostile_files import HOSTILE_FILES, opencascade_imports, step_part  # noqa: E402
-from servers import peak_memory_bytes, running_server  # noqa: E402
-
-CUBE = ROOT / "tests" / "fixtures" / "parts" / "20mm-xyz-cube.stl"
+CUBE = PARTS / "20mm-xyz-cube.stl"
 
 
 def timed_post(client: httpx.Client, route: str, name: str, content: bytes) -> tuple[float, int]:

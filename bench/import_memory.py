@@ -13,7 +13,7 @@ importer's imports) and 20 files; streaming holds at most 2 x concurrency files 
 so 2,000 files should cost about what 20 cost. Control: 500 files of ~250 KiB (122 MiB in
 all) must not add their size either (an importer that read the catalogue first would).
 
-    nice -n 10 .venv/bin/python bench/import_memory.py [--files 2000] [--heavy 500]
+    nice -n 10 .venv/bin/python -m bench.import_memory [--files 2000] [--heavy 500]
 """
 
 from __future__ import annotations

@@ -15,22 +15,19 @@ what the exact re-rank can then recover), and the mean ratio of the 10th distanc
 to the true one.
 
     .venv/bin/python -m core.evaluation.sources /work/tuning
-    .venv/bin/python bench/index_projection.py /work/tuning
+    .venv/bin/python -m bench.index_projection /work/tuning
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-
-from app.search.index._projection import Projection  # noqa: E402
+from app.search.index._projection import Projection
+from bench._common import REPO
 
 OUT = REPO / "bench" / "out" / "index_projection"
 SUFFIXES = {".stl", ".ply", ".obj", ".off"}

@@ -25,26 +25,21 @@ share kept at the limit, and the queries' latency over the run's second half, ag
 same queries with every neighbourhood kept and nothing arriving; and how long adding each
 arriving model took (it waits for the partition's write lock).
 
-    nice -n 5 .venv/bin/python bench/neighbourhood_pass.py [--descriptors 100000]
+    nice -n 5 .venv/bin/python -m bench.neighbourhood_pass [--descriptors 100000]
         [--every 10] [--look 1] [--limit 300]
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import threading
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from app.search.index import ShapeIndex  # noqa: E402
-from bench.search_scale import (  # noqa: E402
+from app.search.index import ShapeIndex
+from bench.search_scale import (
     chunks,
     percentiles,
     queries,

@@ -19,7 +19,7 @@ of ``--descriptors`` synthetic descriptors (``bench/search_scale.py``'s, around 
 
 Each of ``--changes`` is a run of its own on the partition built afresh.
 
-    nice -n 5 .venv/bin/python bench/neighbourhood_restore.py [--descriptors 100000]
+    nice -n 5 .venv/bin/python -m bench.neighbourhood_restore [--descriptors 100000]
         [--changes 0 100 1000] [--no-compare]
 """
 
@@ -27,26 +27,22 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from app.search.index import ShapeIndex  # noqa: E402
-from app.search.index._kept import Neighbourhood  # noqa: E402
-from app.search.index._saved import (  # noqa: E402
+from app.search.index import ShapeIndex
+from app.search.index._kept import Neighbourhood
+from app.search.index._saved import (
     SavedNeighbourhoods,
     file_for,
     load,
     restore,
     save,
 )
-from bench.search_scale import chunks, load_average, queries, real_descriptors  # noqa: E402
+from bench.search_scale import chunks, load_average, queries, real_descriptors
 
 KEY = ("bench", "v")
 

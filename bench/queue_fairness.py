@@ -7,7 +7,7 @@ how long ``desk``'s model takes to become ready, and how many of ``bulk``'s jobs
 meanwhile; the round ends when the backlog has drained. The baseline is the same ``desk``
 upload on the idle service, measured in the same run. Prints medians over ``--rounds``.
 
-    nice -n 5 .venv/bin/python bench/queue_fairness.py [--backlog 100] [--rounds 3]
+    nice -n 5 .venv/bin/python -m bench.queue_fairness [--backlog 100] [--rounds 3]
 """
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import io
 import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -24,16 +23,11 @@ from typing import Any
 import httpx
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
-sys.path.insert(0, str(ROOT))
-
-from servers import running_server  # noqa: E402
-from shapes import torus_points  # noqa: E402
-
-from app.auth.keys import create_key  # noqa: E402
-from app.db.migrate import upgrade  # noqa: E402
-from app.db.session import make_engine, make_session_factory  # noqa: E402
+from app.auth.keys import create_key
+from app.db.migrate import upgrade
+from app.db.session import make_engine, make_session_factory
+from tests.servers import running_server
+from tests.shapes import torus_points
 
 
 def cloud(seed: int) -> bytes:

@@ -15,8 +15,8 @@ are measured in one run on one machine and travel better.
 
 Usage::
 
-    .venv/bin/python bench/request_path.py [--models 40] [--connections 16] [--seconds 10]
-    SHAPESEARCH_API_PROCESSES=2 .venv/bin/python bench/request_path.py   # any setting passes
+    .venv/bin/python -m bench.request_path [--models 40] [--connections 16] [--seconds 10]
+    SHAPESEARCH_API_PROCESSES=2 .venv/bin/python -m bench.request_path   # any setting passes
 """
 
 from __future__ import annotations
@@ -28,12 +28,12 @@ import shutil
 import subprocess
 import sys
 import tempfile
-from pathlib import Path
 
 import httpx
 import numpy as np
 import trimesh
-from search_latency import free_port, healthy, wait_until  # bench/ is the script's path
+
+from bench._common import shapesearch, wait_until
 
 # wrk runs one Lua script per connection: each request takes the next id of the list.
 CYCLE_IDS = """
@@ -111,15 +111,8 @@ def main() -> int:
     if shutil.which("wrk") is None:
         print("error: wrk is not installed (apt-get install wrk)", file=sys.stderr)
         return 2
-    port = free_port()
-    base = f"http://127.0.0.1:{port}"
-    env = {**os.environ, "SHAPESEARCH_DATA_DIR": tempfile.mkdtemp(),
-           "SHAPESEARCH_PORT": str(port), "SHAPESEARCH_LOG_LEVEL": "warning"}
-    command = [str(Path(sys.executable).parent / "shapesearch"), "serve"]
-    server = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL)
-    try:
-        wait_until(lambda: healthy(base), 60)
+    env = {"SHAPESEARCH_DATA_DIR": tempfile.mkdtemp(), "SHAPESEARCH_LOG_LEVEL": "warning"}
+    with shapesearch(env=env) as base:
         ids = store_parts(base, args.models)
         quoted = ", ".join(f'"/v1/models/{model_id}/similar?k=10"' for model_id in ids)
         routes = {
@@ -142,9 +135,6 @@ def main() -> int:
             print(f"{name:>16}: {best['rate']:8.0f} req/s  p50 {best['p50']:6.1f} ms  "
                   f"p99 {best['p99']:6.1f} ms  errors {best['errors']:.0f}  "
                   f"{best['rate'] / floor:.2f}x /healthz")
-    finally:
-        server.terminate()
-        server.wait(30)
     return 0
 
 

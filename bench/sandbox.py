@@ -11,7 +11,7 @@ over ``--repeats`` rounds of every part in ``tests/fixtures/parts``, the median 
 
 and the ratios of the sandbox's and the warm-up's cost to the in-process describe.
 
-    .venv/bin/python bench/sandbox.py [--repeats 3]
+    .venv/bin/python -m bench.sandbox [--repeats 3]
 """
 
 from __future__ import annotations
@@ -19,21 +19,15 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import sys
 import tempfile
 import time
 from collections.abc import Callable
 from functools import partial
-from pathlib import Path
 
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-
-PARTS = ROOT / "tests" / "fixtures" / "parts"
+from bench._common import PARTS  # noqa: E402
 
 
 def nothing() -> None:

@@ -26,7 +26,7 @@ so later queries search only for entries no earlier query met; ``--cold`` forget
 before every query (a catalogue that changes between any two queries). Printed: build
 seconds, median and p90 seconds per order and the ratio of medians, with the machine's load.
 
-    nice -n 10 .venv/bin/python bench/scan_search.py [--models 20000] [--queries 100] [--cold]
+    nice -n 10 .venv/bin/python -m bench.scan_search [--models 20000] [--queries 100] [--cold]
         [--scan-pools 40 160] [--anchor-neighbours 0 120]
 
 ``--scan-pools`` times scan mode's order at each pool size (``core.rank.scan_order.SCAN_POOL``),
@@ -50,7 +50,6 @@ import argparse
 import json
 import os
 import statistics
-import sys
 import tempfile
 import time
 import uuid
@@ -61,8 +60,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from search_scale import (  # noqa: E402
+from bench.search_scale import (  # noqa: E402
     CHUNK,
     load_average,
     queries,
@@ -130,8 +128,9 @@ def main() -> None:
                         help="scan mode's pool sizes (core.rank.scan_order.SCAN_POOL) to time, "
                         "each query in every one (default: the shipped one)")
     parser.add_argument("--anchor-neighbours", type=int, nargs="+",
-                        help="numbers of the first answer's nearest joined to scan mode's pool "
-                        "(core.rank.scan_order.ANCHOR_NEIGHBOURS) to time (default: the shipped one)")
+                        help="numbers of the first answer's nearest joined to scan mode's "
+                        "pool (core.rank.scan_order.ANCHOR_NEIGHBOURS) to time (default: the "
+                        "shipped one)")
     parser.add_argument("--answers", type=Path, help="write every order's answers as JSON")
     parser.add_argument("--k", type=int, default=10, help="results per query")
     parser.add_argument("--url", help="an empty database to fill (e.g. PostgreSQL) in place "

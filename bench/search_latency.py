@@ -13,8 +13,8 @@ service's default (SHAPESEARCH_SCAN_VIEWS).
 
 Usage::
 
-    .venv/bin/python bench/search_latency.py [--scans 5] [--points 20000]
-    .venv/bin/python bench/search_latency.py --partial --modes shape scan
+    .venv/bin/python -m bench.search_latency [--scans 5] [--points 20000]
+    .venv/bin/python -m bench.search_latency --partial --modes shape scan
 """
 
 from __future__ import annotations
@@ -22,42 +22,17 @@ from __future__ import annotations
 import argparse
 import io
 import os
-import socket
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
-from pathlib import Path
 
 import httpx
 import numpy as np
 import trimesh
 
-REPO = Path(__file__).resolve().parent.parent
-PARTS = REPO / "tests" / "fixtures" / "parts"
+from bench._common import PARTS, shapesearch, wait_until
+
 CATALOGUE = ("angle_block.STL", "featuretype.STL", "round.stl", "plate_holes.STL")
-
-
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return int(probe.getsockname()[1])
-
-
-def wait_until(check, timeout: float) -> None:  # type: ignore[no-untyped-def]
-    deadline = time.monotonic() + timeout
-    while not check():
-        if time.monotonic() > deadline:
-            raise TimeoutError("the service did not get there in time")
-        time.sleep(0.2)
-
-
-def healthy(base: str) -> bool:
-    try:
-        return httpx.get(f"{base}/healthz").status_code == 200
-    except httpx.HTTPError:
-        return False
 
 
 def scan_bytes(mesh: trimesh.Trimesh, points: int, seed: int, partial: bool = False) -> bytes:
@@ -85,14 +60,7 @@ def main() -> int:
     parser.add_argument("--partial", action="store_true", help="single-view scans")
     parser.add_argument("--modes", nargs="+", default=["shape"], choices=["shape", "scan"])
     args = parser.parse_args()
-    port = free_port()
-    base = f"http://127.0.0.1:{port}"
-    env = {**os.environ, "SHAPESEARCH_DATA_DIR": tempfile.mkdtemp(), "SHAPESEARCH_PORT": str(port)}
-    command = [str(Path(sys.executable).parent / "shapesearch"), "serve"]
-    quiet = subprocess.DEVNULL
-    server = subprocess.Popen(command, env=env, stdout=quiet, stderr=quiet)
-    try:
-        wait_until(lambda: healthy(base), 60)
+    with shapesearch(env={"SHAPESEARCH_DATA_DIR": tempfile.mkdtemp()}) as base:
         ids = [
             httpx.post(f"{base}/v1/models", files={"file": (name, (PARTS / name).read_bytes())})
             .json()["id"]
@@ -123,9 +91,6 @@ def main() -> int:
             print(f"{mode}: median {statistics.median(taken):.2f} s over {len(taken)} "
                   f"{'partial ' if args.partial else ''}scans of {args.points} points (load "
                   f"average {os.getloadavg()[0]:.1f}); target <= 1.5 s (shape), 2 s (scan)")
-    finally:
-        server.terminate()
-        server.wait(30)
     return 0
 
 

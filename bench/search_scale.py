@@ -45,10 +45,10 @@ Phases (each prints its figures):
 
 Usage (run quietly for figures; the machine's load average is printed with them)::
 
-    nice -n 10 .venv/bin/python bench/search_scale.py                       # everything
-    nice -n 10 .venv/bin/python bench/search_scale.py --quick               # 10^4 / 10^5
-    .venv/bin/python bench/search_scale.py --phases db --backends sqlite --models 20000
-    .venv/bin/python bench/search_scale.py --phases duplicates --backends sqlite --models 100000
+    nice -n 10 .venv/bin/python -m bench.search_scale                       # everything
+    nice -n 10 .venv/bin/python -m bench.search_scale --quick               # 10^4 / 10^5
+    .venv/bin/python -m bench.search_scale --phases db --backends sqlite --models 20000
+    .venv/bin/python -m bench.search_scale --phases duplicates --backends sqlite --models 100000
 """
 
 from __future__ import annotations
@@ -89,7 +89,7 @@ K = 10
 def real_descriptors(count: int, points: int, variant: str | None = None) -> np.ndarray:
     """``(count, d) float32`` unit descriptors of real models, described once and cached
     (per descriptor version: a new default layout is described afresh). ``variant``: an
-    evaluation variant's descriptor (``core.evaluation.variants``, e.g. ``ss4``, the
+    evaluation variant's descriptor (``core.evaluation.variants``, e.g. ``ss11``, the
     previous default's width, as a baseline in the same run) instead of the default."""
     from dataclasses import replace
 
@@ -987,7 +987,7 @@ def main() -> None:
     parser.add_argument("--real", type=int, default=40, help="real models to describe")
     parser.add_argument("--points", type=int, default=3000, help="points per real model")
     parser.add_argument("--variant", help="real descriptors of this evaluation variant "
-                        "(e.g. ss4: the previous default's width) instead of the default")
+                        "(e.g. ss11, the previous default) instead of the default")
     parser.add_argument("--noise", type=float, default=0.08, help="norm of the synthetic noise")
     parser.add_argument(
         "--noise-support", choices=("all", "real"), default="all",

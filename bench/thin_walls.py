@@ -14,8 +14,8 @@ budget this prints:
 
 Usage::
 
-    .venv/bin/python bench/thin_walls.py                      # default parts and budgets
-    .venv/bin/python bench/thin_walls.py --parts plate_holes --budgets 3000 20000
+    .venv/bin/python -m bench.thin_walls                      # default parts and budgets
+    .venv/bin/python -m bench.thin_walls --parts plate_holes --budgets 3000 20000
 """
 
 from __future__ import annotations

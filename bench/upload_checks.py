@@ -14,7 +14,7 @@ bounded, but for the status: those uploads got 413 at the limit, where they now 
 describe limit is lowered to ``--describe-seconds``, 300 s by default in the service, so
 that the run ends).
 
-    nice -n 10 .venv/bin/python bench/upload_checks.py [--uploads 6] [--unbounded]
+    nice -n 10 .venv/bin/python -m bench.upload_checks [--uploads 6] [--unbounded]
 
 Needs OpenCascade (the ``cad`` extra) and Linux's /proc.
 """
@@ -32,11 +32,8 @@ from pathlib import Path
 
 import httpx
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
-
-from hostile_files import iges_reader_hang, opencascade_imports, step_part  # noqa: E402
-from servers import running_server  # noqa: E402
+from tests.hostile_files import iges_reader_hang, opencascade_imports, step_part
+from tests.servers import running_server
 
 
 def descendants(pid: int) -> set[int]:

@@ -19,9 +19,9 @@ Deployments:
 
 Usage::
 
-    .venv/bin/python bench/upload_to_ready.py [--rounds 2]
+    .venv/bin/python -m bench.upload_to_ready [--rounds 2]
     SHAPESEARCH_DATABASE_URL=postgresql+psycopg://postgres@127.0.0.1:5432/bench \\
-        .venv/bin/python bench/upload_to_ready.py --separate-worker
+        .venv/bin/python -m bench.upload_to_ready --separate-worker
 """
 
 from __future__ import annotations
@@ -29,20 +29,13 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import subprocess
-import sys
-import tempfile
 import time
 from pathlib import Path
 
 import httpx
-from search_latency import free_port, healthy, wait_until  # bench/ is the script's path
 
-ROOT = Path(__file__).resolve().parents[1]
-PARTS = ROOT / "tests" / "fixtures" / "parts"
-sys.path.insert(0, str(ROOT / "tests"))
-
-from plm_helpers import Receiver  # noqa: E402
+from bench._common import PARTS, shapesearch
+from tests.plm_helpers import Receiver
 
 
 def upload_until_ready(
@@ -68,42 +61,23 @@ def upload_until_ready(
     return ready, float(model["timings"]["total"]), time.perf_counter() - started
 
 
-def start(separate_worker: bool, port: int) -> list[subprocess.Popen[bytes]]:
-    env = {**os.environ, "SHAPESEARCH_PORT": str(port), "SHAPESEARCH_LOG_LEVEL": "warning",
-           "SHAPESEARCH_WEBHOOK_ALLOW_PRIVATE": "true"}
-    env.setdefault("SHAPESEARCH_DATA_DIR", tempfile.mkdtemp())
-    command = str(Path(sys.executable).parent / "shapesearch")
-    commands = [[command, "serve"]]
-    if separate_worker:
-        commands = [[command, "serve", "--no-worker"], [command, "worker", "--concurrency", "1"]]
-    return [
-        subprocess.Popen(arguments, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        for arguments in commands
-    ]
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--separate-worker", action="store_true")
     args = parser.parse_args()
-    port = free_port()
-    base = f"http://127.0.0.1:{port}"
-    processes = start(args.separate_worker, port)
+    commands = ([["serve", "--no-worker"], ["worker", "--concurrency", "1"]]
+                if args.separate_worker else [["serve"]])
+    env = {"SHAPESEARCH_LOG_LEVEL": "warning", "SHAPESEARCH_WEBHOOK_ALLOW_PRIVATE": "true"}
     rows: list[tuple[str, float, float, float]] = []
-    try:
-        wait_until(lambda: healthy(base), 60)
-        with httpx.Client(base_url=base, timeout=60) as client, Receiver() as receiver:
-            client.post("/v1/webhooks", json={"url": receiver.url, "events": ["model.ready"]})
-            # Warm: the forkserver, the imports, the webhook client.
-            upload_until_ready(client, PARTS / "angle_block.STL", receiver)
-            for _ in range(args.rounds):
-                for path in sorted(PARTS.glob("*.[sS][tT][lL]")):
-                    rows.append((path.name, *upload_until_ready(client, path, receiver)))
-    finally:
-        for process in processes:
-            process.terminate()
-            process.wait(30)
+    with (shapesearch(*commands, env=env) as base,
+          httpx.Client(base_url=base, timeout=60) as client, Receiver() as receiver):
+        client.post("/v1/webhooks", json={"url": receiver.url, "events": ["model.ready"]})
+        # Warm: the forkserver, the imports, the webhook client.
+        upload_until_ready(client, PARTS / "angle_block.STL", receiver)
+        for _ in range(args.rounds):
+            for path in sorted(PARTS.glob("*.[sS][tT][lL]")):
+                rows.append((path.name, *upload_until_ready(client, path, receiver)))
     layout = "serve --no-worker + 1 worker process" if args.separate_worker else "serve"
     database = "PostgreSQL" if "postgresql" in os.environ.get(
         "SHAPESEARCH_DATABASE_URL", "") else "SQLite"

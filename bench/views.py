@@ -15,8 +15,8 @@ stretched by them, CPU seconds much less.
 
 Usage::
 
-    .venv/bin/python bench/views.py                            # K = 3, 4: all parts + 20 capod
-    .venv/bin/python bench/views.py --views 2 6 --capod 5 --repeat 1   # quick
+    .venv/bin/python -m bench.views                            # K = 3, 4: all parts + 20 capod
+    .venv/bin/python -m bench.views --views 2 6 --capod 5 --repeat 1   # quick
 """
 
 from __future__ import annotations
@@ -30,9 +30,8 @@ from pathlib import Path
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
-REPO = Path(__file__).resolve().parent.parent
 
-from describe import label, model_files  # noqa: E402  (bench/describe.py)
+from bench.describe import label, model_files  # noqa: E402
 
 
 def _timed(path: Path, views: int) -> tuple[float, float, int]:

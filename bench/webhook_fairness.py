@@ -14,14 +14,13 @@ Then what the rule "one delivery in flight per endpoint" costs an idle lane: the
 claim that finds nothing because the one endpoint with due deliveries (``--look-backlog``
 of them) has one in flight, against a claim on an empty outbox.
 
-    nice -n 5 .venv/bin/python bench/webhook_fairness.py [--backlog 20] [--rounds 3]
+    nice -n 5 .venv/bin/python -m bench.webhook_fairness [--backlog 20] [--rounds 3]
 """
 
 from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 import tempfile
 import threading
 import time
@@ -34,17 +33,12 @@ from typing import Any
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session, sessionmaker
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
-sys.path.insert(0, str(ROOT))
-
-from plm_helpers import Receiver  # noqa: E402
-
-from app.db.migrate import upgrade  # noqa: E402
-from app.db.models import Model, Webhook, WebhookAttempt, WebhookDelivery  # noqa: E402
-from app.db.session import make_engine, make_session_factory  # noqa: E402
-from app.settings import Settings  # noqa: E402
-from app.webhooks import Deliverer, DeliveryLanes, record_model_event  # noqa: E402
+from app.db.migrate import upgrade
+from app.db.models import Model, Webhook, WebhookAttempt, WebhookDelivery
+from app.db.session import make_engine, make_session_factory
+from app.settings import Settings
+from app.webhooks import Deliverer, DeliveryLanes, record_model_event
+from tests.plm_helpers import Receiver
 
 
 @contextmanager

@@ -7,29 +7,24 @@ all again: in batches as the service does (``--batch``), and, as the baseline in
 run, in one transaction (the first version). Prints each one's time and the uploads' median
 and worst latency during it, against the uploads' baseline on the idle database.
 
-    .venv/bin/python bench/webhook_recover.py [--deliveries 100000] [--batch 1000]
+    .venv/bin/python -m bench.webhook_recover [--deliveries 100000] [--batch 1000]
 """
 
 from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 import tempfile
 import uuid
 from datetime import timedelta
-from pathlib import Path
 
 from sqlalchemy import insert, update
 from sqlalchemy.orm import Session, sessionmaker
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from app.db.models import Webhook, WebhookDelivery, utcnow  # noqa: E402
-from app.db.session import make_session_factory, migrated_engine  # noqa: E402
-from app.webhooks import recover  # noqa: E402
-from bench.uploads_beside import beside_uploads, upload_once  # noqa: E402
+from app.db.models import Webhook, WebhookDelivery, utcnow
+from app.db.session import make_session_factory, migrated_engine
+from app.webhooks import recover
+from bench.uploads_beside import beside_uploads, upload_once
 
 CHUNK = 20000
 
