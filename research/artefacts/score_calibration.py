@@ -1,4 +1,4 @@
-"""Builds ``core/data/score-calibration.json``: what a similarity score means (issue 21).
+"""Builds ``core/data/score-calibration.json``: what a similarity score means.
 
 Every model of each tuning source (``python -m core.evaluation.sources SOURCES``) is
 described with the service's default engine settings (``core.pipeline.describe``); for

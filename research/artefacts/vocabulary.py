@@ -6,7 +6,7 @@ name order), each model's descriptors as its family's settings take them:
 ``hks-sv64`` the ``parts`` family's (log HKS at 16 times, the surface variation at 10 and 30
 neighbours: 18 columns), ``hks64`` the ``bendable`` family's (the log HKS alone: 16). The
 shipped pair was fitted on the six sources of the first study (bendable, capod, gearworks,
-generated, madcad, parts; ``local_features_select.py --write-vocabulary``, issue 24).
+generated, madcad, parts; ``local_features_select.py --write-vocabulary``).
 
 Two steps: the slow one is stage 1 of every study (``python -m research.extract``: hours
 for the six sources); the final one fits and saves (``words_of``, then ``--write``). The

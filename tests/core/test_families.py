@@ -31,6 +31,7 @@ def bendable_shapes() -> dict[str, trimesh.Trimesh]:
     return bend_check_shapes()
 
 
+@pytest.mark.slow
 def test_bendable_family_keeps_a_bent_copy_near_itself(bendable_shapes) -> None:
     vectors = describe_all(bendable_shapes, "bendable")
 
@@ -38,14 +39,15 @@ def test_bendable_family_keeps_a_bent_copy_near_itself(bendable_shapes) -> None:
         return float(np.linalg.norm(vectors[a] - vectors[b]))
 
     others = ("box", "torus", "cone")
-    # Measured (bench/selection/families_check.py): 0.05 against >= 0.32 to the other shapes; 0.09
-    # against >= 0.30 for the finger.
+    # Measured by the families check (see the changelog): 0.05 against >= 0.32 to the other
+    # shapes; 0.09 against >= 0.30 for the finger.
     assert distance("straight", "bent") < 0.3 * min(distance("straight", o) for o in others)
     assert distance("finger", "finger-bent") < 0.5 * min(distance("finger", o) for o in others)
     # Nearer to its own bent copy than to another straight tube.
     assert distance("straight", "bent") < distance("straight", "finger")
 
 
+@pytest.mark.slow
 def test_parts_family_sees_the_bend_that_bendable_ignores(bendable_shapes) -> None:
     # Why two families: the default sees how a surface sits in space, so a bent tube is
     # further from its straight self, relative to other shapes, than with ``bendable``.
@@ -60,6 +62,7 @@ def test_parts_family_sees_the_bend_that_bendable_ignores(bendable_shapes) -> No
     assert ratios["bendable"] < 0.5 * ratios["parts"]
 
 
+@pytest.mark.slow
 def test_screw_head_type_counts_more_than_size() -> None:
     # A socket-head screw finds a socket-head screw of another size before a button-head
     # screw of its own size (pymadcad's standard screws, made in code).
@@ -79,7 +82,7 @@ def test_screw_head_type_counts_more_than_size() -> None:
     def distance(a: str, b: str) -> float:
         return float(np.linalg.norm(vectors[a] - vectors[b]))
 
-    # Measured (bench/selection/families_check.py, ss9): 0.055 to the smaller socket head, 0.38 to
+    # Measured by the families check (see the changelog): 0.055 to the smaller socket head, 0.38 to
     # the button head, 0.059 to itself sampled again; ss4, before the local block: 0.040, 0.26,
     # 0.045. Both tell the head types apart.
     assert distance("socket-M10x25", "socket-M6x15") < 0.5 * distance(

@@ -90,7 +90,7 @@ def test_the_keys_are_the_set_definitions(k1: int, k2: int, hub_term: bool) -> N
 
 
 def test_neighbourhoods_taken_in_another_order_are_the_set_definitions_in_it() -> None:
-    # bench/selection/hub_neighbourhoods_select.py ranks neighbourhoods by the hub discount's
+    # The hub-neighbourhoods study (see the changelog) ranked neighbourhoods by the hub discount's
     # keys and keeps the weights of plain distance.
     rows = unit_rows(40, 6, seed=5)
     squared = np.maximum(2.0 - 2.0 * rows @ rows.T, 0.0)

@@ -30,8 +30,8 @@ def test_it_is_the_empirical_share_below_and_never_decreases() -> None:
 
 
 def test_the_default_descriptor_is_calibrated_whatever_its_library_digest() -> None:
-    # Fails when the default descriptor changes without `bench/selection/score_calibration.py
-    # --write`.
+    # Fails when the default descriptor changes without
+    # `python -m research.artefacts.score_calibration --write`.
     version = descriptor_version(EngineSettings())
     calibration = calibration_for(version)
     assert calibration is not None
@@ -44,6 +44,7 @@ def test_another_layout_has_no_calibration() -> None:
     assert calibration_for("fake-1") is None
 
 
+@pytest.mark.slow
 def test_results_of_the_default_layout_carry_it(database_url: str) -> None:
     default = descriptor_version(EngineSettings())
 
