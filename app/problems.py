@@ -57,6 +57,7 @@ CATALOGUE: dict[str, Kind] = {
     "delivery-not-found": Kind(404, "Webhook delivery not found"),
     "preview-not-available": Kind(404, "Preview not available"),
     "model-not-ready": Kind(409, "Model not ready"),
+    "points-not-available": Kind(409, "Points not available"),
     "duplicate-external-id": Kind(409, "Duplicate external id"),
     "conflict": Kind(409, "Concurrent change"),
     "superseded": Kind(409, "Superseded"),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Annotated
 
 from fastapi import Depends, Request
@@ -13,6 +13,7 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.api.uploads import UploadReader
 from app.ingest.describing import descriptor_version
+from app.search.comparing import Comparer
 from app.search.index import ShapeIndex
 from app.settings import Settings
 from core.settings import EngineSettings
@@ -32,6 +33,8 @@ class Services:
     queries: ThreadPoolExecutor  # similarity queries (app.api.routes.models.similar_models)
     index: ShapeIndex
     uploads: UploadReader  # reads and quick-checks uploaded files (app.api.uploads)
+    # Comparisons of two parts and search explanations: slots and cache (app.search.comparing)
+    comparer: Comparer = field(default_factory=Comparer)
 
     @property
     def descriptor_version(self) -> str:

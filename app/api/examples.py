@@ -99,7 +99,57 @@ _SUMMARY2 = {"id": _ID2, "external_id": "PN-1002", "name": "Feature block",
              "metadata": {"material": "steel"},
              "size": {"length": 127.0, "width": 63.5, "height": 34.93, "area": 34727.2,
                       "volume": 190543.2, "units": "mm"}}
-_SIMILAR_RESULTS = [{"model": _SUMMARY2, "distance": 0.4176, "score": 0.9564}]
+_SIMILAR_RESULTS = [{"model": _SUMMARY2, "distance": 0.4176, "score": 0.9564,
+                     "calibrated_score": 0.938, "likeness": "different kind"}]
+_SUMMARY = {"id": _ID, "external_id": "PN-1001", "name": "Angle block",
+            "metadata": {"material": "steel"},
+            "size": {"length": 34.34, "width": 34.0, "height": 25.4, "area": 6056.3,
+                     "volume": 18771.9, "units": "mm"}}
+_ID3 = "d4e5f6a7-b8c9-4dae-8f01-2a3b4c5d6e7f"
+_SUMMARY3 = {**_SUMMARY, "id": _ID3, "external_id": "PN-1001-B", "name": "Angle block, rev B"}
+# GET /v1/models/{id}/compare/{other_id}?points=2: a revision with one end 2 mm longer.
+_COMPARED = {
+    "model": _SUMMARY,
+    "other": _SUMMARY3,
+    "units": "mm",
+    "alignment": {
+        "rotation": [[0.99998, -0.00412, 0.00503], [0.00411, 0.99999, 0.00197],
+                     [-0.00504, -0.00195, 0.99999]],
+        "translation": [0.0412, -0.0187, 0.0093],
+        "scale": 1.0,
+        "candidates": 24,
+    },
+    "tolerance": 0.5393,
+    "model_to_other": {"rms": 0.2214, "mean": 0.1071, "p95": 0.4418, "max": 1.2206,
+                       "within": 0.9623},
+    "other_to_model": {"rms": 0.4127, "mean": 0.1693, "p95": 1.1734, "max": 1.9815,
+                       "within": 0.9047},
+    "size_ratios": [1.0581, 1.0006, 0.9997],
+    "extents": {"model": [34.34, 34.0, 25.4], "other": [36.335, 34.02, 25.392]},
+    "points_source": {"model": "sample", "other": "sample"},
+    "points": {
+        "model": {"positions": [[12.7, -4.318, 25.4], [-17.17, 9.906, 3.81]],
+                  "deviations": [0.0213, 0.0871]},
+        "other": {"positions": [[19.152, 2.118, 12.7], [-6.35, -17.0, 8.89]],
+                  "deviations": [1.9118, 0.0302]},
+    },
+}
+# The first result of POST /v1/search?explain=true: a single view of PN-1001 placed on it.
+_EXPLANATION = {
+    "alignment": {
+        "rotation": [[0.3122, -0.9011, 0.3011], [0.9452, 0.3212, -0.0583],
+                     [-0.0442, 0.3035, 0.9518]],
+        "translation": [1.207, -0.331, 4.912],
+        "scale": 0.99713,
+        "candidates": 140,
+    },
+    "rms": 0.2377,
+    "coverage": 0.4817,
+    "tolerance": 0.5393,
+    "view": None,
+    "points_source": "sample",
+    "points": None,
+}
 
 
 def _raised(problem: Problem) -> dict[str, Any]:
@@ -239,6 +289,19 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
                              "literal_error"),
         },
     },
+    ("get", "/v1/models/{model_id}/compare/{other_id}"): {
+        "responses": {
+            200: _COMPARED,
+            401: _UNAUTHORIZED,
+            404: _NOT_FOUND,
+            409: {**_NOT_READY, "detail": f"Model {_ID} is processing; a comparison needs two "
+                  "ready models."},
+            422: _validation("query", "tolerance", "Input should be greater than 0",
+                             "greater_than"),
+            503: _problem("busy", "The comparison could not be computed now: 2 comparisons "
+                          "are being computed already; retry in 1 s."),
+        },
+    },
     ("get", "/v1/models/{model_id}/preview"): {
         "responses": {
             401: _UNAUTHORIZED,
@@ -256,10 +319,9 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
                           "size": {"length": 36.24, "width": 35.55, "height": 25.5,
                                    "area": 6283.8, "volume": None, "units": "mm"}},
                 "results": [
-                    {"model": {"id": _ID, "external_id": "PN-1001", "name": "Angle block",
-                               "metadata": {"material": "steel"},
-                               "size": MODEL_READY["size"]},
-                     "distance": 0.2449, "score": 0.985},
+                    {"model": _SUMMARY, "distance": 0.2449, "score": 0.985,
+                     "calibrated_score": 0.9957, "likeness": "copy",
+                     "explanation": _EXPLANATION},
                     *_SIMILAR_RESULTS,
                 ],
             },

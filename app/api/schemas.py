@@ -14,9 +14,15 @@ from app.db.models import Job, Model
 from app.search.similarity import Candidate
 from core.cutoff import CutoffRecord
 from core.io import SUPPORTED_FORMATS
-from core.rank.score_calibration import calibration_for
+from core.rank.score_calibration import Likeness, calibration_for, in_words
 
 __all__ = [
+    "AlignmentRecord",
+    "CompareResponse",
+    "ComparePoints",
+    "DeviationFigures",
+    "Explanation",
+    "Extents",
     "FileInfo",
     "Health",
     "JobResource",
@@ -26,9 +32,12 @@ __all__ = [
     "ModelPatch",
     "ModelResource",
     "ModelSummary",
+    "PointSet",
+    "PointsSources",
     "Size",
     "SearchQuery",
     "SearchResponse",
+    "SearchResult",
     "SimilarQuery",
     "SimilarResponse",
     "SimilarResult",
@@ -142,20 +151,31 @@ class SimilarResult(BaseModel):
         "score as high. A threshold on it is a false-match rate (README, What a score "
         "means). Null for a descriptor layout without a calibration.",
     )
+    likeness: Likeness | None = Field(
+        default=None,
+        description="The calibrated score in words: \"copy\" from 0.995 (at most 0.5 % of "
+        "different-kind pairs score as high; about 95 % of re-sampled copies and 40 % of "
+        "same-kind pairs do), \"same kind\" from 0.95 (5 %; about 70 % of same-kind pairs), "
+        "\"different kind\" below. Words for reading, not proof: a copy at another size and "
+        "a same-kind part of the same proportions read alike (compare sizes, or "
+        "/v1/models/{id}/compare/{other_id}). Null without a calibration.",
+    )
 
 
 def similar_results(matches: Iterable[Any], descriptor_version: str) -> list[SimilarResult]:
     """The answer's results from ``app.search.similarity.Match``es of one descriptor_version."""
     calibration = calibration_for(descriptor_version)
-    return [
-        SimilarResult(
+    results = []
+    for m in matches:
+        calibrated = None if calibration is None else calibration(m.score)
+        results.append(SimilarResult(
             model=model_summary(m.model),
             distance=m.distance,
             score=m.score,
-            calibrated_score=None if calibration is None else calibration(m.score),
-        )
-        for m in matches
-    ]
+            calibrated_score=calibrated,
+            likeness=None if calibrated is None else in_words(calibrated),
+        ))
+    return results
 
 
 class SimilarQuery(BaseModel):
@@ -167,6 +187,77 @@ class SimilarResponse(BaseModel):
     results: list[SimilarResult] = Field(
         description="Best first: in shape mode with the hub discount and its k-reciprocal "
         "re-rank (see the endpoint).")
+
+
+class AlignmentRecord(BaseModel):
+    """A rigid placement (with a uniform scale) of one point set on another: a point ``p``
+    of the placed part lands at ``scale * rotation @ p + translation``."""
+
+    rotation: list[list[float]] = Field(
+        description="3 x 3, row-major, a proper rotation (determinant +1).",
+        min_length=3, max_length=3)
+    translation: list[float] = Field(description="3 numbers, in the reference's units.",
+                                     min_length=3, max_length=3)
+    scale: float = Field(description="1 unless a scale was asked for (or, for a scan, "
+                         "found: the scan's units are unknown).")
+    candidates: int = Field(description="Starts tried: the principal frames' ambiguities "
+                            "(and, for a scan, the views of the part), each refined by ICP; "
+                            "the best result is kept.")
+
+
+class DeviationFigures(BaseModel):
+    """How far one part's points lie from the other part's surface (its sample points, each
+    taken as the small disc of surface it stands for), in the reference's units."""
+
+    rms: float
+    mean: float
+    p95: float = Field(description="95th percentile.")
+    max: float
+    within: float = Field(description="Share of the points within `tolerance`, in [0, 1].")
+
+
+class PointSet(BaseModel):
+    positions: list[list[float]] = Field(description="Points [x, y, z] in the reference's "
+                                         "frame and units.")
+    deviations: list[float] = Field(description="Each point's distance from the other part, "
+                                    "in the reference's units.")
+
+
+class ComparePoints(BaseModel):
+    """Sample points of both parts, aligned, each with its deviation (for colouring)."""
+
+    model: PointSet = Field(description="The reference part's points.")
+    other: PointSet = Field(description="The placed part's (or scan's) points, aligned.")
+
+
+class Explanation(BaseModel):
+    """The scan placed on this result: its alignment at the part's scale, how close it lies
+    and how much of the part it covers."""
+
+    alignment: AlignmentRecord = Field(description="The scan onto the part (the scan's units "
+                                       "are unknown, so with a scale).")
+    rms: float = Field(description="RMS distance of the scan's points from the part's "
+                       "surface, in the part's units.")
+    coverage: float = Field(description="Share of the part's sample points within "
+                            "`tolerance` of the aligned scan: about half for one view of a "
+                            "closed part, near 1 for a full scan.")
+    tolerance: float = Field(description="1 % of the larger bounding-box diagonal, in the "
+                             "part's units.")
+    view: int | None = Field(description="In scan mode, the part's virtual view whose "
+                             "descriptor matched (0-based); null: its whole descriptor (and "
+                             "always in shape mode).")
+    points_source: Literal["sample", "preview"] = Field(
+        description="The part's points: its stored sample, or (described before samples "
+        "were kept) its preview scaled back to its units.")
+    points: ComparePoints | None = Field(
+        default=None, description="With `points=N`: up to N points of the part (model) and of "
+        "the aligned scan (other) with their deviations.")
+
+
+class SearchResult(SimilarResult):
+    explanation: Explanation | None = Field(
+        default=None, description="With `explain=true`, for the first few results (see the "
+        "endpoint); null otherwise, and for a part placed past its time budget.")
 
 
 class SearchQuery(BaseModel):
@@ -182,7 +273,7 @@ class SearchQuery(BaseModel):
 
 class SearchResponse(BaseModel):
     query: SearchQuery
-    results: list[SimilarResult] = Field(
+    results: list[SearchResult] = Field(
         description="Best first: in shape mode with the hub discount and its k-reciprocal "
         "re-rank (see the endpoint).")
 
@@ -287,3 +378,44 @@ def job_resource(job: Job) -> JobResource:
         created_at=job.created_at,
         updated_at=job.updated_at,
     )
+
+
+class Extents(BaseModel):
+    model: list[float] = Field(min_length=3, max_length=3)
+    other: list[float] = Field(min_length=3, max_length=3)
+
+
+class PointsSources(BaseModel):
+    """Each part's points: its stored sample (the description's points in its file's units),
+    or, for a model described before samples were kept, its preview's 2000 points scaled
+    back by the square root of its surface area (centred: the translation is then relative
+    to its centre). Re-describe a model to get its sample."""
+
+    model: Literal["sample", "preview"]
+    other: Literal["sample", "preview"]
+
+
+class CompareResponse(BaseModel):
+    """``other`` placed on ``model``, and how far apart they are, in ``model``'s units."""
+
+    model: ModelSummary
+    other: ModelSummary
+    units: Literal["mm", "cm", "m", "in"] | None = Field(
+        description="The units of every length here: the model's (null: not declared; "
+        "the other's points are converted when both declare theirs, else compared as "
+        "given).")
+    alignment: AlignmentRecord = Field(description="`other` onto `model`.")
+    tolerance: float
+    model_to_other: DeviationFigures = Field(description="Each of the model's points from "
+                                             "the other part.")
+    other_to_model: DeviationFigures = Field(description="Each of the other part's points "
+                                             "from the model.")
+    size_ratios: list[float] = Field(
+        description="The other part's extents over the model's, along the model's principal "
+        "axes (largest spread first): 1.1 = 10 % longer.", min_length=3, max_length=3)
+    extents: Extents = Field(description="Both parts' extents along the model's principal "
+                             "axes, in its units.")
+    points_source: PointsSources
+    points: ComparePoints | None = Field(
+        default=None, description="With `points=N`: up to N points of each part (a part has "
+        "at most 3000), aligned, with their deviations.")

@@ -40,10 +40,15 @@ from core.settings import EngineSettings
 __all__ = ["SearchAdmission", "SearchDescriber"]
 
 # The columns a search answer needs (model_columns of the description), per mode.
+# ``sample`` (the scan's points, for ``explain``) may be None: a stored model described
+# before it was kept still answers.
 _COLUMNS: dict[str, tuple[str, ...]] = {
-    "shape": ("n_points", "cutoff", "descriptor", "descriptor_version", *SIZE_COLUMNS),
-    "scan": ("n_points", "cutoff", "scan_descriptor", "descriptor_version", *SIZE_COLUMNS),
+    "shape": ("n_points", "cutoff", "descriptor", "descriptor_version", *SIZE_COLUMNS,
+              "sample"),
+    "scan": ("n_points", "cutoff", "scan_descriptor", "descriptor_version", *SIZE_COLUMNS,
+             "sample"),
 }
+_OPTIONAL = {*SIZE_COLUMNS, "sample"}
 
 
 class SearchDescriber:
@@ -76,7 +81,7 @@ class SearchDescriber:
             described_columns, content, filename, self.engine, None, mode == "scan"
         )
         observe_description(columns)
-        self._remember(key, {name: columns[name] for name in _COLUMNS[mode]})
+        self._remember(key, {name: columns.get(name) for name in _COLUMNS[mode]})
         return columns
 
     @contextmanager
@@ -119,7 +124,8 @@ class SearchDescriber:
         that it holds the file.)"""
         model = session.scalar(
             select(Model)
-            .options(undefer(Model.descriptor), undefer(Model.scan_descriptor))
+            .options(undefer(Model.descriptor), undefer(Model.scan_descriptor),
+                     undefer(Model.sample))
             .where(
                 Model.tenant == tenant,
                 Model.file_sha256 == sha256,
@@ -131,7 +137,7 @@ class SearchDescriber:
         columns = _COLUMNS[mode]
         # A model described before sizes were measured still answers (without a size).
         if model is None or any(
-            getattr(model, name) is None for name in columns if name not in SIZE_COLUMNS
+            getattr(model, name) is None for name in columns if name not in _OPTIONAL
         ):
             return None
         return {name: getattr(model, name) for name in columns}

@@ -11,6 +11,7 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch duplicates [--min-score 0.98] [--size-tolerance T] [--format csv|json] [--tenant T]
     shapesearch backup DEST
     shapesearch --version
+    shapesearch compare A B [--scale] [--tolerance T] [--url URL] [--key KEY] [--json]
     shapesearch import PATH [--url URL] [--key KEY] [--external-id path|stem] [--metadata F]
                        [--units mm|cm|m|in]
                        [--concurrency N] [--wait] [--report CSV] [--retries N]
@@ -92,6 +93,13 @@ def _backup(args: argparse.Namespace) -> int:
     from app.cli import backup
 
     return backup.run(Path(args.destination))
+
+
+def _compare(args: argparse.Namespace) -> int:
+    from app.cli import compare
+
+    return compare.run(args.a, args.b, url=args.url, key=args.key, scale=args.scale,
+                       tolerance=args.tolerance, as_json=args.json)
 
 
 def _import(args: argparse.Namespace) -> int:
@@ -225,6 +233,24 @@ def build_parser() -> argparse.ArgumentParser:
     )
     backup.add_argument("destination", help="a new file, or a directory for a time-stamped one")
     backup.set_defaults(handler=_backup)
+
+    comparer = commands.add_parser(
+        "compare", help="why two parts match: B placed on A and their deviations (files are "
+        "read here, model ids asked of a running service)")
+    comparer.add_argument("a", help="a shape file, or a model id (with --url)")
+    comparer.add_argument("b", help="a shape file, or a model id (with --url)")
+    comparer.add_argument("--scale", action="store_true",
+                          help="also find a uniform scale (B in other units or another size)")
+    comparer.add_argument("--tolerance", type=float, default=None,
+                          help="distance within which a point counts as matched, in A's "
+                          "units (default: 1 %% of the larger bounding-box diagonal)")
+    comparer.add_argument("--url", default=os.environ.get("SHAPESEARCH_URL"),
+                          help="the service, for model ids (default: SHAPESEARCH_URL)")
+    comparer.add_argument("--key", "--api-key", dest="key",
+                          default=os.environ.get("SHAPESEARCH_API_KEY"),
+                          help="API key (Bearer; default: SHAPESEARCH_API_KEY)")
+    comparer.add_argument("--json", action="store_true", help="print JSON instead of text")
+    comparer.set_defaults(handler=_compare)
 
     importer = commands.add_parser("import", help="upload a folder, .zip or .tar of parts")
     importer.add_argument("path")

@@ -149,6 +149,9 @@ class Model(Base):
     units: Mapped[str | None] = mapped_column(String(4))
     # app.ingest.previews blob for the viewer (points, HKS, eigenvalues); deferred like descriptor.
     preview: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
+    # The description's points in the file's units and coordinates, (n, 3) float32
+    # little-endian (migration 0017): what GET /v1/models/{id}/compare/{other} measures.
+    sample: Mapped[bytes | None] = deferred(mapped_column(LargeBinary))
 
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
     updated_at: Mapped[datetime] = mapped_column(default=utcnow, onupdate=utcnow)

@@ -26,8 +26,10 @@ from core.size import SIZE_FIELDS, ShapeSize
 __all__ = [
     "CutoffPredictorCache",
     "describe_upload",
+    "decode_sample",
     "described_columns",
     "descriptor_version",
+    "encode_sample",
     "ingest_columns",
     "model_columns",
     "pin_blas_threads",
@@ -135,7 +137,23 @@ def model_columns(description: Description, hks_times: Sequence[float]) -> dict[
             np.asarray(hks_times),
             description.eigenvalues,
         ),
+        "sample": encode_sample(description.sample),
     }
+
+
+def encode_sample(points: np.ndarray | None) -> bytes | None:
+    """``Model.sample``: ``points : (n, 3)`` as float32 little-endian bytes (None: none)."""
+    if points is None:
+        return None
+    return np.ascontiguousarray(points, dtype="<f4").tobytes()
+
+
+def decode_sample(blob: bytes) -> np.ndarray:
+    """The ``(n, 3) float64`` points of ``encode_sample``'s bytes; ``ValueError`` for
+    bytes that are not whole points."""
+    if len(blob) % 12:
+        raise ValueError(f"a sample holds whole float32 points, not {len(blob)} bytes")
+    return np.frombuffer(blob, dtype="<f4").reshape(-1, 3).astype(np.float64)
 
 
 #: The Model's size columns (migration 0009), in ``core.size.SIZE_FIELDS`` order.

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -161,7 +162,7 @@ def test_viewer_upload_model_page_similar_search_and_database(
     page.dispatch_event("#time-slider", "input")
     page.wait_for_timeout(300)
     assert canvas_pixels(page, "canvas.view")["url"] != first["url"], "the slider recolours"
-    card.first.locator("button").click()
+    card.first.locator("button", has_text="side by side").click()
     page.wait_for_function(
         "() => document.querySelectorAll('canvas.view[data-rendered]').length === 2"
     )
@@ -255,3 +256,120 @@ def test_with_api_keys_the_viewer_asks_for_a_key_and_sends_it_as_a_header(
     assert api_calls and any(auth == f"Bearer {keys['acme']}" for _, auth in api_calls)
     assert all(keys["acme"] not in u for u, _ in sent), "the key never goes into a URL"
     assert offline.blocked == [] and offline.errors == []
+
+
+def _stretched_copy(path: Path, share: float) -> bytes:
+    """The mesh at ``path`` with the half beyond the middle of its longest extent stretched
+    so that its end moves by ``share`` of the length."""
+    import numpy as np
+    import trimesh
+
+    mesh = trimesh.load(path, file_type="stl")
+    vertices = np.asarray(mesh.vertices).copy()
+    axis = int(np.argmax(np.ptp(vertices, axis=0)))
+    low, high = vertices[:, axis].min(), vertices[:, axis].max()
+    middle = (low + high) / 2
+    weight = np.clip((vertices[:, axis] - middle) / (high - middle), 0.0, None)
+    vertices[:, axis] += weight * share * (high - low)
+    mesh.vertices = vertices
+    return bytes(mesh.export(file_type="stl"))
+
+
+def _single_view_scan(path: Path) -> bytes:
+    """One simulated view of the part at ``path`` (noise, stray points), turned and in
+    metres, as an .xyz file."""
+    import numpy as np
+
+    from core.evaluation.scans import ScanSettings, random_rotation, single_view_scan
+    from core.io import load_points
+
+    rng = np.random.default_rng(8)
+    view = single_view_scan(load_points(path, max_points=20000, seed=3).points, rng,
+                            ScanSettings())
+    scan = (view @ random_rotation(rng).T) / 1000.0
+    return "\n".join(" ".join(f"{v:.7g}" for v in row) for row in scan).encode()
+
+
+def test_compare_view_places_one_part_on_another_and_a_scan_on_its_part(
+    browser: Any, tmp_path: Path
+) -> None:
+    """With the default engine (its scores are calibrated, so the cards say them in words):
+    a part and a copy with one end stretched, compared from the part's similar card; then a
+    single-view scan searched and placed on its part."""
+    from app.settings import Settings
+
+    defaults = {f"SHAPESEARCH_{name.upper()}": str(Settings.model_fields[name].default)
+                for name in ("max_points", "upload_check_points", "cutoff_seed",
+                             "cutoff_n_min", "cutoff_n_max")}
+    part = PARTS / "featuretype.STL"
+    files = {"featuretype.STL": part.read_bytes(),
+             "featuretype-long.STL": _stretched_copy(part, 0.10),
+             "angle_block.STL": (PARTS / "angle_block.STL").read_bytes()}
+    with live_server(tmp_path, extra_env=defaults) as url:
+        ids = {}
+        for name, content in files.items():
+            response = httpx.post(f"{url}/v1/models", files={"file": (name, content)},
+                                  data={"name": name, "units": "mm"})
+            assert response.status_code == 202, response.text
+            ids[name] = response.json()["id"]
+        for model_id in ids.values():
+            for _ in range(DESCRIBE_TIMEOUT_MS // 500):
+                if httpx.get(f"{url}/v1/models/{model_id}").json()["status"] == "ready":
+                    break
+                time.sleep(0.5)
+            else:
+                raise AssertionError(f"model {model_id} was not described in time")
+
+        context = browser.new_context(viewport={"width": 1280, "height": 900})
+        page = context.new_page()
+        page.set_default_timeout(60_000)
+        offline = Offline(page)
+        page.goto(f"{url}/#/models/{ids['featuretype.STL']}")
+        card = page.locator(f'#similar .card[data-model-id="{ids["featuretype-long.STL"]}"]')
+        card.wait_for()
+        # The score in words beside the raw one.
+        assert card.locator(".likeness").inner_text() in ("copy", "same kind")
+        assert page.locator("#similar .likeness").count() == 2
+        card.locator("button", has_text="compare").click()
+
+        page.wait_for_selector("#compare-canvas[data-rendered]")
+        assert page.url.endswith(f"#/models/{ids['featuretype.STL']}/compare/"
+                                 f"{ids['featuretype-long.STL']}")
+        figures = page.locator("#compare-figures")
+        for name in ("RMS", "mean", "95th percentile", "maximum"):  # each part's points
+            cells = figures.locator(f'[data-figure="{name}"]').all_inner_texts()
+            assert len(cells) == 2 and all(cell.endswith(" mm") for cell in cells), cells
+        assert figures.locator('[data-figure="scale"]').inner_text() == "1"
+        assert len(figures.locator('[data-figure="size ratios"]').inner_text().split(" x ")) == 3
+        legend = page.locator("#compare-legend")
+        assert legend.is_visible() and "mm" in legend.inner_text()
+        assert "tolerance" in legend.inner_text()
+        page.wait_for_timeout(300)
+        both = canvas_pixels(page, "#compare-canvas")
+        assert both["painted"] > 2000 and both["colours"] > 20, "coloured by deviation"
+        page.screenshot(path=ARTIFACTS / "compare.png", full_page=True)
+        page.click('#compare-toggle [data-show="model"]')
+        page.wait_for_timeout(300)
+        alone = canvas_pixels(page, "#compare-canvas")
+        assert alone["url"] != both["url"] and alone["colours"] < both["colours"]
+        assert page.get_attribute('#compare-toggle [data-show="model"]',
+                                  "aria-pressed") == "true"
+
+        scan = tmp_path / "featuretype-view.xyz"
+        scan.write_bytes(_single_view_scan(part))
+        page.goto(f"{url}/#/search")
+        page.set_input_files("#search-input", str(scan))
+        page.locator("#search-results .card").first.wait_for(timeout=DESCRIBE_TIMEOUT_MS)
+        # The first answers are explained (whichever way they are ordered): the part's card
+        # places the scan on it.
+        found = page.locator(f'#search-results .card[data-model-id="{ids["featuretype.STL"]}"]')
+        found.locator("button", has_text="compare").click()
+        page.wait_for_selector("#search-compare #compare-canvas[data-rendered]")
+        placed = page.locator("#search-compare #compare-figures")
+        assert "%" in placed.locator('[data-figure^="part covered"]').inner_text()
+        assert " mm" in placed.locator('[data-figure="scan RMS from the part"]').inner_text()
+        assert page.locator("#search-compare #compare-legend").is_visible()
+        page.wait_for_timeout(300)
+        page.screenshot(path=ARTIFACTS / "search-compare.png", full_page=True)
+        assert offline.blocked == [] and offline.errors == []
+        context.close()

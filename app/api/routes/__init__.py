@@ -5,6 +5,7 @@ Handlers are thin: they read the request, call the subsystem that does the work
 """
 
 from app.api.routes import (
+    compare,
     duplicates,
     health,
     jobs,
@@ -20,6 +21,7 @@ from app.api.routes import (
 ROUTERS = (
     revisions.router,  # before models: /models/by-external-id/... is not an id
     models.router,
+    compare.router,
     search.router,
     jobs.router,
     webhooks.router,

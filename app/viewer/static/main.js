@@ -1,7 +1,9 @@
-// The viewer's router: #/ catalogue, #/models/{id}, #/search, #/database.
+// The viewer's router: #/ catalogue, #/models/{id}, #/models/{id}/compare/{other},
+// #/search, #/database.
 
 import { installKeyDialog, el } from "./api.js";
 import { catalogue } from "./catalogue.js";
+import { comparePage } from "./compare.js";
 import { databasePage } from "./database.js";
 import { modelPage } from "./model.js";
 import { searchPage } from "./search.js";
@@ -14,8 +16,10 @@ async function route() {
   const page = document.getElementById("page");
   const hash = location.hash.replace(/^#/, "") || "/";
   const model = hash.match(/^\/models\/([0-9a-fA-F-]+)$/);
+  const pair = hash.match(/^\/models\/([0-9a-fA-F-]+)\/compare\/([0-9a-fA-F-]+)$/);
   try {
     if (model) await modelPage(page, model[1]);
+    else if (pair) await comparePage(page, pair[1], pair[2]);
     else if (hash === "/search") searchPage(page);
     else if (hash === "/database") databasePage(page, current.signal);
     else catalogue(page, current.signal);

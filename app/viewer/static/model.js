@@ -37,7 +37,18 @@ function viewBox(preview, title) {
   return { box, canvas };
 }
 
-function cards(results, onCompare) {
+// The calibrated score in words ("copy", "same kind", "different kind"), when the
+// descriptor has a calibration.
+function likeness(result) {
+  if (!result.likeness) return null;
+  return el("span", {
+    class: `likeness ${result.likeness.replace(" ", "-")}`, "data-likeness": result.likeness,
+    title: `calibrated score ${result.calibrated_score.toFixed(4)}: the share of pairs of different kinds of part that score lower`,
+  }, result.likeness);
+}
+
+// Result cards; buttons: [[label, onclick(result)], ...] on each card.
+function cards(results, buttons = []) {
   return results.map((result) => {
     const thumb = el("canvas", {});
     getPreview(result.model.id)
@@ -46,9 +57,10 @@ function cards(results, onCompare) {
     return el("div", { class: "card", "data-model-id": result.model.id },
       thumb,
       el("a", { href: `#/models/${result.model.id}` }, modelLabel(result.model)),
-      el("span", { class: "score" }, `score ${result.score.toFixed(4)}`),
+      el("div", { class: "scores" }, el("span", { class: "score" }, `score ${result.score.toFixed(4)}`), likeness(result)),
       result.model.size ? el("span", { class: "size" }, sizeLabel(result.model.size)) : null,
-      onCompare ? el("button", { type: "button", onclick: () => onCompare(result) }, "side by side") : null);
+      buttons.length ? el("div", { class: "buttons" },
+        buttons.map(([label, onclick]) => el("button", { type: "button", onclick: () => onclick(result) }, label))) : null);
   });
 }
 
@@ -116,8 +128,9 @@ export async function modelPage(page, modelId) {
 
   try {
     const answer = await getJson(`/v1/models/${model.id}/similar?k=${SIMILAR_K}`);
+    const aligned = (result) => { location.hash = `#/models/${model.id}/compare/${result.model.id}`; };
     similar.replaceChildren(...(answer.results.length
-      ? cards(answer.results, compare)
+      ? cards(answer.results, [["side by side", compare], ["compare", aligned]])
       : [el("span", { class: "hint" }, "No other ready model described under the same descriptor version yet: upload another part to compare.")]));
   } catch (error) {
     similar.replaceChildren(el("span", { class: "error" }, error instanceof ApiError ? error.message : String(error)));

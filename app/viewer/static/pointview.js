@@ -1,5 +1,6 @@
 // A small WebGL point renderer: orbit (drag), zoom (wheel), points coloured by a value in
-// [0, 1]; and 2D thumbnails of the same clouds for grids (no WebGL context per card).
+// [0, 1] (a negative value: grey); and 2D thumbnails of the same clouds for grids (no WebGL
+// context per card).
 
 const COLOUR_STOPS = [ // dark blue -> teal -> green -> yellow: low to high heat kept at a point
   [0.27, 0.00, 0.33], [0.23, 0.32, 0.55], [0.13, 0.57, 0.55], [0.37, 0.79, 0.38], [0.99, 0.91, 0.14],
@@ -30,6 +31,7 @@ const FRAGMENT_SHADER = `
 precision mediump float;
 varying float v;
 vec3 colourOf(float t) {
+  if (t < 0.0) return vec3(0.70, 0.73, 0.78); // no value: a reference drawn grey
   float x = clamp(t, 0.0, 1.0) * 4.0;
   if (x < 1.0) return mix(${GLSL_STOPS[0]}, ${GLSL_STOPS[1]}, x);
   if (x < 2.0) return mix(${GLSL_STOPS[1]}, ${GLSL_STOPS[2]}, x - 1.0);

@@ -1,5 +1,6 @@
 """ Contains all the data models used in inputs/outputs """
 
+from .alignment_record import AlignmentRecord
 from .attempt_resource import AttemptResource
 from .body_search_by_upload import BodySearchByUpload
 from .body_search_by_upload_units import BodySearchByUploadUnits
@@ -9,6 +10,9 @@ from .body_upload_model_units import BodyUploadModelUnits
 from .body_upsert_model import BodyUpsertModel
 from .body_upsert_model_metadata import BodyUpsertModelMetadata
 from .body_upsert_model_units import BodyUpsertModelUnits
+from .compare_points import ComparePoints
+from .compare_response import CompareResponse
+from .compare_response_units_type_0 import CompareResponseUnitsType0
 from .cutoff_point import CutoffPoint
 from .cutoff_record import CutoffRecord
 from .cutoff_stats import CutoffStats
@@ -17,11 +21,15 @@ from .delivery_resource import DeliveryResource
 from .delivery_resource_event_type import DeliveryResourceEventType
 from .delivery_resource_payload import DeliveryResourcePayload
 from .delivery_resource_status import DeliveryResourceStatus
+from .deviation_figures import DeviationFigures
 from .duplicate_group_resource import DuplicateGroupResource
 from .duplicate_member import DuplicateMember
 from .duplicate_pair import DuplicatePair
 from .duplicate_report_resource import DuplicateReportResource
 from .duplicates_request import DuplicatesRequest
+from .explanation import Explanation
+from .explanation_points_source import ExplanationPointsSource
+from .extents import Extents
 from .file_info import FileInfo
 from .health import Health
 from .health_checks_type_0 import HealthChecksType0
@@ -45,6 +53,10 @@ from .model_resource_status import ModelResourceStatus
 from .model_resource_timings_type_0 import ModelResourceTimingsType0
 from .model_summary import ModelSummary
 from .model_summary_metadata import ModelSummaryMetadata
+from .point_set import PointSet
+from .points_sources import PointsSources
+from .points_sources_model import PointsSourcesModel
+from .points_sources_other import PointsSourcesOther
 from .problem import Problem
 from .problem_checks import ProblemChecks
 from .problem_errors_item import ProblemErrorsItem
@@ -56,10 +68,13 @@ from .revision_resource_status import RevisionResourceStatus
 from .search_by_upload_mode import SearchByUploadMode
 from .search_query import SearchQuery
 from .search_response import SearchResponse
+from .search_result import SearchResult
+from .search_result_likeness_type_0 import SearchResultLikenessType0
 from .similar_models_mode import SimilarModelsMode
 from .similar_query import SimilarQuery
 from .similar_response import SimilarResponse
 from .similar_result import SimilarResult
+from .similar_result_likeness_type_0 import SimilarResultLikenessType0
 from .size import Size
 from .size_units_type_0 import SizeUnitsType0
 from .solver_calls_bin import SolverCallsBin
@@ -77,6 +92,7 @@ from .webhook_resource import WebhookResource
 from .webhook_resource_events_item import WebhookResourceEventsItem
 
 __all__ = (
+    "AlignmentRecord",
     "AttemptResource",
     "BodySearchByUpload",
     "BodySearchByUploadUnits",
@@ -86,6 +102,9 @@ __all__ = (
     "BodyUpsertModel",
     "BodyUpsertModelMetadata",
     "BodyUpsertModelUnits",
+    "ComparePoints",
+    "CompareResponse",
+    "CompareResponseUnitsType0",
     "CutoffPoint",
     "CutoffRecord",
     "CutoffStats",
@@ -94,11 +113,15 @@ __all__ = (
     "DeliveryResourceEventType",
     "DeliveryResourcePayload",
     "DeliveryResourceStatus",
+    "DeviationFigures",
     "DuplicateGroupResource",
     "DuplicateMember",
     "DuplicatePair",
     "DuplicateReportResource",
     "DuplicatesRequest",
+    "Explanation",
+    "ExplanationPointsSource",
+    "Extents",
     "FileInfo",
     "Health",
     "HealthChecksType0",
@@ -122,6 +145,10 @@ __all__ = (
     "ModelResourceTimingsType0",
     "ModelSummary",
     "ModelSummaryMetadata",
+    "PointSet",
+    "PointsSources",
+    "PointsSourcesModel",
+    "PointsSourcesOther",
     "Problem",
     "ProblemChecks",
     "ProblemErrorsItem",
@@ -133,10 +160,13 @@ __all__ = (
     "SearchByUploadMode",
     "SearchQuery",
     "SearchResponse",
+    "SearchResult",
+    "SearchResultLikenessType0",
     "SimilarModelsMode",
     "SimilarQuery",
     "SimilarResponse",
     "SimilarResult",
+    "SimilarResultLikenessType0",
     "Size",
     "SizeUnitsType0",
     "SolverCallsBin",

@@ -12,7 +12,7 @@ from typing import cast
 
 if TYPE_CHECKING:
   from ..models.search_query import SearchQuery
-  from ..models.similar_result import SimilarResult
+  from ..models.search_result import SearchResult
 
 
 
@@ -27,12 +27,12 @@ class SearchResponse:
     """ 
         Attributes:
             query (SearchQuery): The uploaded scan as described for the search (nothing is stored).
-            results (list[SimilarResult]): Best first: in shape mode with the hub discount and its k-reciprocal re-rank (see
+            results (list[SearchResult]): Best first: in shape mode with the hub discount and its k-reciprocal re-rank (see
                 the endpoint).
      """
 
     query: SearchQuery
-    results: list[SimilarResult]
+    results: list[SearchResult]
     additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
 
 
@@ -41,7 +41,7 @@ class SearchResponse:
 
     def to_dict(self) -> dict[str, Any]:
         from ..models.search_query import SearchQuery # noqa: PLC0415
-        from ..models.similar_result import SimilarResult # noqa: PLC0415
+        from ..models.search_result import SearchResult # noqa: PLC0415
         query = self.query.to_dict()
 
         results = []
@@ -66,7 +66,7 @@ class SearchResponse:
     @classmethod
     def from_dict(cls: type[T], src_dict: Mapping[str, Any]) -> T:
         from ..models.search_query import SearchQuery # noqa: PLC0415
-        from ..models.similar_result import SimilarResult # noqa: PLC0415
+        from ..models.search_result import SearchResult # noqa: PLC0415
         d = dict(src_dict)
         query = SearchQuery.from_dict(d.pop("query"))
 
@@ -76,7 +76,7 @@ class SearchResponse:
         results = []
         _results = d.pop("results")
         for results_item_data in (_results):
-            results_item = SimilarResult.from_dict(results_item_data)
+            results_item = SearchResult.from_dict(results_item_data)
 
 
 

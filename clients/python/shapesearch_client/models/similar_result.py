@@ -8,6 +8,7 @@ from attrs import field as _attrs_field
 
 from ..types import UNSET, Unset
 
+from ..models.similar_result_likeness_type_0 import SimilarResultLikenessType0
 from ..types import UNSET, Unset
 from typing import cast
 
@@ -33,12 +34,18 @@ class SimilarResult:
             calibrated_score (float | None | Unset): The share of pairs of different kinds of part (measured on the tuning
                 sources) that score lower than this one: 0.99 means 1 % of different-kind pairs score as high. A threshold on it
                 is a false-match rate (README, What a score means). Null for a descriptor layout without a calibration.
+            likeness (None | SimilarResultLikenessType0 | Unset): The calibrated score in words: "copy" from 0.995 (at most
+                0.5 % of different-kind pairs score as high; about 95 % of re-sampled copies and 40 % of same-kind pairs do),
+                "same kind" from 0.95 (5 %; about 70 % of same-kind pairs), "different kind" below. Words for reading, not
+                proof: a copy at another size and a same-kind part of the same proportions read alike (compare sizes, or
+                /v1/models/{id}/compare/{other_id}). Null without a calibration.
      """
 
     distance: float
     model: ModelSummary
     score: float
     calibrated_score: float | None | Unset = UNSET
+    likeness: None | SimilarResultLikenessType0 | Unset = UNSET
     additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
 
 
@@ -59,6 +66,14 @@ class SimilarResult:
         else:
             calibrated_score = self.calibrated_score
 
+        likeness: None | str | Unset
+        if isinstance(self.likeness, Unset):
+            likeness = UNSET
+        elif isinstance(self.likeness, SimilarResultLikenessType0):
+            likeness = self.likeness.value
+        else:
+            likeness = self.likeness
+
 
         field_dict: dict[str, Any] = {}
         field_dict.update(self.additional_properties)
@@ -69,6 +84,8 @@ class SimilarResult:
         })
         if calibrated_score is not UNSET:
             field_dict["calibrated_score"] = calibrated_score
+        if likeness is not UNSET:
+            field_dict["likeness"] = likeness
 
         return field_dict
 
@@ -97,11 +114,32 @@ class SimilarResult:
         calibrated_score = _parse_calibrated_score(d.pop("calibrated_score", UNSET))
 
 
+        def _parse_likeness(data: object) -> None | SimilarResultLikenessType0 | Unset:
+            if data is None:
+                return data
+            if isinstance(data, Unset):
+                return data
+            try:
+                if not isinstance(data, str):
+                    raise TypeError()
+                likeness_type_0 = SimilarResultLikenessType0(data)
+
+
+
+                return likeness_type_0
+            except (TypeError, ValueError, AttributeError, KeyError):
+                pass
+            return cast(None | SimilarResultLikenessType0 | Unset, data)
+
+        likeness = _parse_likeness(d.pop("likeness", UNSET))
+
+
         similar_result = cls(
             distance=distance,
             model=model,
             score=score,
             calibrated_score=calibrated_score,
+            likeness=likeness,
         )
 
 

@@ -25,6 +25,8 @@ def _get_kwargs(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
+    explain: bool | Unset = False,
+    points: int | Unset = 0,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -57,6 +59,10 @@ def _get_kwargs(
         json_mode = mode.value
 
     params["mode"] = json_mode
+
+    params["explain"] = explain
+
+    params["points"] = points
 
     params["size_tolerance"] = size_tolerance
 
@@ -194,6 +200,8 @@ def sync_detailed(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
+    explain: bool | Unset = False,
+    points: int | Unset = 0,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -237,7 +245,11 @@ def sync_detailed(
     `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
     `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
     extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's size is the
-    upload's, in its `units`; a partial scan under-measures.
+    upload's, in its `units`; a partial scan under-measures. With `explain=true` the first 5 results (at
+    most; the others get none, to bound the cost: about a few tenths of a second each) carry an
+    `explanation`: the scan placed on the part at the part's scale (the scan's units are unknown), the
+    scan's RMS distance from the part and the share of the part it covers; `points=N` adds up to N
+    points of both, aligned, with their deviations.
 
     Args:
         k (int | Unset):  Default: 10.
@@ -245,6 +257,10 @@ def sync_detailed(
         mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for scans, partial
             or merged, the best entry (whole or a view) of each model. Default:
             SearchByUploadMode.SHAPE.
+        explain (bool | Unset): Place the scan on each of the first 5 results (at most) and say
+            how well it fits (`explanation`). Default: False.
+        points (int | Unset): With `explain`: up to this many points of the part and of the
+            aligned scan in each explanation. Default: 0.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -280,6 +296,8 @@ def sync_detailed(
 k=k,
 min_score=min_score,
 mode=mode,
+explain=explain,
+points=points,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -310,6 +328,8 @@ def sync(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
+    explain: bool | Unset = False,
+    points: int | Unset = 0,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -353,7 +373,11 @@ def sync(
     `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
     `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
     extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's size is the
-    upload's, in its `units`; a partial scan under-measures.
+    upload's, in its `units`; a partial scan under-measures. With `explain=true` the first 5 results (at
+    most; the others get none, to bound the cost: about a few tenths of a second each) carry an
+    `explanation`: the scan placed on the part at the part's scale (the scan's units are unknown), the
+    scan's RMS distance from the part and the share of the part it covers; `points=N` adds up to N
+    points of both, aligned, with their deviations.
 
     Args:
         k (int | Unset):  Default: 10.
@@ -361,6 +385,10 @@ def sync(
         mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for scans, partial
             or merged, the best entry (whole or a view) of each model. Default:
             SearchByUploadMode.SHAPE.
+        explain (bool | Unset): Place the scan on each of the first 5 results (at most) and say
+            how well it fits (`explanation`). Default: False.
+        points (int | Unset): With `explain`: up to this many points of the part and of the
+            aligned scan in each explanation. Default: 0.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -397,6 +425,8 @@ body=body,
 k=k,
 min_score=min_score,
 mode=mode,
+explain=explain,
+points=points,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -421,6 +451,8 @@ async def asyncio_detailed(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
+    explain: bool | Unset = False,
+    points: int | Unset = 0,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -464,7 +496,11 @@ async def asyncio_detailed(
     `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
     `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
     extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's size is the
-    upload's, in its `units`; a partial scan under-measures.
+    upload's, in its `units`; a partial scan under-measures. With `explain=true` the first 5 results (at
+    most; the others get none, to bound the cost: about a few tenths of a second each) carry an
+    `explanation`: the scan placed on the part at the part's scale (the scan's units are unknown), the
+    scan's RMS distance from the part and the share of the part it covers; `points=N` adds up to N
+    points of both, aligned, with their deviations.
 
     Args:
         k (int | Unset):  Default: 10.
@@ -472,6 +508,10 @@ async def asyncio_detailed(
         mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for scans, partial
             or merged, the best entry (whole or a view) of each model. Default:
             SearchByUploadMode.SHAPE.
+        explain (bool | Unset): Place the scan on each of the first 5 results (at most) and say
+            how well it fits (`explanation`). Default: False.
+        points (int | Unset): With `explain`: up to this many points of the part and of the
+            aligned scan in each explanation. Default: 0.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -507,6 +547,8 @@ async def asyncio_detailed(
 k=k,
 min_score=min_score,
 mode=mode,
+explain=explain,
+points=points,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -537,6 +579,8 @@ async def asyncio(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
+    explain: bool | Unset = False,
+    points: int | Unset = 0,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -580,7 +624,11 @@ async def asyncio(
     `size_tolerance=0.1` keeps models whose three extents are each within +-10% of the query's;
     `size_weight=w` (default 0) ranks by D = sqrt(d^2 + w * sum of ln(extent ratio)^2) over the three
     extents, and score = 1 - D^2/4. Models without a size pass no size filter. The query's size is the
-    upload's, in its `units`; a partial scan under-measures.
+    upload's, in its `units`; a partial scan under-measures. With `explain=true` the first 5 results (at
+    most; the others get none, to bound the cost: about a few tenths of a second each) carry an
+    `explanation`: the scan placed on the part at the part's scale (the scan's units are unknown), the
+    scan's RMS distance from the part and the share of the part it covers; `points=N` adds up to N
+    points of both, aligned, with their deviations.
 
     Args:
         k (int | Unset):  Default: 10.
@@ -588,6 +636,10 @@ async def asyncio(
         mode (SearchByUploadMode | Unset): shape (default): whole models; scan: for scans, partial
             or merged, the best entry (whole or a view) of each model. Default:
             SearchByUploadMode.SHAPE.
+        explain (bool | Unset): Place the scan on each of the first 5 results (at most) and say
+            how well it fits (`explanation`). Default: False.
+        points (int | Unset): With `explain`: up to this many points of the part and of the
+            aligned scan in each explanation. Default: 0.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -624,6 +676,8 @@ body=body,
 k=k,
 min_score=min_score,
 mode=mode,
+explain=explain,
+points=points,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
