@@ -312,6 +312,7 @@ def unchecked_uploads(reason: str) -> float:
                                      {"reason": reason}) or 0.0
 
 
+@pytest.mark.slow
 def test_a_quick_check_out_of_time_lets_the_upload_through(make_client: ClientFactory) -> None:
     """The quick check is a courtesy bounded in time (a file can hang its reader for ever):
     past its limit the upload is accepted unchecked, and the worker's describe decides."""
@@ -384,6 +385,7 @@ def test_a_body_that_cannot_be_parsed_is_its_own_kind(
 # --- tenants and keys -------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_keys_separate_tenants(make_client: ClientFactory, database_url: str) -> None:
     # No lookup cached: the keys made behind the app's back are seen at once
     # (test_auth_cache.py covers the cached default).

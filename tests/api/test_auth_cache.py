@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 
+import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, delete
 
@@ -17,6 +18,7 @@ from tests.conftest import make_settings
 CACHE_SECONDS = 2.0
 
 
+@pytest.mark.slow
 def test_a_revoked_key_stops_working_within_the_cache_time(database_url: str) -> None:
     app = create_app(make_settings(database_url, auth_cache_seconds=CACHE_SECONDS))
     with TestClient(app) as client:

@@ -72,6 +72,7 @@ def tree(root: Path) -> dict[str, bytes]:
     }
 
 
+@pytest.mark.slow
 def test_the_client_is_in_step_with_the_snapshot(tmp_path: Path) -> None:
     pytest.importorskip("openapi_python_client")  # the test extra has it
     regenerate_module().generate(tmp_path / "shapesearch_client")
@@ -126,6 +127,7 @@ def external_ids(answer: Any) -> list[str]:
     return [result.model.external_id for result in answer.results]
 
 
+@pytest.mark.slow
 def test_the_client_drives_a_live_server(
     service: tuple[str, str], monkeypatch: pytest.MonkeyPatch
 ) -> None:

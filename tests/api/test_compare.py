@@ -238,6 +238,7 @@ def engine_client(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClie
         yield client
 
 
+@pytest.mark.slow
 def test_a_single_view_scan_is_placed_on_the_part_it_shows(engine_client: TestClient) -> None:
     client = engine_client
     ids = {name: upload(client, PARTS / name).json()["id"]

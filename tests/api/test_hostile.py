@@ -30,6 +30,7 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[str, int]
         yield running
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("route", ["/v1/models", "/v1/search"])
 @pytest.mark.parametrize("name", list(HOSTILE_FILES))
 def test_a_hostile_file_is_refused_without_growing_the_server(

@@ -54,6 +54,7 @@ def nested(depth: int) -> str:
     return '{"a":' * depth + "1" + "}" * depth
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("form", "filename", "pointer"),
     [
@@ -91,6 +92,7 @@ def test_a_nul_in_the_file_name_is_422(client: TestClient) -> None:
     assert_invalid(response, "/file/filename")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("route", "method"),
     [("/v1/models", "POST"), ("/v1/models/by-external-id/P-1", "PUT"), ("/v1/search", "POST")],
@@ -122,6 +124,7 @@ def test_metadata_at_the_limits_is_accepted(client: TestClient) -> None:
     assert response.json()["metadata"] == json.loads(nested(3))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("body", "pointer"),
     [
@@ -169,6 +172,7 @@ def test_bad_query_parameters_are_422_with_a_pointer(
     assert_invalid(client.get(path), pointer)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("path", "items", "past_the_end"),
     [

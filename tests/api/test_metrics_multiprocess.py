@@ -76,6 +76,7 @@ def wait_for_both_processes(base: str) -> None:
     wait_for(both, 120, "both API processes answering")
 
 
+@pytest.mark.slow
 def test_one_scrape_counts_the_requests_of_every_api_process(tmp_path: Path) -> None:
     shared = tmp_path / "metrics"
     shared.mkdir()
@@ -195,6 +196,7 @@ def started_workers(log: Path) -> int:
     )
 
 
+@pytest.mark.slow
 def test_worker_processes_export_their_describes_on_one_port(tmp_path: Path) -> None:
     """Two jobs, queued once both worker processes poll: each is described in a process of
     its own, and one scrape of the worker's metrics port counts both."""
@@ -229,6 +231,7 @@ def test_worker_processes_export_their_describes_on_one_port(tmp_path: Path) -> 
     assert len({worker_id.split(":")[1] for worker_id in workers}) == 2  # two pids
 
 
+@pytest.mark.slow
 def test_one_worker_process_serves_its_metrics_and_a_second_cannot_share_the_port(
     tmp_path: Path,
 ) -> None:

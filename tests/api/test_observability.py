@@ -89,6 +89,7 @@ def log_lines(text: str) -> list[dict]:
     return [json.loads(line) for line in text.splitlines() if line.startswith("{")]
 
 
+@pytest.mark.slow
 def test_metrics_count_requests_jobs_describes_and_the_index(database_url: str) -> None:
     app = create_app(make_settings(database_url), embedded_worker=True, job_handler=fake_describe)
     with TestClient(app, client=LOOPBACK) as client:
@@ -130,6 +131,7 @@ def test_metrics_count_requests_jobs_describes_and_the_index(database_url: str) 
     assert after[("shapesearch_index_neighbourhoods_kept_ratio", ())] == 1
 
 
+@pytest.mark.slow
 def test_metrics_answer_loopback_clients_only(database_url: str) -> None:
     app = create_app(make_settings(database_url))
     with TestClient(app, client=("203.0.113.9", 50000)) as client:
@@ -141,6 +143,7 @@ def test_metrics_answer_loopback_clients_only(database_url: str) -> None:
         assert client.get("/metrics").status_code == 200
 
 
+@pytest.mark.slow
 def test_request_ids_are_returned_and_on_every_log_line(
     database_url: str, json_logs: io.StringIO
 ) -> None:
@@ -165,6 +168,7 @@ def test_request_ids_are_returned_and_on_every_log_line(
         assert {"time", "level", "status", "duration_ms", "method"} <= set(line)
 
 
+@pytest.mark.slow
 def test_every_worker_line_carries_the_job_id(
     database_url: str, json_logs: io.StringIO
 ) -> None:

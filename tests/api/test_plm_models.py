@@ -53,6 +53,7 @@ def put(client: TestClient, external_id: str, content: bytes, **form: str) -> An
 # --- jobs -------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_the_202_body_and_the_model_carry_the_job(client: TestClient) -> None:
     accepted = upload(client, CUBE).json()
     job = accepted["job"]
@@ -67,6 +68,7 @@ def test_the_202_body_and_the_model_carry_the_job(client: TestClient) -> None:
     assert listed[0]["job"]["id"] == job["id"]
 
 
+@pytest.mark.slow
 def test_jobs_are_listed_with_filter_and_cursor(client: TestClient) -> None:
     ids = [upload(client, CUBE, filename=f"c{i}.stl").json()["job"]["id"] for i in range(5)]
     for job_id in ids:
@@ -90,6 +92,7 @@ def test_jobs_are_listed_with_filter_and_cursor(client: TestClient) -> None:
     assert client.get("/v1/jobs", params={"cursor": "%%%"}).status_code == 422
 
 
+@pytest.mark.slow
 def test_uploads_sent_as_background_take_turns_with_the_tenants_other_uploads(
     make_client: ClientFactory, database_url: str,
 ) -> None:
@@ -119,6 +122,7 @@ def test_uploads_sent_as_background_take_turns_with_the_tenants_other_uploads(
 # --- idempotency ----------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_idempotency_key_replays_the_first_answer(client: TestClient) -> None:
     key = {"Idempotency-Key": "sync-42"}
     first = upload(client, CUBE, headers=key, external_id="p-1", name="Cube")
@@ -138,6 +142,7 @@ def test_idempotency_key_replays_the_first_answer(client: TestClient) -> None:
     assert fresh.status_code == 202 and fresh.json()["id"] != first.json()["id"]
 
 
+@pytest.mark.slow
 def test_idempotency_keys_expire(make_client: ClientFactory,
                                  monkeypatch: pytest.MonkeyPatch) -> None:
     """After ``idempotency_ttl_seconds`` a key is forgotten: the same key makes a new model,
@@ -161,6 +166,7 @@ def test_idempotency_keys_expire(make_client: ClientFactory,
 # --- upsert and revisions -------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_upsert_creates_then_changes_only_metadata_for_the_same_file(
     client: TestClient,
 ) -> None:
@@ -180,6 +186,7 @@ def test_upsert_creates_then_changes_only_metadata_for_the_same_file(
     assert [(r["number"], r["status"]) for r in revisions] == [(1, "current")]
 
 
+@pytest.mark.slow
 def test_a_new_file_is_a_new_revision_and_the_old_descriptor_serves_meanwhile(
     make_client: ClientFactory,
 ) -> None:
@@ -236,6 +243,7 @@ def test_the_original_file_comes_back_with_its_name(client: TestClient) -> None:
     assert client.get("/v1/models/00000000-0000-0000-0000-000000000000/file").status_code == 404
 
 
+@pytest.mark.slow
 def test_redescribe_makes_a_new_job_and_stats_count_versions(client: TestClient) -> None:
     model = upload(client, CUBE).json()
     wait_for_status(client, model["id"])

@@ -120,6 +120,7 @@ def client(database_url: str) -> Iterator[TestClient]:
         yield client
 
 
+@pytest.mark.slow
 def test_preview_is_served_with_an_etag_and_answers_304(client: TestClient) -> None:
     model = upload(client, CUBE).json()
     wait_for_status(client, model["id"], ("ready",))
@@ -142,6 +143,7 @@ def test_preview_of_an_unknown_model_is_404(client: TestClient) -> None:
     assert unknown.json()["type"] == "urn:shapesearch:problem:model-not-found"
 
 
+@pytest.mark.slow
 def test_preview_of_a_model_described_without_one_is_404(database_url: str) -> None:
     app = create_app(make_settings(database_url), embedded_worker=True, job_handler=fake_describe)
     with TestClient(app, raise_server_exceptions=False) as client:
@@ -161,6 +163,7 @@ def test_preview_of_a_queued_model_is_409(database_url: str) -> None:
     assert response.json()["type"] == "urn:shapesearch:problem:model-not-ready"
 
 
+@pytest.mark.slow
 def test_cutoff_stats_list_every_ready_model_and_the_solver_call_histogram(
     client: TestClient,
 ) -> None:

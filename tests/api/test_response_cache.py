@@ -40,6 +40,7 @@ def _rename_behind_its_back(database_url: str, name: str) -> None:
     engine.dispose()
 
 
+@pytest.mark.slow
 def test_a_repeat_is_served_from_memory_until_it_expires(
     client: TestClient, database_url: str
 ) -> None:

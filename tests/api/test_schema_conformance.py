@@ -27,6 +27,7 @@ HOOKS = Path(__file__).parents[1] / "schemathesis_hooks.py"
 EXAMPLES_PER_OPERATION = 10  # about 1,300 cases over the 25 operations
 
 
+@pytest.mark.slow
 def test_the_api_conforms_to_its_openapi_document(tmp_path: Path) -> None:
     cli = shutil.which("schemathesis", path=str(Path(sys.executable).parent))
     assert cli is not None, "schemathesis is in the test extra"
@@ -47,6 +48,7 @@ def test_the_api_conforms_to_its_openapi_document(tmp_path: Path) -> None:
     assert "Stateful" in run.stdout
 
 
+@pytest.mark.slow
 def test_405_names_every_method_and_the_document_says_what_schemathesis_found(
     database_url: str,
 ) -> None:
@@ -73,10 +75,9 @@ def test_405_names_every_method_and_the_document_says_what_schemathesis_found(
 def test_the_hooks_allow_only_what_the_document_cannot_state() -> None:
     """tests/schemathesis_hooks.py lets a schema-valid request be refused for a file's
     content, a webhook host or nested metadata, and for nothing the schema states."""
-    from schemathesis_hooks import UNSTATED_LIMITS
-
     from app.api.main import create_app
     from tests.conftest import make_settings
+    from tests.schemathesis_hooks import UNSTATED_LIMITS
 
     document = create_app(make_settings("sqlite://")).openapi()
     operations = {f"{m.upper()} {p}" for p, ops in document["paths"].items() for m in ops}

@@ -136,6 +136,7 @@ def assert_storage_full(response: Any) -> None:
     assert int(response.headers["retry-after"]) > 0
 
 
+@pytest.mark.slow
 def test_a_full_database_refuses_writes_with_507_and_keeps_answering_reads(
     client: TestClient,
 ) -> None:
@@ -186,6 +187,7 @@ def test_a_readers_copy_on_a_full_disk_is_not_called_unparsable(
     assert raised.value.errno == errno.ENOSPC
 
 
+@pytest.mark.slow
 def test_the_sandbox_hands_a_full_disk_back_as_such() -> None:
     with pytest.raises(OSError) as raised:  # was SandboxCrash, a retried internal error
         Sandbox(1024**3, 60).run(write_to_a_full_disk)

@@ -21,6 +21,9 @@ import pytest
 from tests.conftest import PARTS
 from tests.live_server import live_server
 
+# A browser, a live server and real describes: seconds a test.
+pytestmark = pytest.mark.slow
+
 ARTIFACTS = Path(__file__).parents[1] / "artifacts"
 SCAN = Path(__file__).parents[1] / "fixtures" / "scans" / "angle_block_scan.ply"
 CHROMIUM = os.environ.get("SHAPESEARCH_TEST_CHROMIUM", "/usr/bin/chromium")

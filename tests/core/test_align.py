@@ -64,6 +64,7 @@ def test_the_same_points_rotated_align_exactly() -> None:
     assert found.rms < 1e-6 * diagonal(a)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SYMMETRIC)
 def test_a_symmetric_part_ends_no_worse_than_any_start(name: str) -> None:
     """Its starts are all about equally good: the best final result is kept, so the

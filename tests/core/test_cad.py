@@ -114,6 +114,7 @@ def test_cad_tessellation_is_closed_and_has_the_right_area(cad_files: dict[str, 
     assert shape.format == "step" and len(shape.points) == 500
 
 
+@pytest.mark.slow
 def test_cad_parts_are_described_and_a_step_part_finds_its_stl_export(
     database_url: str, cad_files: dict[str, bytes]
 ) -> None:
@@ -167,6 +168,7 @@ def test_a_step_file_that_crashes_opencascade_is_refused_and_the_service_lives_o
         assert again.status_code == 202, again.text
 
 
+@pytest.mark.slow
 def test_an_iges_file_that_hangs_opencascade_holds_no_request_and_fails_its_job(
     tmp_path: Path,
 ) -> None:

@@ -261,6 +261,7 @@ def part_operators() -> dict[str, tuple]:
     return operators
 
 
+@pytest.mark.slow
 def test_predicted_path_gives_the_seeded_n_on_real_parts(part_operators) -> None:
     from core.eigen import SpectralSolver
 

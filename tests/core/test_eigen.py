@@ -45,6 +45,7 @@ def clusters(eigenvalues: np.ndarray, rtol: float = 1e-6) -> list[slice]:
 
 # Band sizes 7 and 10 put band edges inside the sphere's 2l + 1 multiplets (split by the
 # sampling into near-degenerate clusters); 50 is the production default.
+@pytest.mark.slow
 @pytest.mark.parametrize(("shape", "band_size"), [("sphere", 7), ("sphere", 10), ("torus", 50)])
 def test_banded_continuation_equals_one_big_solve(request, references, shape, band_size):
     stiffness, mass = request.getfixturevalue(shape)

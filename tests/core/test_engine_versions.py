@@ -66,6 +66,7 @@ def test_every_engine_library_upgrade_changes_the_descriptor_version(upgrade: Up
     assert version_of(settings) == before
 
 
+@pytest.mark.slow
 def test_an_upgrade_makes_stored_models_stale_until_re_described(
     database_url: str, upgrade: Upgrade
 ) -> None:

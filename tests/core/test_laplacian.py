@@ -54,6 +54,7 @@ def fibonacci_sphere_spectra() -> dict[str, np.ndarray]:
     return {method: lowest_eigenvalues(*build_laplacian(points, method), 16) for method in METHODS}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_sphere_spectrum_matches_l_l_plus_1(fibonacci_sphere_spectra, method):
     eigenvalues = fibonacci_sphere_spectra[method]
@@ -62,6 +63,7 @@ def test_sphere_spectrum_matches_l_l_plus_1(fibonacci_sphere_spectra, method):
     assert relative.max() < 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS)
 def test_sphere_multiplets_keep_their_structure(fibonacci_sphere_spectra, method):
     eigenvalues = fibonacci_sphere_spectra[method]
@@ -71,6 +73,7 @@ def test_sphere_multiplets_keep_their_structure(fibonacci_sphere_spectra, method
         assert spread < 0.1 * gap
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("method", "tolerance"), [("robust", 0.07), ("spcl", 0.05)])
 def test_random_sphere_spectrum(method, tolerance):
     eigenvalues = lowest_eigenvalues(*build_laplacian(sphere_points(5000, seed=3), method), 16)

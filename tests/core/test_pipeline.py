@@ -51,6 +51,7 @@ def other_part() -> np.ndarray:
     return describe_points(sampled_part("teapot.stl", 3000), SETTINGS).descriptor
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "transform",
     [
@@ -68,6 +69,7 @@ def test_descriptor_is_invariant(reference, other_part, transform) -> None:
     assert distance(other_part, descriptor) > 5 * SAME_SHAPE
 
 
+@pytest.mark.slow
 def test_describe_file_matches_describe_bytes() -> None:
     path = FIXTURES / "angle_block.STL"
     from_path = describe(path, SETTINGS)
@@ -78,6 +80,7 @@ def test_describe_file_matches_describe_bytes() -> None:
     assert set(from_path.timings) >= {"load", "laplacian", "eigensolve", "signature", "total"}
 
 
+@pytest.mark.slow
 def test_description_is_consistent() -> None:
     description = describe(FIXTURES / "cylinder.stl", SETTINGS)
     cutoff = description.cutoff
@@ -112,6 +115,7 @@ def resampled() -> dict[tuple[str, int], object]:
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", RESOLVED_AT_5K)
 def test_resampling_keeps_cutoff_and_descriptor(resampled, name: str) -> None:
     coarse, fine = resampled[(name, 5000)], resampled[(name, 20000)]
@@ -126,6 +130,7 @@ def test_resampling_keeps_cutoff_and_descriptor(resampled, name: str) -> None:
     assert same < 0.6 * min(others)
 
 
+@pytest.mark.slow
 def test_outlier_filter_keeps_scan_outliers_out_of_the_descriptor(reference, other_part) -> None:
     points, clean = reference
     rng = np.random.default_rng(4)
@@ -161,6 +166,7 @@ def test_degenerate_points_raise_the_documented_error() -> None:
     assert raised.value.reason == "degenerate"
 
 
+@pytest.mark.slow
 def test_a_clean_cloud_export_is_described_like_its_mesh(tmp_path: Path) -> None:
     # The engine's own sample of the mesh, uploaded as an .xyz: the outlier filter must keep
     # every point (the former mean + 2 std rule dropped 3-4 % of them, opening holes).

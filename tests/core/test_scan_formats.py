@@ -151,6 +151,7 @@ def client(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient]:
         yield client
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", list(WRITERS))
 def test_a_scan_file_finds_the_part_it_was_sampled_from(
     client: TestClient, scan_points: np.ndarray, fmt: str

@@ -98,6 +98,7 @@ def transformed_copy(path: Path, file_type: str, seed: int) -> bytes:
     return exported.encode() if isinstance(exported, str) else bytes(exported)
 
 
+@pytest.mark.slow
 def test_described_models_carry_their_cutoff_and_timings(library: Library) -> None:
     body = library.client.get(f"/v1/models/{library.ids['angle_block.STL']}").json()
     assert body["status"] == "ready" and body["error"] is None
@@ -110,6 +111,7 @@ def test_described_models_carry_their_cutoff_and_timings(library: Library) -> No
     assert library.client.get("/readyz").status_code == 200
 
 
+@pytest.mark.slow
 def test_an_identical_file_scores_one_and_the_query_is_left_out(library: Library) -> None:
     cube = library.ids[LIBRARY[0]]
     results = similar(library.client, cube, k=3)
@@ -119,6 +121,7 @@ def test_an_identical_file_scores_one_and_the_query_is_left_out(library: Library
     assert top["score"] == pytest.approx(1.0, abs=1e-6) and top["distance"] < 1e-3
 
 
+@pytest.mark.slow
 def test_a_rotated_resampled_copy_finds_its_part_first(library: Library) -> None:
     client = library.client
     part = "angle_block.STL"
@@ -205,6 +208,7 @@ EDGE_CASE_OUTCOMES = {
 }
 
 
+@pytest.mark.slow
 def test_edge_case_files_end_as_documented_and_the_worker_keeps_serving(
     library: Library,
 ) -> None:

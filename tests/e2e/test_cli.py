@@ -50,6 +50,7 @@ def test_describe_refusals_exit_nonzero_with_a_reason(tmp_path, capsys, argument
     assert message.lower() in capsys.readouterr().err.lower()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["serve", "worker"])
 @pytest.mark.parametrize(
     ("url", "message"),
@@ -77,6 +78,7 @@ def test_start_up_errors_are_one_line_and_exit_code_2(command, url, message) -> 
         assert "shapesearch_no_such_database" in lines[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("variables", "named"),
     [

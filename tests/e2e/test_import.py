@@ -79,6 +79,7 @@ def read_report(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(handle))
 
 
+@pytest.mark.slow
 def test_a_folder_is_imported_then_a_second_run_uploads_nothing(
     service: str, catalogue: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
@@ -117,6 +118,7 @@ def test_a_folder_is_imported_then_a_second_run_uploads_nothing(
     assert {job["background"] for job in jobs} == {True}  # a bulk load: it takes turns
 
 
+@pytest.mark.slow
 def test_a_zip_archive_with_stems_as_external_ids(
     service: str, tmp_path: Path
 ) -> None:
@@ -221,6 +223,7 @@ def test_archive_members_are_read_when_uploaded_and_unsafe_names_are_refused(
     assert "larger than the upload limit of 4000" in (by_path["big.stl"].refusal or "")
 
 
+@pytest.mark.slow
 def test_a_tar_archive_is_streamed_member_by_member(service: str, tmp_path: Path) -> None:
     """A .tar.gz through the live service: its parts are imported, a traversal name and a
     member over --max-file-bytes are refused with a reason (and never uploaded)."""
@@ -329,6 +332,7 @@ def test_a_4xx_is_not_retried(sleeps: list[float], status: int) -> None:
     client.close()
 
 
+@pytest.mark.slow
 def test_a_full_service_stops_the_import_and_a_second_run_completes_it(
     new_database_url: Callable[[str], str], catalogue: Path, tmp_path: Path,
     capsys: pytest.CaptureFixture[str],

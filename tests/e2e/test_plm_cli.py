@@ -22,6 +22,7 @@ def use_database(monkeypatch: pytest.MonkeyPatch, database_url: str, **settings:
         monkeypatch.setenv(f"SHAPESEARCH_{name.upper()}", str(value))
 
 
+@pytest.mark.slow
 def test_keys_are_listed_and_revoked(
     database_url: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -52,6 +53,7 @@ def test_keys_are_listed_and_revoked(
     assert "no key" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_redescribe_moves_every_model_to_the_new_version(
     database_url: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -75,6 +75,7 @@ def json_of(outputs: dict[str, str], start: str) -> Any:
     return json.loads(output_of(outputs, start))
 
 
+@pytest.mark.slow
 def test_readme_curl_session_runs_as_written(tmp_path: Path) -> None:
     if shutil.which("curl") is None:
         if os.environ.get("CI") == "true":

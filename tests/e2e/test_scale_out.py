@@ -106,6 +106,7 @@ def similar_ids(client: httpx.Client, model_id: str) -> set[str]:
     return {result["model"]["id"] for result in response.json()["results"]}
 
 
+@pytest.mark.slow
 def test_two_apis_and_two_workers_share_one_postgresql(cluster: Cluster) -> None:
     first = cluster.api()  # migrates the schema before the others start
     second = cluster.api()
@@ -155,6 +156,7 @@ def answering_processes(base_url: str, path: str, tries: int = 200) -> dict[str,
     return answers
 
 
+@pytest.mark.slow
 def test_one_serve_runs_several_api_processes_on_its_port(
     new_database_url: Callable[[str], str],
 ) -> None:
@@ -228,6 +230,7 @@ def api_processes(serve_pid: int) -> list[int]:
     ]
 
 
+@pytest.mark.slow
 def test_several_api_processes_stop_on_sigterm_and_refuse_a_taken_port(
     new_database_url: Callable[[str], str],
 ) -> None:

@@ -264,6 +264,7 @@ def test_eval_writes_results_before_plotting(
     assert "| default |" in (out / "results.md").read_text()
 
 
+@pytest.mark.slow
 def test_budget_rows_gather_the_points_variants_of_several_runs(tmp_path: Path) -> None:
     from core.evaluation.budget import budget_rows, budget_table, plot_budget
 
@@ -324,6 +325,7 @@ def test_cached_stores_keep_the_points_and_old_caches_get_them_back(tmp_path: Pa
     )
 
 
+@pytest.mark.slow
 def test_eval_scores_the_hub_discount_beside_the_plain_ranking(tmp_path: Path) -> None:
     import json
 
@@ -460,6 +462,7 @@ def test_eval_scores_scans_in_scan_mode_where_only_the_views_meet_them() -> None
     assert plain_scan_mode["map"] == 1.0
 
 
+@pytest.mark.slow
 def test_eval_writes_a_scan_mode_table_when_asked(tmp_path: Path) -> None:
     import json
 

@@ -102,6 +102,7 @@ def test_cleanup_steps_parse_filters_and_denoising() -> None:
         _cleanup_steps("sor+smooth")
 
 
+@pytest.mark.slow
 def test_the_scan_study_runs_end_to_end_on_a_tiny_set(tmp_path: Path) -> None:
     """``run`` describes, caches and scores (a regression guard for the study's plumbing:
     it once read a field that the cutoff record had moved)."""

@@ -46,6 +46,7 @@ def test_bending_keeps_distances_along_the_centre_line() -> None:
     assert np.linalg.norm(bent[-1] - bent[0]) < 45.0  # it did bend
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", KINDS)
 def test_every_bendable_pose_keeps_its_area(kind: str) -> None:
     meshes = [mesh for _, _, mesh in parts((kind,))]
@@ -58,6 +59,7 @@ def test_every_bendable_pose_keeps_its_area(kind: str) -> None:
     assert np.ptp(extents, axis=0).max() > 0.2 * extents[0].max()  # the poses really differ
 
 
+@pytest.mark.slow
 def test_the_poses_source_holds_shapes_in_shared_poses() -> None:
     """FAUST's design: classes differ only in proportions, and every class takes the same
     poses, so the same pose of another class looks alike in space but not intrinsically."""
@@ -80,6 +82,7 @@ def test_the_poses_source_holds_shapes_in_shared_poses() -> None:
             assert np.ptp(bent.vertices[:, 0]) > 0.2 * max(bent.extents)
 
 
+@pytest.mark.slow
 def test_sources_are_written_as_a_labelled_dataset_and_repeat(tmp_path: Path) -> None:
     first = write_sources(tmp_path / "a", ["bendable"], seed=3)
     write_sources(tmp_path / "b", ["bendable"], seed=3)
@@ -94,6 +97,7 @@ def test_sources_are_written_as_a_labelled_dataset_and_repeat(tmp_path: Path) ->
     assert digest(tmp_path / "a") == digest(tmp_path / "b")
 
 
+@pytest.mark.slow
 def test_madcad_source_makes_every_kind() -> None:
     pytest.importorskip("madcad", reason="pymadcad (the tune extra) is not installed")
     from core.evaluation.sources.madcad_parts import KINDS as MADCAD

@@ -74,6 +74,7 @@ def fill(client: TestClient) -> dict[str, Any]:
     return catalogue(client)
 
 
+@pytest.mark.slow
 def test_a_backup_taken_while_serving_restores_the_whole_service(tmp_path: Path) -> None:
     live = tmp_path / "live" / "shapesearch.db"
     client = started(live)
@@ -143,6 +144,7 @@ def postgres_tools() -> None:
     pytest.skip("PostgreSQL's backup needs pg_dump and pg_restore (postgresql-client)")
 
 
+@pytest.mark.slow
 def test_a_postgresql_backup_taken_while_serving_restores_the_whole_service(
     tmp_path: Path, new_database_url: Callable[[str], str],
 ) -> None:

@@ -61,6 +61,7 @@ def test_predictor_learns_only_from_ready_models_of_its_version(sessions) -> Non
     assert predictor.predict([1.0, 0.0]) == 150
 
 
+@pytest.mark.slow
 def test_worker_predicts_from_the_stored_models_and_keeps_n(database_url, sessions) -> None:
     settings = make_settings(database_url)
     handle = describe_handler(settings, sessions)

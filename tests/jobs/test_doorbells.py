@@ -120,6 +120,7 @@ def test_a_rolled_back_change_rings_nothing(sessions: sessionmaker[Session]) -> 
     assert JOBS.wait(0) and not FEED.wait(0)
 
 
+@pytest.mark.slow
 def test_a_job_queued_by_another_process_wakes_a_worker_through_its_listener(
     new_database_url: Any, backend: str
 ) -> None:
@@ -181,6 +182,7 @@ def test_a_model_made_ready_elsewhere_is_searchable_at_once(database_url: str) -
         assert second in found
 
 
+@pytest.mark.slow
 def test_a_webhook_is_sent_as_soon_as_its_model_is_ready(database_url: str) -> None:
     """Worker and deliverer both poll once a minute: the upload's job and its model.ready
     event are each taken at once because their commits ring."""

@@ -66,6 +66,7 @@ print("migrated")
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("start", ["empty", "0013"])
 def test_two_processes_starting_at_once_on_one_sqlite_file_both_migrate_it(
     tmp_path: Path, start: str,
@@ -151,6 +152,7 @@ def _wait_for(path: Path, process: subprocess.Popen[str]) -> None:
     assert path.exists(), process.communicate()
 
 
+@pytest.mark.slow
 def test_a_process_starting_while_another_migrates_waits_for_its_whole_upgrade(
     tmp_path: Path,
 ) -> None:

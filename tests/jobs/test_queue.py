@@ -99,6 +99,7 @@ def test_backoff_doubles_and_is_capped() -> None:
     assert [backoff_seconds(a, 5, 60) for a in range(1, 7)] == [5, 10, 20, 40, 60, 60]
 
 
+@pytest.mark.slow
 def test_concurrent_workers_take_each_job_exactly_once(database_url: str) -> None:
     """Four workers, each with its own engine (as separate processes would have), race for
     200 jobs with an instant handler: every job is done exactly once."""
@@ -331,6 +332,7 @@ def test_a_job_waiting_out_a_back_off_does_not_hold_the_head_back(
     assert deferred not in order  # still waiting out its back-off
 
 
+@pytest.mark.slow
 def test_a_catalogue_redescribe_takes_turns_with_the_tenants_own_uploads(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -350,6 +352,7 @@ def test_a_catalogue_redescribe_takes_turns_with_the_tenants_own_uploads(
         assert session.get(Job, catalogue[0]).background is True  # type: ignore[union-attr]
 
 
+@pytest.mark.slow
 def test_migrations_0011_and_0012_go_up_and_down(database_url: str) -> None:
     """Jobs queued before turns all get turn 0 and so keep their order, oldest first; they
     are requests, not background jobs."""

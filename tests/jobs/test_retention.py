@@ -9,6 +9,7 @@ import time
 import uuid
 from datetime import datetime, timedelta
 
+import pytest
 from fastapi.testclient import TestClient
 from prometheus_client import REGISTRY
 from sqlalchemy import func, select, update
@@ -79,6 +80,7 @@ def job_ids(sessions: sessionmaker[Session]) -> set[uuid.UUID]:
         return set(session.scalars(select(Job.id)))
 
 
+@pytest.mark.slow
 def test_settled_jobs_go_after_the_retention_but_a_models_newest_job_stays(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -134,6 +136,7 @@ def test_settled_deliveries_go_with_their_attempts_and_pending_ones_stay(
     assert delivered not in attempts_of and failed not in attempts_of
 
 
+@pytest.mark.slow
 def test_zero_days_keeps_everything_and_batches_reach_every_row(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -164,6 +167,7 @@ def test_the_pruner_runs_at_start_and_stops_at_once(sessions: sessionmaker[Sessi
     assert not pruner.thread.is_alive()
 
 
+@pytest.mark.slow
 def test_serve_prunes_at_start_a_pruned_job_is_not_found_and_its_model_shows_its_newest(
     database_url: str, sessions: sessionmaker[Session],
 ) -> None:

@@ -60,10 +60,12 @@ def segfault() -> None:
     os.kill(os.getpid(), signal.SIGSEGV)
 
 
+@pytest.mark.slow
 def test_the_result_comes_back() -> None:
     assert Sandbox(4 * GIB, 60).run(allocate, 0.01) == GIB // 100 // 8
 
 
+@pytest.mark.slow
 def test_the_memory_limit_refuses_the_file_as_too_large() -> None:
     sandbox = Sandbox(2 * GIB, 60)
     with pytest.raises(InvalidShapeError) as refused:
@@ -72,6 +74,7 @@ def test_the_memory_limit_refuses_the_file_as_too_large() -> None:
     assert "SHAPESEARCH_DESCRIBE_MEMORY_BYTES" in refused.value.message
 
 
+@pytest.mark.slow
 def test_the_time_limit_kills_the_child_and_refuses_the_file() -> None:
     started = time.monotonic()
     with pytest.raises(SandboxTimeout) as refused:
@@ -93,6 +96,7 @@ def test_the_describe_limit_grows_with_the_file_up_to_the_largest_files_limit() 
     assert describe_limit_seconds(low_cap, 1_000) == 30.0  # a cap below the base wins
 
 
+@pytest.mark.slow
 def test_a_killed_child_is_a_refusal_and_other_errors_keep_their_kind() -> None:
     sandbox = Sandbox(4 * GIB, 60)
     with pytest.raises(InvalidShapeError, match="memory"):
@@ -111,6 +115,7 @@ def test_a_killed_child_is_a_refusal_and_other_errors_keep_their_kind() -> None:
     assert crashed.value.reason == "unparsable"
 
 
+@pytest.mark.slow
 def test_the_worker_describes_in_the_sandbox(tmp_path) -> None:
     """The production handler describes a real part, and refuses one that needs more
     memory than its limit as too large (the parser's ``MemoryError`` is not a corrupt file)
@@ -126,6 +131,7 @@ def test_the_worker_describes_in_the_sandbox(tmp_path) -> None:
     assert refused.value.reason == "too_large"
 
 
+@pytest.mark.slow
 def test_the_limit_counts_from_the_childs_start(tmp_path) -> None:
     """A child starts with the engine's libraries mapped, far more address space than a
     small part's describe needs; the setting is what the describe may add, so a budget
@@ -138,6 +144,7 @@ def test_the_limit_counts_from_the_childs_start(tmp_path) -> None:
     assert columns["n_points"] > 0
 
 
+@pytest.mark.slow
 def test_blas_under_a_tight_limit_is_not_a_crash() -> None:
     """OpenBLAS allocates its work buffer at a process's first product, outside Python;
     under the limit that allocation fails (the product is refused as too large, or OpenBLAS

@@ -67,6 +67,7 @@ def deliveries(client: TestClient, hook_id: str) -> list[dict[str, Any]]:
     return response.json()["items"]
 
 
+@pytest.mark.slow
 def test_ready_failed_and_deleted_events_arrive_signed(make_client: ClientFactory) -> None:
     client = make_client(handler=refuse_teapots)
     with Receiver() as receiver:
@@ -111,6 +112,7 @@ def attempts_counted(outcome: str) -> float:
     return value or 0.0
 
 
+@pytest.mark.slow
 def test_a_receiver_failing_twice_gets_the_event_three_times(make_client: ClientFactory) -> None:
     client = make_client(**FAST_RETRIES)
     retries_before, delivered_before = attempts_counted("retry"), attempts_counted("delivered")
@@ -149,6 +151,7 @@ def wait_for_statuses(
         time.sleep(0.05)
 
 
+@pytest.mark.slow
 def test_failed_deliveries_are_sent_again_on_request(make_client: ClientFactory) -> None:
     """A receiver away longer than the retries lost its events for good (failed, never
     sent again). Recovering queues the failed ones again, oldest first, with their ids;
@@ -188,6 +191,7 @@ def test_failed_deliveries_are_sent_again_on_request(make_client: ClientFactory)
     assert bad.status_code == 422
 
 
+@pytest.mark.slow
 def test_recovering_goes_in_batches_and_keeps_the_events_order(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -220,6 +224,7 @@ def test_the_default_retries_span_the_documented_ten_hours() -> None:
     assert round(sum(delays) / 3600, 1) == 10.4
 
 
+@pytest.mark.slow
 def test_an_event_outlives_the_worker_that_completed_the_job(
     make_client: ClientFactory, database_url: str
 ) -> None:
@@ -276,6 +281,7 @@ def local_deliverer(sessions: sessionmaker[Session], timeout: float) -> Delivere
                      lease_seconds=2 * timeout)
 
 
+@pytest.mark.slow
 def test_an_endpoint_has_one_delivery_in_flight_and_others_take_turns_with_its_backlog(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -306,6 +312,7 @@ def test_an_endpoint_has_one_delivery_in_flight_and_others_take_turns_with_its_b
         assert len(bulk.requests) == 4 and len(desk.requests) == 1
 
 
+@pytest.mark.slow
 def test_an_endpoint_that_hangs_holds_one_lane_while_the_others_deliver(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -339,6 +346,7 @@ def test_an_endpoint_that_hangs_holds_one_lane_while_the_others_deliver(
     assert held == delivered[0]
 
 
+@pytest.mark.slow
 def test_idle_lanes_look_for_work_as_often_as_one_lane(sessions: sessionmaker[Session]) -> None:
     """Each idle lane used to look on its own timer: four lanes, four times the polling of
     the database. Now a lane's timeout looks only if no lane has looked for a whole
@@ -369,6 +377,7 @@ def test_idle_lanes_look_for_work_as_often_as_one_lane(sessions: sessionmaker[Se
     assert 0 < idle_looks <= 1.5 * elapsed / interval
 
 
+@pytest.mark.slow
 def test_claims_are_not_refused_while_another_connection_writes(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -416,6 +425,7 @@ def test_claims_are_not_refused_while_another_connection_writes(
     assert refused == 0
 
 
+@pytest.mark.slow
 def test_claims_of_two_processes_go_one_after_another(database_url: str) -> None:
     """The transaction that a claim begins with ``one_at_a_time`` holds the next one
     (another engine, as another process has) until it ends: each claim reads the one
@@ -473,6 +483,7 @@ def test_an_idle_look_does_not_wait_for_another_claim(database_url: str) -> None
         engine.dispose()
 
 
+@pytest.mark.slow
 def test_unsafe_targets_are_refused_and_redirects_not_followed(
     make_client: ClientFactory, database_url: str
 ) -> None:

@@ -26,6 +26,7 @@ def statuses(sessions: sessionmaker[Session]) -> dict[uuid.UUID, tuple[str, Any]
     return {row.id: (row.status, row.error) for row in rows}
 
 
+@pytest.mark.slow
 def test_the_worker_survives_every_kind_of_failure(sessions: sessionmaker[Session]) -> None:
     errors: list[BaseException] = [
         InvalidShapeError("degenerate", "all points on a line"),
@@ -74,6 +75,7 @@ def test_invalid_shapes_fail_at_once_but_transient_errors_retry(
     assert final == [("failed", "NaN"), ("queued", None)]
 
 
+@pytest.mark.slow
 def test_a_file_that_crashes_its_reader_fails_its_job_at_once(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -93,6 +95,7 @@ def test_a_file_that_crashes_its_reader_fails_its_job_at_once(
     assert "SIGSEGV" in error["detail"]
 
 
+@pytest.mark.slow
 def test_the_heartbeat_keeps_a_long_job_leased(sessions: sessionmaker[Session]) -> None:
     add_jobs(sessions, 1)
     started = threading.Event()
@@ -118,6 +121,7 @@ def test_the_heartbeat_keeps_a_long_job_leased(sessions: sessionmaker[Session]) 
     assert [status for status, _ in statuses(sessions).values()] == ["done"]
 
 
+@pytest.mark.slow
 def test_stopping_the_pool_releases_a_job_that_does_not_finish(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -173,6 +177,7 @@ def test_default_settings_describe_exactly_like_the_engine(
     assert engine_settings(Settings()) == EngineSettings()
 
 
+@pytest.mark.slow
 def test_workers_default_to_one_describe_per_core(monkeypatch: pytest.MonkeyPatch) -> None:
     import os
 

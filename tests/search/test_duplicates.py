@@ -162,6 +162,7 @@ def names(group: dict[str, Any]) -> list[str]:
     return [member["external_id"] for member in group["members"]]
 
 
+@pytest.mark.slow
 def test_the_stored_report_pages_stably_while_models_are_added_and_turns_stale(
     client: TestClient,
 ) -> None:
@@ -212,6 +213,7 @@ def test_the_stored_report_pages_stably_while_models_are_added_and_turns_stale(
     assert after["stale"] is True and after["groups"][0]["members"][0]["external_id"] is None
 
 
+@pytest.mark.slow
 def test_reports_are_kept_per_parameters_and_cursors_are_checked(client: TestClient) -> None:
     upload_copies(client, "a", ["a0", "a1"])
     strict = report(client, min_score=0.99)
@@ -373,6 +375,7 @@ def direct_groups(database_url: str, min_score: float, k: int = 16) -> set[froze
     return {group for group in members if len(group) >= 2}
 
 
+@pytest.mark.slow
 def test_a_rotated_rescaled_and_a_mirrored_copy_group_with_their_part(
     database_url: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

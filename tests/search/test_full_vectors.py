@@ -48,6 +48,7 @@ def test_freed_rows_are_reused_so_churn_does_not_grow_the_file() -> None:
     assert store.get([11999])[0][0].tolist() == [4.0] * 16
 
 
+@pytest.mark.slow
 def test_a_compressed_partition_re_ranks_from_its_full_vectors_not_the_database(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -101,6 +102,7 @@ def test_a_full_disk_is_an_error_that_changes_nothing(monkeypatch: pytest.Monkey
     assert store.get([7])[0][0].tolist() == [3.0] * 4
 
 
+@pytest.mark.slow
 def test_a_sync_that_finds_the_disk_full_adds_nothing_and_a_later_one_catches_up(
     sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -81,6 +81,7 @@ def test_a_hub_the_plain_order_puts_first_comes_after_the_classmate(
     assert answer[0].score == pytest.approx((1 + 0.80) / 2, abs=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("exact_max", [10**6, 20], ids=["flat", "ivf"])
 @pytest.mark.parametrize("reciprocal", [False, True], ids=["hub", "reciprocal"])
 def test_the_answer_is_the_discount_over_the_whole_catalogue(
@@ -278,6 +279,7 @@ def test_the_setting_reaches_the_index_and_zero_turns_the_discount_off(
         "reciprocal"] is False
 
 
+@pytest.mark.slow
 def test_the_reciprocal_re_rank_takes_its_pool_from_the_plain_nearest(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -322,6 +324,7 @@ def test_a_bulk_change_forgets_every_neighbourhood_and_the_index_wants_them_agai
     assert small.neighbourhoods_kept() == 1.0  # nothing it could keep is missing
 
 
+@pytest.mark.slow
 def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
     sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -373,6 +376,7 @@ def test_a_pass_computes_only_the_blocks_whose_neighbourhoods_are_not_kept(
             (whole.top, whole.kth, whole.after), abs=1e-6)
 
 
+@pytest.mark.slow
 def test_blocks_of_a_lists_rows_keep_what_whole_lists_keep(
     sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -402,6 +406,7 @@ def test_blocks_of_a_lists_rows_keep_what_whole_lists_keep(
     assert in_blocks.cosines == pytest.approx(graph.cosines, abs=1e-5)
 
 
+@pytest.mark.slow
 def test_a_change_waits_for_one_block_of_a_lists_rows_not_the_whole_list(
     sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -24,6 +24,7 @@ def exact_order(vectors: dict[int, np.ndarray], query: np.ndarray) -> list[int]:
     return sorted(vectors, key=lambda i: (float(np.linalg.norm(vectors[i] - query)), i))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("compact_min", "kind"), [(10**6, "ivf-sq8"), (200, "ivf-sq4")])
 def test_a_compressed_partition_answers_exactly_after_re_ranking(
     sessions: sessionmaker[Session], compact_min: int, kind: str
@@ -64,6 +65,7 @@ def built_by_kind(sessions: sessionmaker[Session]) -> dict[str, ShapeIndex]:
     return indexes
 
 
+@pytest.mark.slow
 def test_four_bit_codes_take_half_of_the_eight_bit_ones(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -80,6 +82,7 @@ def sparse_unit(seed: int, varying: int = 16) -> np.ndarray:
     return vector
 
 
+@pytest.mark.slow
 def test_codes_leave_out_the_dimensions_constant_over_the_training_sample(
     sessions: sessionmaker[Session], monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -114,6 +117,7 @@ def test_codes_leave_out_the_dimensions_constant_over_the_training_sample(
     assert matches[1].distance == pytest.approx(float(np.linalg.norm(odd - query)), abs=1e-5)
 
 
+@pytest.mark.slow
 def test_coarser_codes_fetch_a_wider_margin_for_the_exact_re_rank(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -205,6 +209,7 @@ def public_id(sessions: sessionmaker[Session], index_id: int) -> uuid.UUID:
         return session.scalars(select(Model.id).where(Model.index_id == index_id)).one()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("exact_max", [10**6, 100], ids=["flat", "ivf-sq8"])
 def test_a_query_by_model_id_from_the_index_answers_as_the_database_would(
     sessions: sessionmaker[Session], exact_max: int
@@ -272,6 +277,7 @@ def test_a_query_model_gone_from_the_database_is_not_answered_from_the_index(
     assert index.vector(KEY, gone) is None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("hub_neighbours", [0, 10], ids=["plain", "hub"])
 def test_models_gone_from_the_database_are_replaced_by_the_next_nearest(
     sessions: sessionmaker[Session], hub_neighbours: int

@@ -73,6 +73,7 @@ def near(vector: np.ndarray, seed: int) -> np.ndarray:
     return (moved / np.linalg.norm(moved)).astype(np.float32)
 
 
+@pytest.mark.slow
 def test_a_restart_restores_what_a_pass_over_the_changed_catalogue_keeps(
     sessions: sessionmaker[Session], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -122,6 +123,7 @@ def test_a_restart_restores_what_a_pass_over_the_changed_catalogue_keeps(
             vectors, query, 5, K)
 
 
+@pytest.mark.slow
 def test_without_changes_everything_is_restored_and_saved_once(
     sessions: sessionmaker[Session], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -137,6 +139,7 @@ def test_without_changes_everything_is_restored_and_saved_once(
     assert all(ours.get(own) == theirs.get(own) for own in before._partition_of)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "fault",
     ["pruned", "other data", "a model gone unsaid", "another history", "corrupt",
@@ -219,6 +222,7 @@ def test_the_cache_defaults_to_the_data_directory_with_the_embedded_database(
     assert chosen.index_options["cache_dir"] == tmp_path
 
 
+@pytest.mark.slow
 def test_the_service_saves_on_shutdown_and_restores_at_start(
     database_url: str, sessions: sessionmaker[Session], tmp_path: Path,
     caplog: pytest.LogCaptureFixture,
@@ -262,6 +266,7 @@ def test_one_process_computes_and_the_others_restore_what_it_saves(
     assert not second.wants_neighbourhoods()
 
 
+@pytest.mark.slow
 def test_a_restore_keeping_less_than_most_is_carried_on_by_a_pass(
     sessions: sessionmaker[Session], tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
     caplog: pytest.LogCaptureFixture,
@@ -286,6 +291,7 @@ def test_a_restore_keeping_less_than_most_is_carried_on_by_a_pass(
     assert after.neighbourhoods_kept() == 1.0
 
 
+@pytest.mark.slow
 def test_a_process_that_restored_part_takes_the_whole_another_saves(
     sessions: sessionmaker[Session], tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -90,6 +90,7 @@ def test_hidden_point_removal_keeps_only_the_side_facing_the_viewpoint() -> None
     assert np.isin(np.arange(len(top), len(points)), from_below).mean() > 0.9
 
 
+@pytest.mark.slow
 def test_views_are_described_as_scans_of_the_loaded_points() -> None:
     settings = EngineSettings(
         max_points=1500, outlier_filter=False, views=ViewSettings(boundary_weights=True)
@@ -326,6 +327,7 @@ def test_best_view_scoring_agrees_with_a_direct_computation(
             assert [m.model.index_id for m in filtered] == [i for i, _ in wanted[:4]]
 
 
+@pytest.mark.slow
 def test_a_filter_that_few_models_pass_widens_the_search_in_rounds(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -417,6 +419,7 @@ def scan_order(
     return [first, *(rest[j] for j in order)][:k]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("reciprocal", [False, True])
 @pytest.mark.parametrize("neighbours", [12, core.rank.scan_order.ANCHOR_NEIGHBOURS])
 def test_scan_mode_orders_as_a_direct_computation(
@@ -456,6 +459,7 @@ def test_scan_mode_orders_as_a_direct_computation(
     assert own not in expected
 
 
+@pytest.mark.slow
 def test_min_score_keeps_scan_modes_order_among_the_models_that_pass(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -485,6 +489,7 @@ def test_min_score_keeps_scan_modes_order_among_the_models_that_pass(
             assert match.view == (None if best == 0 else best - 1)
 
 
+@pytest.mark.slow
 def test_a_model_deleted_since_the_index_synced_is_never_an_answer(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -511,6 +516,7 @@ def test_a_model_deleted_since_the_index_synced_is_never_an_answer(
     assert found != [i for i in expected if i not in (first, later)][:7]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("pushdown", [10_000, 0])
 def test_a_filtered_scan_orders_the_models_that_pass_as_a_direct_computation(
     sessions: sessionmaker[Session], pushdown: int,
@@ -570,6 +576,7 @@ def test_after_the_first_answer_its_kind_comes_before_views_as_near_the_scan(
     assert found_plain[0] == first and set(found_plain[1:4]) == set(other)
 
 
+@pytest.mark.slow
 def test_kept_entry_neighbours_follow_the_catalogue_as_it_changes(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -676,6 +683,7 @@ def sphere_scan(n: int, direction: np.ndarray) -> np.ndarray:
     return sphere[hidden_point_removal(sphere, 20.0 * direction)]
 
 
+@pytest.mark.slow
 def test_scan_mode_on_compressed_partitions_agrees_with_a_direct_computation(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -700,6 +708,7 @@ def test_scan_mode_on_compressed_partitions_agrees_with_a_direct_computation(
         assert match.distance == pytest.approx(plain[match.model.index_id], abs=1e-6)
 
 
+@pytest.mark.slow
 def test_a_partial_scan_finds_its_model_first_by_its_best_view(
     sessions: sessionmaker[Session],
 ) -> None:
@@ -731,6 +740,7 @@ def test_a_partial_scan_finds_its_model_first_by_its_best_view(
     assert whole[0].model.index_id != ids["sphere"]
 
 
+@pytest.mark.slow
 def test_default_mode_answers_exactly_as_before(sessions: sessionmaker[Session]) -> None:
     entries = catalogue(sessions, 30, views=4, seed=8)
     index = ShapeIndex(sessions)
@@ -807,6 +817,7 @@ def test_a_redescribe_replaces_the_views_and_models_without_views_still_count(
     assert index.views_held(changed) == 1
 
 
+@pytest.mark.slow
 def test_migration_0006_goes_up_and_down(database_url: str) -> None:
     engine = make_engine(database_url)
     try:
@@ -836,6 +847,7 @@ def xyz(points: np.ndarray) -> bytes:
     return buffer.getvalue().encode()
 
 
+@pytest.mark.slow
 def test_scan_mode_through_the_api(tmp_path: Any) -> None:
     settings = make_settings(f"sqlite:///{tmp_path / 'shapesearch.db'}", workers=1, scan_views=3)
     engine = engine_settings(settings)

@@ -36,6 +36,7 @@ def scan(seed: int) -> bytes:
     return "\n".join(f"{x:.6f} {y:.6f} {z:.6f}" for x, y, z in points).encode()
 
 
+@pytest.mark.slow
 def test_concurrent_searches_are_bounded_and_health_stays_fast(tmp_path: Path) -> None:
     settings = {**SMALL_ENGINE, "search_max_concurrent": 2, "search_retry_after_seconds": 7}
     with running_server(tmp_path, **settings) as (base, pid):
@@ -95,6 +96,7 @@ def test_concurrent_searches_are_bounded_and_health_stays_fast(tmp_path: Path) -
         searcher.close()
 
 
+@pytest.mark.slow
 def test_identical_uploads_are_described_once(
     database_url: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:

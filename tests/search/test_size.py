@@ -121,6 +121,7 @@ def test_a_small_hull_gets_trimeshs_box_unchanged() -> None:
     assert box_extents(points) == tuple(np.sort(np.ptp(local, axis=0))[::-1])
 
 
+@pytest.mark.slow
 def test_a_finely_tessellated_turned_cylinder_keeps_its_analytic_size() -> None:
     # 8192 sides: 16384 hull vertices, so the box's axes come from a seeded subset of
     # them (every point is still measured); before, a 16384-sided one took 134 s here.
@@ -135,6 +136,7 @@ def test_a_finely_tessellated_turned_cylinder_keeps_its_analytic_size() -> None:
     assert ShapeSize.of_mesh(vertices, faces) == size  # the subset is seeded
 
 
+@pytest.mark.slow
 def test_size_is_rotation_invariant_sorted_and_scales_with_the_part() -> None:
     plain = describe(transformed(PART), filename="p.stl").size
     turned = describe(transformed(PART, seed=3), filename="p.stl").size
@@ -148,6 +150,7 @@ def test_size_is_rotation_invariant_sorted_and_scales_with_the_part() -> None:
     assert tripled.volume == pytest.approx(27 * plain.volume, rel=0.02)
 
 
+@pytest.mark.slow
 def test_a_point_cloud_gets_extents_and_an_area_estimate() -> None:
     mesh = trimesh.load(PART, force="mesh")
     points, _ = trimesh.sample.sample_surface(mesh, 6000, seed=1)
@@ -190,6 +193,7 @@ def similar(client: TestClient, model_id: str, **params: Any) -> list[str]:
     return [result["model"]["external_id"] for result in response.json()["results"]]
 
 
+@pytest.mark.slow
 def test_size_tolerance_weight_filters_and_duplicates(client: TestClient) -> None:
     ids = {
         "part": post(client, transformed(PART), "part", units="mm", metadata='{"qty": 1}'),
@@ -236,6 +240,7 @@ def test_size_tolerance_weight_filters_and_duplicates(client: TestClient) -> Non
     assert [len(group["members"]) for group in families["groups"]] == [4]
 
 
+@pytest.mark.slow
 def test_inches_match_millimetres_at_the_same_physical_size(client: TestClient) -> None:
     millimetre_part = post(client, transformed(PART, scale=25.4), "mm-part", units="mm")
     inch_part = post(client, transformed(PART, seed=4), "in-part", units="in")
