@@ -24,6 +24,7 @@ from core.settings import (
 )
 
 __all__ = [
+    "BENDABLE_WORDS_DESCRIPTOR",
     "BUDGET_POINTS",
     "DEFAULT_VARIANTS",
     "EVAL_POINTS",
@@ -61,6 +62,14 @@ NAIVE_DESCRIPTOR = DescriptorSettings(
 #: variants below.
 SPECTRAL_DESCRIPTOR = replace(
     DescriptorSettings().intrinsic(), hks_weight=0.2, wks_slope_weight=1.0, local_weight=0.0
+)
+
+#: The ``bendable`` family's layout before it became the spectral blocks alone: those and a
+#: local block of idf-weighted HKS words (the shipped ``hks64`` vocabulary) at weight 2. Kept
+#: to compare against (a bendable database described with it re-describes on upgrade).
+BENDABLE_WORDS_DESCRIPTOR = replace(
+    DESCRIPTOR_FAMILIES["bendable"], local_weight=2.0, local_encoding="bof",
+    local_vocabulary="hks64", local_neighbours=(),
 )
 
 #: The layout before the shortened runs (``ss11``): today's with the extrinsic blocks
@@ -130,6 +139,7 @@ def _variants() -> dict[str, EngineSettings]:
         "spectral": _engine(descriptor=spectral),
         "ss11": _engine(descriptor=SS11_DESCRIPTOR),
         "bendable": _engine(descriptor=DESCRIPTOR_FAMILIES["bendable"]),
+        "bendable-words": _engine(descriptor=BENDABLE_WORDS_DESCRIPTOR),
         "default-no-local": _engine(descriptor=replace(default, local_weight=0.0)),
         **{
             f"default-no-{name.removesuffix('_weight')}": _engine(

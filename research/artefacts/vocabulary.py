@@ -25,6 +25,7 @@ import argparse
 from pathlib import Path
 
 import core
+from core.evaluation.variants import BENDABLE_WORDS_DESCRIPTOR
 from core.local_features import Vocabulary
 from core.settings import DESCRIPTOR_FAMILIES, DescriptorSettings
 from research.study import Study, fit_words
@@ -33,7 +34,7 @@ __all__ = ["DATA", "FIRST_SIX", "VOCABULARIES", "words_of"]
 
 #: The shipped vocabularies and the family whose local descriptors each one's words are of.
 VOCABULARIES: dict[str, DescriptorSettings] = {
-    settings.local_vocabulary: settings for settings in DESCRIPTOR_FAMILIES.values()}
+    "hks-sv64": DESCRIPTOR_FAMILIES["parts"], "hks64": BENDABLE_WORDS_DESCRIPTOR}
 #: The shipped words' fitting sources.
 FIRST_SIX = ("bendable", "capod", "gearworks", "generated", "madcad", "parts")
 #: Where the package keeps them.

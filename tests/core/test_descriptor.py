@@ -23,7 +23,12 @@ from core.descriptor import _sample as sample_module
 from core.descriptor._version import canonical_text
 from core.descriptor.blocks import CapsBlock, D2Block, DnaBlock, NormalsBlock, RingBlock
 from core.evaluation.scans import random_rotation
-from core.evaluation.variants import NAIVE_DESCRIPTOR, SPECTRAL_DESCRIPTOR, SS11_DESCRIPTOR
+from core.evaluation.variants import (
+    BENDABLE_WORDS_DESCRIPTOR,
+    NAIVE_DESCRIPTOR,
+    SPECTRAL_DESCRIPTOR,
+    SS11_DESCRIPTOR,
+)
 from core.extrinsic import ANGULAR_BANDS, principal_frame
 from core.settings import DESCRIPTOR_FAMILIES, CutoffSettings, DescriptorSettings, EngineSettings
 from tests.shapes import plate_points, sphere_points, torus_points
@@ -327,12 +332,14 @@ def test_extrinsic_blocks_need_the_points() -> None:
     spectral = DescriptorSpec.from_settings(intrinsic)
     assert not spectral.extrinsic
     assert spectral.histogram(signature, areas, eigenvalues).shape == (1534,)
-    # The bendable family's local block of HKS words is intrinsic, and needs no points.
+    # The bendable family is the spectral blocks alone; its earlier local block of HKS words
+    # is intrinsic too, and needs no points.
     bendable = DESCRIPTOR_FAMILIES["bendable"]
-    words = DescriptorSpec.from_settings(bendable)
-    assert not words.extrinsic and bendable.local_weight > 0
+    assert not DescriptorSpec.from_settings(bendable).extrinsic and bendable.local_weight == 0
+    words = DescriptorSpec.from_settings(BENDABLE_WORDS_DESCRIPTOR)
+    assert not words.extrinsic and BENDABLE_WORDS_DESCRIPTOR.local_weight > 0
     assert words.histogram(signature, areas, eigenvalues).shape == (
-        1534 + local_length(bendable),
+        1534 + local_length(BENDABLE_WORDS_DESCRIPTOR),
     )
 
 
@@ -477,7 +484,8 @@ def test_the_sample_derives_what_blocks_share_once(monkeypatch: pytest.MonkeyPat
 # it makes every stored model stale although its vector did not change.
 DIGEST_TEXTS = {
     "parts": (DESCRIPTOR_FAMILIES["parts"], "41f00960a849386d"),
-    "bendable": (DESCRIPTOR_FAMILIES["bendable"], "6fecff2d83b34f8b"),
+    "bendable": (DESCRIPTOR_FAMILIES["bendable"], "e61fb60c35d08d61"),
+    "bendable-words": (BENDABLE_WORDS_DESCRIPTOR, "6fecff2d83b34f8b"),
     "naive": (NAIVE_DESCRIPTOR, "32a361589317588d"),
     "spectral": (SPECTRAL_DESCRIPTOR, "49c39e7458ecc5fe"),
     "ss11": (SS11_DESCRIPTOR, "85e9366d3e160112"),

@@ -10,6 +10,7 @@ import pytest
 
 from core.descriptor import DescriptorSpec, load_vocabulary
 from core.descriptor.blocks import local as local_module
+from core.evaluation.variants import BENDABLE_WORDS_DESCRIPTOR
 from core.local_features import (
     Vocabulary,
     encode_bof,
@@ -103,9 +104,14 @@ def test_vlad_sees_a_small_region_that_word_counts_barely_notice() -> None:
     assert vlad > 2 * bof
 
 
-@pytest.mark.parametrize("family", sorted(DESCRIPTOR_FAMILIES))
+# Each shipped vocabulary and a layout that uses it: the default family's, and the bendable
+# family's earlier one (kept to compare against).
+WORDS_LAYOUTS = {"parts": DESCRIPTOR_FAMILIES["parts"], "bendable": BENDABLE_WORDS_DESCRIPTOR}
+
+
+@pytest.mark.parametrize("family", sorted(WORDS_LAYOUTS))
 def test_shipped_vocabularies_match_their_family(family: str) -> None:
-    settings = DESCRIPTOR_FAMILIES[family]
+    settings = WORDS_LAYOUTS[family]
     assert settings.family == family
     assert settings.local_weight > 0
     vocabulary = load_vocabulary(settings.local_vocabulary)
