@@ -8,7 +8,7 @@ round, asks each pair's comparison with a tolerance of its own (the cache keys o
 every answer is computed; the tolerance changes no work) and, between them, ``/healthz`` and
 ``/v1/models/{id}/similar?k=5``. Prints the medians, the comparison's core alone (the same
 points compared in this process by ``core.compare``), a cached answer, and the machine's
-load before and after. Target (issue 75): a comparison in at most 0.3 s (median).
+load before and after. Target: a comparison in at most 0.3 s (median).
 
 Usage::
 

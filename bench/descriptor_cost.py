@@ -1,8 +1,9 @@
-"""Benchmark: what the descriptor's blocks cost per part, against the blocks before issue 24
-in one run.
+"""Benchmark: what the descriptor's blocks cost per part, against the default's earlier
+blocks, in one run.
 
 Every loadable part of the shared parts folder and a seeded sample of capod is described end
-to end (``core.pipeline.describe``) with the blocks the default had before issue 24
+to end (``core.pipeline.describe``) with the blocks the default had before the local, ring
+and caps blocks
 (``pre-24``: the spectral blocks, D2, D1, normals and symmetry as today, without the local,
 ring and caps blocks and the shortened runs; ``ss4``, the layout of that time, also had
 spread and axis-offset blocks, which the engine no longer has), the intrinsic ``spectral``

@@ -21,7 +21,7 @@ formats the service parses in its sandbox only (``core.io.EXPANDING_FORMATS`` an
 accepted at the upload check's time limit and fails its job at the describe's; those are
 counted apart.
 
-**Found** (2026-11-29, twenty-fifth session, a 2-core Intel Xeon; 4,700 mutants over seeds
+**Found** (2026-11-29, a 2-core Intel Xeon; 4,700 mutants over seeds
 0-9, every format): one OBJ whose ``v`` lines disagree in length (trimesh read two
 columns; numpy raised ``AxisError``: now refused as ``unparsable``), and 27 of 300 STEP
 mutants that end OpenCascade's process with a segmentation fault (an entity a vector points

@@ -1,6 +1,6 @@
-"""The eigen-solver as it was before issue 7, for baselines measured in the same run.
+"""The previous eigen-solver, for baselines measured in the same run.
 
-Before issue 7 each shift was factored by SuperLU without pivoting in symmetric mode (U = D Lᵀ,
+The previous solver factored each shift by SuperLU without pivoting in symmetric mode (U = D Lᵀ,
 the inertia from the signs of D) and ARPACK ran with its default basis of 2k + 1 vectors per
 band. ``use_previous_solver()`` switches ``core.eigen`` back to that for the rest of the
 process (benchmarks run each baseline in a process of its own).
@@ -34,6 +34,6 @@ def superlu_ldl(matrix: sp.csc_matrix) -> tuple[object, int | None]:
 
 
 def use_previous_solver() -> None:
-    """Make ``SpectralSolver`` factor and iterate as before issue 7 (this process only)."""
+    """Make ``SpectralSolver`` factor and iterate as the previous solver did (this process only)."""
     factor_module._symmetric_ldl = superlu_ldl
     solver_module._BASIS_FACTOR = PREVIOUS_BASIS_FACTOR

@@ -1,10 +1,10 @@
 """Benchmark: scan-mode search at catalogue scale, plain order against the hub discount.
 
 Scan mode (``find_similar(..., mode="scan")``) compares a scan with every model's whole
-descriptor and its virtual views; since the fifteenth session it re-orders the
+descriptor and its virtual views; it re-orders the
 ``core.rank.scan_order.scan_depth(k)`` nearest models by scan mode's hub discount, whose radii
 cost a search of both partitions per entry, taken best bound first until the answer is
-certain; since the thirty-eighth the rest of the pool after the first answer follows that
+certain; the rest of the pool after the first answer follows that
 answer's shape-mode order (``core.rank.scan_order``: the hub discount and the k-reciprocal
 re-rank, ``app.search.similarity._scan._scan_hub_order``), before it by a blend of key and
 nearness to the first answer, whose radii were searched as the first's; since the

@@ -4,11 +4,11 @@ Starts the service on a temporary data directory and a free port (embedded SQLit
 worker, default engine), stores four fixture parts, then sends ``--scans`` scans of
 angle_block (20000 points sampled from the mesh, randomly rotated, 0.3 % noise, as .xyz text,
 each different so that no cache answers) and prints each answer's seconds and whether
-angle_block came first, then the median. Target (issue 7): <= 1.5 s.
+angle_block came first, then the median. Target: <= 1.5 s.
 
 With ``--partial`` each scan is what one random viewpoint sees of the sample (hidden point
 removal), and ``--modes shape scan`` sends every scan in both search modes, interleaved, with
-a median per mode (issue 12: a scan query in <= 2 s). The part sees as many views as the
+a median per mode (target: a scan query in <= 2 s). The part sees as many views as the
 service's default (SHAPESEARCH_SCAN_VIEWS).
 
 Usage::

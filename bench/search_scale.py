@@ -31,7 +31,7 @@ Phases (each prints its figures):
            generator is a second process on 127.0.0.1, bounded by ``--requests`` and
            ``--seconds`` per level); filtered similar (0.1%-selective metadata, metadata
            that three models in four carry, ``stock``: more than SQL hands the index as
-           ids, and a 1%-selective size range, issue 21); 1,000 deletes.
+           ids, and a 1%-selective size range); 1,000 deletes.
 ``duplicates``  for each of ``--backends``: a fresh database of ``--models`` ready models of
            which every 50th is a near copy of the one before (every 200th a second copy:
            triples), so that at ``--duplicates-min-score`` (default 0.999: the synthetic

@@ -9,7 +9,7 @@ in this one process with BLAS pinned to one thread, alternately:
 
 Each is repeated ``--repeat`` times and the per-model median kept. It prints per-model rows,
 the median over models of each, the median per-model ratio views/plain and the ratio of the
-summed times (the budget of issue 12: model + views <= 3x a plain describe). CPU seconds are
+summed times (the budget: model + views <= 3x a plain describe). CPU seconds are
 reported next to wall seconds: on a machine shared with other jobs the wall clock is
 stretched by them, CPU seconds much less.
 

@@ -1,6 +1,6 @@
 """A longer ``models.descriptor_version``: 255 characters instead of 200.
 
-The descriptor of issue 24 adds its local block to the readable part of the version
+The descriptor's local block adds itself to the readable part of the version
 (``core.descriptor.DescriptorSpec.version``), which no longer fitted in 200 characters with
 the extrinsic blocks' names. PostgreSQL enforces the length (the covering index of 0005 is
 rebuilt with the column); SQLite does not, so there is nothing to do there.
