@@ -46,6 +46,7 @@ CATALOGUE: dict[str, Kind] = {
     "non-finite": Kind(422, "Non-finite coordinates"),
     "too-few-points": Kind(422, "Too few points"),
     "degenerate": Kind(422, "Degenerate shape"),
+    "assembly-too-large": Kind(422, "Assembly too large"),
     # Who may ask.
     "unauthorized": Kind(401, "Unauthorized"),
     "forbidden": Kind(403, "Forbidden"),

@@ -1,33 +1,43 @@
-"""Benchmark: the default request path against the framework's floor, with wrk (issue 22).
+"""Benchmark: the default request path against the framework's floor, with wrk (issues 22, 78).
 
 Starts ``shapesearch serve`` with no settings but a temporary data directory and a free port
-(embedded SQLite, embedded worker), stores ``--models`` small parts made in code, then drives
-three routes with `wrk <https://github.com/wg/wrk>`_ (Debian package ``wrk``), one after the
-other, on the same server in the same run:
+(embedded SQLite, embedded worker), stores ``--models`` parts (small parts made in code, or
+the mesh files under ``--parts``, taken in turn from its subdirectories), then measures the
+same routes twice, each time on its own server over the same data, in the same run:
 
-- ``GET /healthz``: FastAPI and uvicorn with no work of ours, the floor;
-- ``GET /v1/models/{id}/similar?k=10``: a search by a stored part (one id per request, cycled);
-- ``GET /v1/models?limit=10``: a catalogue page.
+* **as served** (the default settings, repeated requests: what the one-second response cache
+  serves to clients that ask again): ``GET /healthz``, the floor (FastAPI and uvicorn with no
+  work of ours); ``GET /v1/models/{id}/similar?k=10``, one stored id per request in turn;
+  ``GET /v1/models?limit=10``;
+* **cache off, distinct requests** (``SHAPESEARCH_RESPONSE_CACHE_SECONDS=0``, and every
+  request unlike the last: ``k`` 5..15 with the ids in turn, ``limit`` 5..15): what a request
+  costs when nothing is served from memory.
 
-It prints requests per second, p50 and p99 latency per route and the ratio of each route's rate
-to ``/healthz``'s (target: >= 0.5x). Absolute figures differ ~3x between machines; the ratios
-are measured in one run on one machine and travel better.
+Each route runs ``--rounds`` times, interleaved (so that a noisy minute hits every route), and
+its best round is printed: requests per second, p50 and p99 latency, and the ratio of its rate
+to the same server's ``/healthz`` (targets: >= 0.5x as served, >= 0.3x with the cache off).
+Absolute figures differ ~3x between machines; the ratios are measured in one run on one
+machine and travel better.
 
 Usage::
 
-    .venv/bin/python -m bench.request_path [--models 40] [--connections 16] [--seconds 10]
+    .venv/bin/python -m bench.request_path [--models 40] [--parts DIR] [--connections 16]
+        [--seconds 10] [--rounds 2]
+    .venv/bin/python -m bench.request_path --parts /work/shared/datasets/capod
     SHAPESEARCH_API_PROCESSES=2 .venv/bin/python -m bench.request_path   # any setting passes
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import re
 import shutil
 import subprocess
 import sys
 import tempfile
+from pathlib import Path
 
 import httpx
 import numpy as np
@@ -42,6 +52,22 @@ local i = 0
 request = function()
   i = i + 1
   return wrk.format("GET", ids[(i %% #ids) + 1])
+end
+"""
+# Every request unlike the last: the next id, and k 5..15 (11 and the 40 ids share no factor).
+DISTINCT_SIMILAR = """
+local ids = {%s}
+local i = 0
+request = function()
+  i = i + 1
+  return wrk.format("GET", ids[(i %% #ids) + 1] .. "?k=" .. (5 + (i * 7) %% 11))
+end
+"""
+DISTINCT_PAGES = """
+local i = 0
+request = function()
+  i = i + 1
+  return wrk.format("GET", "/v1/models?limit=" .. (5 + i %% 11))
 end
 """
 
@@ -59,11 +85,26 @@ def part(seed: int) -> bytes:
     return mesh.export(file_type="stl")
 
 
-def store_parts(base: str, count: int) -> list[str]:
-    """Upload ``count`` parts and wait until every one is described."""
+def mesh_files(root: Path, count: int) -> list[Path]:
+    """``count`` mesh files under ``root``: the first file of each subdirectory (sorted),
+    then the second of each, and so on (``root``'s own files when it has no subdirectory)."""
+    folders = sorted(p for p in root.iterdir() if p.is_dir()) or [root]
+    files = [sorted(f for f in folder.iterdir() if f.is_file() and f.suffix.lower() in
+                    (".stl", ".obj", ".ply", ".off")) for folder in folders]
+    chosen = [f for row in itertools.zip_longest(*files) for f in row if f is not None]
+    if len(chosen) < count:
+        raise SystemExit(f"error: {root} holds {len(chosen)} mesh files, fewer than {count}")
+    return chosen[:count]
+
+
+def store_parts(base: str, count: int, root: Path | None = None) -> list[str]:
+    """Upload ``count`` parts (made in code, or the files of ``mesh_files(root)``) and wait
+    until every one is described."""
+    uploads = ([(path.name, path.read_bytes()) for path in mesh_files(root, count)] if root
+               else [(f"part{seed}.stl", part(seed)) for seed in range(count)])
     ids = []
-    for seed in range(count):
-        answer = httpx.post(f"{base}/v1/models", files={"file": (f"part{seed}.stl", part(seed))})
+    for name, content in uploads:
+        answer = httpx.post(f"{base}/v1/models", files={"file": (name, content)}, timeout=60)
         answer.raise_for_status()
         ids.append(answer.json()["id"])
     wait_until(
@@ -71,7 +112,7 @@ def store_parts(base: str, count: int) -> list[str]:
             httpx.get(f"{base}/v1/models/{model_id}").json()["status"] in ("ready", "failed")
             for model_id in ids
         ),
-        600,
+        1800,
     )
     return ids
 
@@ -101,9 +142,33 @@ def _milliseconds(text: str) -> float:
     return float(value) * {"us": 1e-3, "ms": 1.0, "s": 1e3, "m": 6e4}[unit]
 
 
+def measure(base: str, routes: dict[str, tuple[str, str | None]], args: argparse.Namespace
+            ) -> dict[str, dict[str, float]]:
+    """Each route's best of ``args.rounds`` wrk runs, the rounds interleaved (so that a noisy
+    minute hits every route), with its ratio to the best ``/healthz`` rate."""
+    results: dict[str, list[dict[str, float]]] = {name: [] for name in routes}
+    for _ in range(args.rounds):
+        for name, (path, script) in routes.items():
+            results[name].append(wrk(base + path, args.connections, args.seconds, script))
+    floor = max(run["rate"] for run in results["/healthz"])
+    best = {name: max(runs, key=lambda run: run["rate"]) for name, runs in results.items()}
+    for run in best.values():
+        run["ratio"] = run["rate"] / floor
+    return best
+
+
+def report(title: str, best: dict[str, dict[str, float]]) -> None:
+    print(f"{title} (load average {os.getloadavg()[0]:.1f} at the end):")
+    for name, run in best.items():
+        print(f"  {name:>28}: {run['rate']:8.0f} req/s  p50 {run['p50']:6.1f} ms  "
+              f"p99 {run['p99']:6.1f} ms  errors {run['errors']:.0f}  "
+              f"{run['ratio']:.2f}x /healthz")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", type=int, default=40)
+    parser.add_argument("--parts", type=Path, help="mesh files to store instead of made parts")
     parser.add_argument("--connections", type=int, default=16)
     parser.add_argument("--seconds", type=int, default=10)
     parser.add_argument("--rounds", type=int, default=2, help="each route this many times")
@@ -111,30 +176,33 @@ def main() -> int:
     if shutil.which("wrk") is None:
         print("error: wrk is not installed (apt-get install wrk)", file=sys.stderr)
         return 2
-    env = {"SHAPESEARCH_DATA_DIR": tempfile.mkdtemp(), "SHAPESEARCH_LOG_LEVEL": "warning"}
-    with shapesearch(env=env) as base:
-        ids = store_parts(base, args.models)
-        quoted = ", ".join(f'"/v1/models/{model_id}/similar?k=10"' for model_id in ids)
-        routes = {
-            "/healthz": (f"{base}/healthz", None),
-            "similar?k=10": (base, CYCLE_IDS % quoted),
-            "models?limit=10": (f"{base}/v1/models?limit=10", None),
-        }
-        results: dict[str, list[dict[str, float]]] = {name: [] for name in routes}
-        for _ in range(args.rounds):  # interleaved, so that a noisy minute hits every route
-            for name, (url, script) in routes.items():
-                results[name].append(wrk(url, args.connections, args.seconds, script))
-        floor = max(run["rate"] for run in results["/healthz"])
-        print(f"{args.models} models, wrk c={args.connections}, {args.seconds} s x "
-              f"{args.rounds} rounds, {os.cpu_count()} cores, load average "
-              f"{os.getloadavg()[0]:.1f}; settings: "
+    data = tempfile.mkdtemp()
+    started = os.getloadavg()[0]
+    with shapesearch(env={"SHAPESEARCH_DATA_DIR": data}) as base:
+        ids = store_parts(base, args.models, args.parts)
+        print(f"{args.models} models stored ({args.parts or 'made parts'}), wrk "
+              f"c={args.connections}, {args.seconds} s x {args.rounds} rounds, "
+              f"{os.cpu_count()} cores, load average {started:.1f} at the start; settings: "
               + (" ".join(f"{k}={v}" for k, v in os.environ.items()
                           if k.startswith("SHAPESEARCH_")) or "none"))
-        for name, runs in results.items():
-            best = max(runs, key=lambda run: run["rate"])
-            print(f"{name:>16}: {best['rate']:8.0f} req/s  p50 {best['p50']:6.1f} ms  "
-                  f"p99 {best['p99']:6.1f} ms  errors {best['errors']:.0f}  "
-                  f"{best['rate'] / floor:.2f}x /healthz")
+        served = measure(base, {
+            "/healthz": ("/healthz", None),
+            "similar?k=10": ("", CYCLE_IDS % ", ".join(
+                f'"/v1/models/{model_id}/similar?k=10"' for model_id in ids)),
+            "models?limit=10": ("/v1/models?limit=10", None),
+        }, args)
+    report("as served (repeated requests)", served)
+    # The same data on a server without the response cache, every request unlike the last.
+    cache_off = {"SHAPESEARCH_DATA_DIR": data, "SHAPESEARCH_RESPONSE_CACHE_SECONDS": "0"}
+    with shapesearch(env=cache_off) as base:
+        uncached = measure(base, {
+            "/healthz": ("/healthz", None),
+            "similar?k=5..15": ("", DISTINCT_SIMILAR % ", ".join(
+                f'"/v1/models/{model_id}/similar"' for model_id in ids)),
+            "models?limit=5..15": ("", DISTINCT_PAGES),
+        }, args)
+    report("cache off, distinct requests", uncached)
+    shutil.rmtree(data, ignore_errors=True)
     return 0
 
 

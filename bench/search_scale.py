@@ -687,10 +687,17 @@ def phase_db(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
         print(f"API start-up (to /readyz 200) {startup[0]:.1f} s, hub-discount "
               f"neighbourhoods kept after {startup[1]:.1f} s; {api_memory(process.pid)}")
         rng = np.random.default_rng(9)
-        similar = [f"/v1/models/{m}/similar?k={K}" for m in rng.choice(model_ids, 5000)]
-        for concurrency in args.concurrency:
+        # Distinct query models, each level its own (a model queried twice could find its
+        # candidates' order kept, app.search.similarity._orders: each request here is new).
+        levels = len(args.concurrency)
+        chosen = rng.choice(model_ids, min(len(model_ids), max(5000, args.requests * levels)),
+                            replace=False)
+        similar = [f"/v1/models/{m}/similar?k={K}" for m in chosen]
+        share = len(similar) // levels
+        for level, concurrency in enumerate(args.concurrency):
             logged = (OUT / "api.log").stat().st_size
-            r = load(base, args, concurrency, similar, "GET")
+            r = load(base, args, concurrency, similar[level * share : (level + 1) * share],
+                     "GET")
             print(
                 f"HTTP similar c={concurrency:>2}: {r['rps']:.0f} req/s, p50 {r['p50']:.1f} ms, "
                 f"p99 {r['p99']:.1f} ms ({r['count']} requests, errors {r['errors']}; "

@@ -51,6 +51,7 @@ class InvalidShapeError(ShapeSearchError):
         "degenerate",
         "too_large",
         "cad_unavailable",
+        "assembly_too_large",
     )
 
     def __init__(self, reason: str, message: str) -> None:

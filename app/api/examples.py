@@ -302,6 +302,33 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
                           "are being computed already; retry in 1 s."),
         },
     },
+    ("get", "/v1/models/{model_id}/parts"): {
+        "responses": {
+            200: {"assembly_id": _ID3, "parts": [
+                {"model": _SUMMARY, "count": 2, "placements": [
+                    [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+                     0.0, 0.0, 0.0, 1.0],
+                    [1.0, 0.0, 0.0, 60.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+                     0.0, 0.0, 0.0, 1.0]]},
+                {"model": _SUMMARY2, "count": 1, "placements": [
+                    [0.0, -1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 40.0, 0.0, 0.0, 1.0, 25.4,
+                     0.0, 0.0, 0.0, 1.0]]},
+            ]},
+            401: _UNAUTHORIZED,
+            404: _NOT_FOUND,
+        },
+    },
+    ("get", "/v1/models/{model_id}/where-used"): {
+        "responses": {
+            200: {"model_id": _ID, "assemblies": [
+                {"assembly": {**_SUMMARY3, "external_id": "ASM-200", "name": "Fixture plate",
+                              "size": None},
+                 "count": 2, "parts": [_ID]},
+            ]},
+            401: _UNAUTHORIZED,
+            404: _NOT_FOUND,
+        },
+    },
     ("get", "/v1/models/{model_id}/preview"): {
         "responses": {
             401: _UNAUTHORIZED,

@@ -138,6 +138,17 @@ class ModelSummary(BaseModel):
     size: Size | None
 
 
+class WhereUsedEntry(BaseModel):
+    """One assembly that uses a part (issue 76, ``app.api.routes.assemblies``)."""
+
+    assembly: ModelSummary = Field(description="An assembly that contains the part.")
+    count: int = Field(description="How many times it places the part (or its copies).")
+    parts: list[uuid.UUID] = Field(
+        description="The part models of that assembly that matched: the part itself, or "
+        "parts the index finds to be copies of it (likeness `copy`, sizes within 3 %).",
+    )
+
+
 class SimilarResult(BaseModel):
     model: ModelSummary
     distance: float = Field(description="L2 distance between the unit descriptors, in [0, 2].")
@@ -159,6 +170,13 @@ class SimilarResult(BaseModel):
         "\"different kind\" below. Words for reading, not proof: a copy at another size and "
         "a same-kind part of the same proportions read alike (compare sizes, or "
         "/v1/models/{id}/compare/{other_id}). Null without a calibration.",
+    )
+    # Only in a similar answer asked with where_used=true (absent otherwise, not null).
+    where_used: list[WhereUsedEntry] | None = Field(
+        default=None,
+        exclude_if=lambda value: value is None,
+        description="With `where_used=true` only: the assemblies that contain this model "
+        "or a copy of it, as `GET /v1/models/{id}/where-used` answers.",
     )
 
 

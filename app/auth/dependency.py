@@ -24,7 +24,7 @@ from app.api.deps import Services, ServicesDep
 from app.api.problems import Problem
 from app.auth.keys import DEFAULT_TENANT, keys_exist, tenant_for_key
 
-__all__ = ["TenantDep", "current_tenant"]
+__all__ = ["OPEN", "TenantDep", "current_tenant"]
 
 _bearer = HTTPBearer(
     auto_error=False,
@@ -41,11 +41,11 @@ def _unauthorized(detail: str) -> Problem:
 
 
 _CACHE_MAX = 10_000  # entries; the cache is cleared when full, so it never grows unbounded
-_OPEN = "\0open"  # cache key of the answer for a request without credentials
+OPEN = "\0open"  # cache key of the answer for a request without credentials
 
 
 class _LookupCache:
-    """token -> (tenant or None, expiry); ``_OPEN`` -> whether keys are needed at all."""
+    """token -> (tenant or None, expiry); ``OPEN`` -> whether keys are needed at all."""
 
     def __init__(self) -> None:
         self._entries: dict[str, tuple[str | None, float]] = {}
@@ -74,9 +74,9 @@ def _cache(request: Request) -> _LookupCache:
 
 
 def _lookup(services: Services, token: str) -> str | None:
-    """The tenant of ``token`` (``_OPEN``: "default" if no key is needed, else None)."""
+    """The tenant of ``token`` (``OPEN``: "default" if no key is needed, else None)."""
     with services.sessions() as session:
-        if token == _OPEN:
+        if token == OPEN:
             needed = services.settings.require_api_keys or keys_exist(session)
             return None if needed else DEFAULT_TENANT
         return tenant_for_key(session, token)
@@ -87,7 +87,7 @@ async def current_tenant(
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
     services: ServicesDep,
 ) -> str:
-    token = _OPEN if credentials is None else credentials.credentials
+    token = OPEN if credentials is None else credentials.credentials
     cache = _cache(request)
     hit, tenant = cache.get(token)
     if not hit:

@@ -11,6 +11,7 @@
     index_events  the change feed the search index of every API process follows
     feed_state    one row holding the last revision handed out to the change feed
     duplicate_reports, duplicate_groups  stored duplicate reports (app.search.duplicate_reports)
+    assembly_parts  each placement of a part model in an assembly model (app.ingest.assemblies)
 
 ``index_id`` is the models' integer primary key because FAISS keys its vectors by int64;
 the public identifier is the UUID ``id``.
@@ -45,6 +46,7 @@ from core.descriptor import VERSION_LENGTH
 
 __all__ = [
     "ApiKey",
+    "AssemblyPart",
     "Base",
     "DuplicateGroup",
     "DuplicateReport",
@@ -376,3 +378,26 @@ class DuplicateGroup(Base):
     # them: [i, j, score] with i < j indexes of ``members``, best first.
     members: Mapped[list[str]] = mapped_column(JSON)
     pairs: Mapped[list[list[float]]] = mapped_column(JSON)
+
+
+class AssemblyPart(Base):
+    """One placement of a part in an assembly (migration 0018): both are models of the same
+    tenant; a part placed n times has n rows, ``instance`` 0 to n - 1. Deleting either model
+    deletes its rows; a new revision of the assembly replaces all of its rows at once."""
+
+    __tablename__ = "assembly_parts"
+    __table_args__ = (
+        # Where-used: the assemblies that hold a part.
+        Index("ix_assembly_parts_part", "tenant", "part_id"),
+    )
+
+    assembly_id: Mapped[uuid.UUID] = mapped_column(
+        Uuid, ForeignKey("models.id", ondelete="CASCADE"), primary_key=True
+    )
+    part_id: Mapped[uuid.UUID] = mapped_column(
+        Uuid, ForeignKey("models.id", ondelete="CASCADE"), primary_key=True
+    )
+    instance: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
+    tenant: Mapped[str] = mapped_column(String(200))
+    # The 4x4 transform from the part's frame to the assembly's, 16 floats row-major.
+    placement: Mapped[list[float]] = mapped_column(JSON)

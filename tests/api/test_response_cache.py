@@ -108,3 +108,28 @@ def test_a_hit_carries_its_own_request_headers(database_url: str) -> None:
             assert answer.headers["x-request-id"] == f"req-{number}"
             assert answer.headers.get_list("vary") == ["Origin"]
             assert answer.headers["access-control-allow-origin"] == "https://plm.example"
+
+
+def test_an_answer_is_the_same_with_the_cache_on_and_off(database_url: str) -> None:
+    """One query's answer, cache on (the miss that fills it, then the hit) and cache off (each
+    request computed): the same bytes, for a similar list and a page."""
+    ids = []
+    with TestClient(create_app(make_settings(database_url), embedded_worker=True,
+                               job_handler=fake_describe)) as client:
+        for name in ("20mm-xyz-cube.stl", "cylinder.stl", "angle_block.STL", "round.stl"):
+            ids.append(upload(client, PARTS / name, name=name).json()["id"])
+        for model_id in ids:
+            wait_for_status(client, model_id)
+    queries = [f"/v1/models/{ids[0]}/similar?k=2", f"/v1/models/{ids[1]}/similar",
+               "/v1/models?limit=3", "/v1/models"]
+    answers: dict[str, list[bytes]] = {query: [] for query in queries}
+    for seconds in (SECONDS, 0.0):
+        settings = make_settings(database_url, response_cache_seconds=seconds)
+        with TestClient(create_app(settings, job_handler=fake_describe)) as client:
+            for query in queries:
+                for _ in range(2):  # cache on: the miss, then the hit
+                    response = client.get(query)
+                    assert response.status_code == 200
+                    answers[query].append(response.content)
+    for query, bodies in answers.items():
+        assert len(set(bodies)) == 1, query

@@ -10,9 +10,11 @@ import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import IO
 
 import httpx
 import pytest
@@ -55,13 +57,25 @@ class Cluster:
             **{f"SHAPESEARCH_{name.upper()}": str(value) for name, value in SMALL_ENGINE.items()},
         }
         self.processes: list[subprocess.Popen[bytes]] = []
+        self._logs: dict[int, IO[bytes]] = {}
 
     def start(self, *args: str) -> subprocess.Popen[bytes]:
+        # Its log goes to a file: a pipe nobody reads while the test runs fills after ~250
+        # access lines, and then the process blocks in a logging write, every request with
+        # it (a status poll timed out after 30 s while two workers described).
+        log = tempfile.TemporaryFile()  # noqa: SIM115 (closed by stop)
         process = subprocess.Popen(
-            [SHAPESEARCH, *args], env=self.env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+            [SHAPESEARCH, *args], env=self.env, stdout=subprocess.DEVNULL, stderr=log
         )
         self.processes.append(process)
+        self._logs[process.pid] = log
         return process
+
+    def stderr(self, process: subprocess.Popen[bytes]) -> bytes:
+        """What ``process`` wrote to its stderr so far."""
+        log = self._logs[process.pid]
+        log.seek(0)
+        return log.read()
 
     def api(self) -> httpx.Client:
         port = free_port()
@@ -70,8 +84,7 @@ class Cluster:
 
         def ready() -> bool:
             if process.poll() is not None:
-                stderr = process.stderr.read().decode() if process.stderr else ""
-                pytest.fail(f"API process exited: {stderr[-2000:]}")
+                pytest.fail(f"API process exited: {self.stderr(process).decode()[-2000:]}")
             try:
                 return client.get("/readyz").status_code == 200
             except httpx.HTTPError:
@@ -89,6 +102,8 @@ class Cluster:
             except subprocess.TimeoutExpired:
                 process.kill()
                 process.wait()
+        for log in self._logs.values():
+            log.close()
 
 
 @pytest.fixture
@@ -171,7 +186,7 @@ def test_one_serve_runs_several_api_processes_on_its_port(
         client = httpx.Client(base_url=base_url, timeout=30)
 
         def ready() -> bool:
-            assert process.poll() is None, process.stderr.read().decode()[-2000:]  # type: ignore[union-attr]
+            assert process.poll() is None, deployment.stderr(process).decode()[-2000:]
             try:
                 return client.get("/readyz").status_code == 200
             except httpx.HTTPError:
@@ -242,7 +257,7 @@ def test_several_api_processes_stop_on_sigterm_and_refuse_a_taken_port(
             taken.listen()
             refused = deployment.start("serve", "--port", str(taken.getsockname()[1]))
             assert refused.wait(60) == 1
-            assert b"cannot listen on 127.0.0.1" in refused.stderr.read()  # type: ignore[union-attr]
+            assert b"cannot listen on 127.0.0.1" in deployment.stderr(refused)
 
         port = free_port()
         process = deployment.start("serve", "--port", str(port))

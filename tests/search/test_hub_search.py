@@ -458,3 +458,45 @@ def test_a_candidate_the_index_dropped_comes_after_the_others_in_the_re_rank(
     # The others are ranked among themselves, as if the dropped one had never been found.
     expected = pool_keys(query, rows[:10], hub[:-1])
     assert keys[:-1] == pytest.approx(expected, abs=1e-12)
+
+
+@pytest.mark.parametrize("reciprocal", [False, True], ids=["hub", "reciprocal"])
+def test_a_query_model_s_kept_order_answers_as_a_fresh_one_until_the_index_changes(
+    sessions: sessionmaker[Session], reciprocal: bool
+) -> None:
+    from app.search.similarity._orders import ORDERS
+
+    rows = unit_rows(40, 6, seed=11).astype(np.float32)
+    vectors = {add_ready(sessions, row): row for row in rows}
+    index = ShapeIndex(sessions, hub_neighbours=4, reciprocal=reciprocal)
+    index.rebuild()
+    ids = list(vectors)
+
+    def answer(query_id: int, k: int) -> list[tuple[int, float, float]]:
+        found = search(index, sessions, vectors[query_id], k=k, exclude=query_id,
+                       indexed_query=True)
+        return [(m.model.index_id, m.distance, m.score) for m in found]
+
+    ORDERS.clear()
+    fresh = {(q, k): answer(q, k) for q in ids[:5] for k in (2, 5, 10)}
+    assert len(ORDERS) > 0
+    computed = {(q, k): answer(q, k) for q in ids[:5] for k in (2, 5, 10)}  # kept orders
+    assert computed == fresh
+    for q in ids[:5]:
+        assert [i for i, _, _ in fresh[q, 10]] == hub_order(
+            vectors, vectors[q], 10, 4, exclude=q, reciprocal=reciprocal)
+    # A new model near the first query: its kept order is not read again.
+    stamp = index.stamp(KEY)
+    near = vectors[ids[0]] + 0.01 * rows[1]
+    newcomer = add_ready(sessions, (near / np.linalg.norm(near)).astype(np.float32))
+    index.sync()
+    assert index.stamp(KEY) != stamp
+    assert answer(ids[0], 2)[0][0] == newcomer
+    vectors[newcomer] = (near / np.linalg.norm(near)).astype(np.float32)
+    assert [i for i, _, _ in answer(ids[0], 10)] == hub_order(
+        vectors, vectors[ids[0]], 10, 4, exclude=ids[0], reciprocal=reciprocal)
+    # A deleted one leaves at once, kept order or not.
+    delete_model(sessions, newcomer)
+    index.sync()
+    assert newcomer not in [i for i, _, _ in answer(ids[0], 10)]
+    assert answer(ids[0], 10) == fresh[ids[0], 10]

@@ -5,6 +5,7 @@ Handlers are thin: they read the request, call the subsystem that does the work
 """
 
 from app.api.routes import (
+    assemblies,
     compare,
     duplicates,
     health,
@@ -22,6 +23,7 @@ ROUTERS = (
     revisions.router,  # before models: /models/by-external-id/... is not an id
     models.router,
     compare.router,
+    assemblies.router,
     search.router,
     jobs.router,
     webhooks.router,

@@ -3,31 +3,58 @@
 from __future__ import annotations
 
 import asyncio
+import functools
 import uuid
+from dataclasses import dataclass
+from datetime import UTC, datetime
 from typing import Annotated, Any
 
 import numpy as np
 from fastapi import APIRouter, Depends, File, Form, Header, Query, Request, Response, UploadFile
 from fastapi.responses import JSONResponse
-from sqlalchemy import Connection, Row, Select, and_, delete, or_, select, update
+from sqlalchemy import (
+    Connection,
+    Engine,
+    Row,
+    Select,
+    Text,
+    and_,
+    bindparam,
+    delete,
+    or_,
+    select,
+    type_coerce,
+    update,
+)
 from sqlalchemy.exc import IntegrityError
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, aliased
 
+from app.api.answers import (
+    JOB_COLUMNS,
+    MODEL_COLUMNS,
+    STORED_JSON,
+    STORED_TIMES,
+    STORED_UUIDS,
+    json_response,
+    model_fields,
+    similar_body,
+    stored_fields,
+)
+from app.api.assembly_schemas import AssemblyField
 from app.api.cursors import KeysetCursor, encode_keyset, keyset_after
 from app.api.deps import Services, ServicesDep, SessionDep
 from app.api.idempotency import remember, replay_or_refuse, request_sha256
 from app.api.inputs import JSON_OBJECT_FIELD, METADATA_HELP, InputLimits, fields_once
 from app.api.lookups import load_model, model_not_found, parse_model_id
 from app.api.problems import Problem, problem_responses
+from app.api.routes.assemblies import refuse_bomb, split_checked, with_where_used
 from app.api.schemas import (
     ModelList,
     ModelPatch,
     ModelResource,
     ModelStatus,
-    SimilarQuery,
     SimilarResponse,
     model_resource,
-    similar_results,
 )
 from app.api.search_params import (
     FILTER_PARAMETERS,
@@ -44,7 +71,8 @@ from app.api.search_params import (
 from app.api.uploads import UPLOAD_FILE_HELP, BackgroundField
 from app.auth.dependency import TenantDep
 from app.db.feed import record_event
-from app.db.models import Model, utcnow
+from app.db.models import Job, Model, utcnow
+from app.ingest.assemblies import add_parts
 from app.ingest.revisions import create_model_rows, latest_jobs, lock_models
 from app.search.similarity import Match, QueryChanged, SearchMode, find_similar
 from app.search.sizing import extents_mm
@@ -88,6 +116,7 @@ def upload_model(
     ] = None,
     units: UnitsField = None,
     background: BackgroundField = False,
+    assembly: AssemblyField = None,
     idempotency_key: Annotated[
         str | None,
         Header(
@@ -102,13 +131,18 @@ def upload_model(
     limits.text(name, "/name")
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata)
+    if assembly == "split":  # issue 76: a bomb is 422 assembly-too-large, said at once
+        refuse_bomb(file.file, file.filename, services.settings.max_upload_bytes)
     upload = services.uploads.read(file.file, file.filename)
-    request_digest = request_sha256(upload.sha256, external_id, name, meta, units, background)
+    split = assembly == "split"
+    request_digest = request_sha256(upload.sha256 + (":split" if split else ""), external_id,
+                                    name, meta, units, background)
     if idempotency_key is not None:
         replay = replay_or_refuse(services.sessions, tenant, idempotency_key, request_digest,
                                   services.settings.idempotency_ttl_seconds)
         if replay is not None:
             return replay
+    parts = split_checked(services.settings, upload) if split else []
     model = Model(
         id=uuid.uuid4(),
         tenant=tenant,
@@ -126,6 +160,8 @@ def upload_model(
         # The model, its bytes and its job commit together: no accepted upload without a job.
         with services.sessions.begin() as session:
             job = create_model_rows(session, model, upload.content, background=background)
+            if split:  # issue 76: its parts as models of their own, with their placements
+                add_parts(session, model, parts, background=background)
             resource = model_resource(model, job)
             if idempotency_key is not None:
                 remember(session, tenant, idempotency_key, request_digest, 202, resource,
@@ -158,39 +194,103 @@ async def list_models(
     external_id: str | None = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     cursor: KeysetCursor = "",
-) -> ModelList:
+) -> Response:
     # Like similar: one hop to the query pool for the whole page (a sync route and its
     # session dependency took three hops of the framework's 40-thread pool, whose threads
     # then contend for the GIL under load).
-    query = select(Model).where(Model.tenant == tenant)
+    kind, values = page_query(tenant, status, external_id, keyset_after(cursor), limit)
+    page = await asyncio.get_running_loop().run_in_executor(
+        services.queries, model_page, services.reader, kind, values, limit
+    )
+    return json_response(page)
+
+
+def page_query(tenant: str, status: str | None, external_id: str | None,
+               after: tuple[datetime, uuid.UUID] | None,
+               limit: int) -> tuple[tuple[bool, bool, bool], dict[str, Any]]:
+    """What a catalogue page asks: which filters (``_page_statement``'s kind) and the values
+    they and its statement bind."""
+    values: dict[str, Any] = {"tenant": tenant, "limit": limit + 1}
     if status is not None:
-        query = query.where(Model.status == status)
+        values["status"] = status
     if external_id is not None:
-        query = query.where(Model.external_id == external_id)
-    if (after := keyset_after(cursor)) is not None:
-        created_at, model_id = after
+        values["external_id"] = external_id
+    if after is not None:
+        values["created_at"], values["model_id"] = after
+    return (status is not None, external_id is not None, after is not None), values
+
+
+@functools.lru_cache(maxsize=16)
+def _page_statement(stored: bool, by_status: bool, by_external_id: bool,
+                    after: bool) -> Select[Any]:
+    """One statement for a whole page: the columns a ``ModelResource`` shows, each model with
+    its latest job (``latest_jobs``' choice: the last by ``created_at``, then ``id``); the
+    values are bound (``tenant``, ``limit``, and ``status``, ``external_id``,
+    ``created_at`` and ``model_id`` as asked), so it is built once per kind of page.
+    ``stored``: the ``STORED_*`` columns read as the text SQLite stores
+    (``app.api.answers.stored_fields``)."""
+    job = aliased(Job)
+    latest = (
+        select(Job.id).where(Job.model_id == Model.id)
+        .order_by(Job.created_at.desc(), Job.id.desc()).limit(1).scalar_subquery()
+    )
+    query = (
+        select(*(_column(Model, name, stored) for name in MODEL_COLUMNS),
+               *(_column(job, name, stored) for name in JOB_COLUMNS))
+        .outerjoin(job, job.id == latest)
+        .where(Model.tenant == bindparam("tenant"))
+    )
+    if by_status:
+        query = query.where(Model.status == bindparam("status"))
+    if by_external_id:
+        query = query.where(Model.external_id == bindparam("external_id"))
+    if after:
         # Keyset pagination on (created_at, id): stable while models come and go.
         query = query.where(
             or_(
-                Model.created_at < created_at,
-                and_(Model.created_at == created_at, Model.id < model_id),
+                Model.created_at < bindparam("created_at"),
+                and_(Model.created_at == bindparam("created_at"),
+                     Model.id < bindparam("model_id")),
             )
         )
-    query = query.order_by(Model.created_at.desc(), Model.id.desc()).limit(limit + 1)
-    return await asyncio.get_running_loop().run_in_executor(
-        services.queries, _model_page, services, query, limit
-    )
+    return query.order_by(Model.created_at.desc(), Model.id.desc()).limit(bindparam("limit"))
 
 
-def _model_page(services: Services, query: Select[Model], limit: int) -> ModelList:
-    with services.sessions() as session:
-        rows = session.scalars(query).all()
-        page = rows[:limit]
-        next_cursor = encode_keyset(page[-1]) if len(rows) > limit else None
-        jobs = latest_jobs(session, [m.id for m in page])
-        return ModelList(
-            items=[model_resource(m, jobs.get(m.id)) for m in page], next_cursor=next_cursor
-        )
+def _column(entity: Any, name: str, stored: bool) -> Any:
+    column = getattr(entity, name)
+    if stored and name in STORED_UUIDS | STORED_JSON | STORED_TIMES:
+        return type_coerce(column, Text)  # the same SQL; the value as stored
+    return column
+
+
+def model_page(reader: Engine, kind: tuple[bool, bool, bool], values: dict[str, Any],
+               limit: int) -> dict[str, Any]:
+    """A ``ModelList`` as plain values (``app.api.answers``) of the page ``page_query``
+    describes."""
+    stored = reader.dialect.name == "sqlite"
+    with reader.connect() as connection:
+        rows = connection.execute(_page_statement(stored, *kind), values).all()
+    models = len(MODEL_COLUMNS)
+    page = rows[:limit]
+    fields = stored_fields if stored else model_fields
+    items = [fields(row[:models], None if row[models] is None else row[models:])
+             for row in page]
+    next_cursor = None
+    if len(rows) > limit and page:
+        model_id, created_at = page[-1][0], page[-1][MODEL_COLUMNS.index("created_at")]
+        if stored:
+            model_id = uuid.UUID(model_id)
+            created_at = datetime.fromisoformat(created_at).replace(tzinfo=UTC)
+        next_cursor = encode_keyset(_Keyed(model_id, created_at))
+    return {"items": items, "next_cursor": next_cursor}
+
+
+@dataclass
+class _Keyed:
+    """What ``encode_keyset`` reads of a page's last row."""
+
+    id: uuid.UUID
+    created_at: datetime
 
 
 @router.get(
@@ -294,15 +394,23 @@ async def similar_models(
     k: Annotated[int, Query(ge=1, le=100)] = 10,
     min_score: Annotated[float | None, Query(ge=0, le=1)] = None,
     mode: ModeQuery = "shape",
-) -> SimilarResponse:
+    where_used: Annotated[bool, Query(
+        description="true: each result also lists `where_used`, the assemblies that "
+        "contain it or a copy of it (as `GET /v1/models/{id}/where-used`).")] = False,
+) -> Response:
     # One hop for the whole query (database and FAISS) to a small pool of its own: the
     # event loop is never blocked, and a few threads per core contend less for the GIL
     # than one per concurrent request would. The index is kept in step by the
     # background sync, not polled per request.
-    return await asyncio.get_running_loop().run_in_executor(
-        services.queries, _similar_models, services, tenant, model_id, k, min_score, filters,
+    answer = await asyncio.get_running_loop().run_in_executor(
+        services.queries, similar_answer, services, tenant, model_id, k, min_score, filters,
         ranges, mode, size,
     )
+    if where_used:  # issue 76
+        answer = await asyncio.get_running_loop().run_in_executor(
+            services.queries, with_where_used, services, tenant, answer
+        )
+    return json_response(answer)
 
 
 def ready_query(
@@ -339,7 +447,7 @@ def ready_query(
     return model
 
 
-def _similar_models(
+def similar_answer(
     services: Services,
     tenant: str,
     model_id: str,
@@ -349,7 +457,8 @@ def _similar_models(
     ranges: dict[str, tuple[float | None, float | None]],
     mode: SearchMode,
     size: SizeOptions,
-) -> SimilarResponse:
+) -> Any:
+    """A ``SimilarResponse`` as plain values (``app.api.answers.similar_body``)."""
     options: dict[str, Any] = {
         "k": k,
         "min_score": min_score,
@@ -385,7 +494,7 @@ def _similar_by_index(
     model_id: str,
     mode: SearchMode,
     options: dict[str, Any],
-) -> SimilarResponse | None:
+) -> Any:
     """The answer with the query vector taken from the index and the query model's row
     confirmed with the candidates': one statement instead of two. None when this path does
     not apply (scan mode's own descriptor, a model the index does not hold) or the model
@@ -415,10 +524,5 @@ def _similar_by_index(
     return _similar_response(parsed, matches, key[1])
 
 
-def _similar_response(
-    model_id: uuid.UUID, matches: list[Match], descriptor_version: str
-) -> SimilarResponse:
-    return SimilarResponse(
-        query=SimilarQuery(model_id=model_id),
-        results=similar_results(matches, descriptor_version),
-    )
+def _similar_response(model_id: uuid.UUID, matches: list[Match], descriptor_version: str) -> Any:
+    return similar_body(model_id, matches, descriptor_version)

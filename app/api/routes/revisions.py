@@ -21,6 +21,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 from starlette.convertors import Convertor, register_url_convertor
 
+from app.api.assembly_schemas import AssemblyField
 from app.api.deps import ServicesDep, SessionDep
 from app.api.inputs import (
     JSON_OBJECT_FIELD,
@@ -31,11 +32,13 @@ from app.api.inputs import (
 )
 from app.api.lookups import load_model, parse_model_id
 from app.api.problems import Problem, problem_responses
+from app.api.routes.assemblies import refuse_bomb, split_checked
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
 from app.api.search_params import UnitsField
 from app.api.uploads import UPLOAD_FILE_HELP, BackgroundField, CheckedUpload
 from app.auth.dependency import TenantDep
 from app.db.models import Job, Model, ModelRevision, Upload, utcnow
+from app.ingest.assemblies import add_parts
 from app.ingest.revisions import (
     add_revision,
     create_model_rows,
@@ -136,6 +139,7 @@ def upsert_model(
     ] = None,
     units: UnitsField = None,
     background: BackgroundField = False,
+    assembly: AssemblyField = None,
 ) -> ModelResource:
     limits = InputLimits.from_settings(services.settings)
     if not external_id:
@@ -144,7 +148,10 @@ def upsert_model(
     limits.text(name, "/name")
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata) if metadata is not None else None
+    if assembly == "split":  # issue 76: a bomb is 422 assembly-too-large, said at once
+        refuse_bomb(file.file, file.filename, services.settings.max_upload_bytes)
     upload = services.uploads.read(file.file, file.filename)
+    parts = split_checked(services.settings, upload) if assembly == "split" else None
     for _ in range(2):  # a concurrent create of the same external id: the second pass updates
         try:
             with services.sessions.begin() as session:
@@ -162,6 +169,8 @@ def upsert_model(
                     job = create_model_rows(
                         session, model, upload.content, background=background
                     )
+                    if parts is not None:  # issue 76
+                        add_parts(session, model, parts, background=background)
                     response.status_code = 201
                     response.headers["Location"] = f"/v1/models/{model.id}"
                     return model_resource(model, job)
@@ -173,6 +182,8 @@ def upsert_model(
                     model.units = units
                 model.updated_at = utcnow()
                 pending = _describe_if_new(session, model, upload, background=background)
+                if parts is not None:  # the new part list replaces the old one at once
+                    add_parts(session, model, parts, background=background, reuse=True)
                 response.status_code = 200 if pending is None else 202
                 session.flush()
                 return model_resource(

@@ -275,6 +275,17 @@ class ShapeIndex:
         partition = self._held.partitions.get(key)
         return partition is not None and partition.approximate
 
+    def stamp(self, key: PartitionKey) -> tuple[int, ...] | None:
+        """What partition ``key`` holds and the hub-discount neighbourhoods it keeps, as
+        numbers that move on every change of either and are never those of another
+        partition (None without such a partition): what was computed from them (a query
+        model's order, ``app.search.similarity``) is current while its stamp is."""
+        partition = self._held.partitions.get(key)
+        if partition is None:
+            return None
+        kept = partition.kept
+        return partition.serial, partition.version, kept.k, kept.moves
+
     def neighbour_graph(self, key: PartitionKey, k: int) -> NeighbourGraph:
         """The ``k`` most alike others of every vector of partition ``key`` (see
         ``app.search.index._neighbours``); empty without such a partition."""

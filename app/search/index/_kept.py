@@ -140,6 +140,9 @@ class KeptNeighbourhoods:
         self.pass_version = -1  # the version a whole pass (keep_neighbourhoods) went through
         self.pass_stopped = False  # the last pass was stopped by a change before its end
         self.saved_as: tuple[int, int] = (-1, 0)  # (version, count) last saved to disk
+        # Moves whenever a neighbourhood is kept or forgotten (``version`` moves with the
+        # partition): what was computed from the kept ones is current while both stand.
+        self.moves = 0
         self._table = PassTable.empty()
         self._entries: dict[int, Neighbourhood] = {}  # kept outside a pass
 
@@ -193,6 +196,7 @@ class KeptNeighbourhoods:
     def put(self, own: int, entry: Neighbourhood) -> None:
         """Keep one neighbourhood a query computed."""
         self._entries[own] = entry
+        self.moves += 1
 
     def start_pass(self, ids: np.ndarray) -> None:
         """A whole pass over ``ids : (n,) int64`` (the partition's) begins: a table for all
@@ -208,6 +212,7 @@ class KeptNeighbourhoods:
             members[rows[present]] = previous.members[present]
             held[rows[present]] = True
         self._table = PassTable(order, values, members, held)
+        self.moves += 1
 
     def put_block(self, ids: np.ndarray, cosines: np.ndarray, members: np.ndarray) -> None:
         """Keep the neighbourhoods of ``ids : (m,) int64`` of the running pass, from each
@@ -221,6 +226,7 @@ class KeptNeighbourhoods:
         table.values[rows, 2] = cosines[:, k]
         table.members[rows] = member_keys(members)
         table.held[rows] = True  # after the values: a reader that sees the flag sees them
+        self.moves += 1
 
     def saved(self) -> PassTable:
         """A copy of the pass's neighbourhoods still kept, to save (``_saved``); call with
@@ -240,12 +246,14 @@ class KeptNeighbourhoods:
         from it (the queries find the restored ones meanwhile), so that a restart from a
         file saved long after its pass brings the partition back to whole."""
         self._table = table
+        self.moves += 1
         if len(table.ids) >= held * RESTORED_AS_PASS:
             self.pass_version, self.pass_stopped = self.version, False
 
     def forget(self) -> None:
         self._table = PassTable.empty()
         self._entries = {}
+        self.moves += 1
 
     def _discard(self, ids: list[int]) -> None:
         for own in ids:

@@ -9,6 +9,7 @@ import numpy as np
 from sqlalchemy import Connection, Row
 
 from app.search.index import PartitionKey, ShapeIndex
+from app.search.similarity._orders import ORDERS
 from app.search.similarity._query import Query
 from app.search.similarity._rows import (
     Match,
@@ -103,38 +104,28 @@ def hub_answer(
 
     ``query.screen``: filters SQL could not narrow to ids. The hits' rows are read nearest first
     until ``depth`` of them pass (``first_passing``), and those are the ones ordered."""
-    vector, k, min_score = query.vector, query.k, query.min_score
-    exclude, allowed, passes, screen = query.exclude, query.allowed, query.passes, query.screen
-    query_id = exclude if query.indexed_query else None  # its row is confirmed with the rest
+    k, min_score = query.k, query.min_score
+    allowed, passes, screen = query.allowed, query.passes, query.screen
+    query_id = query.exclude if query.indexed_query else None  # its row is confirmed with the rest
     screened: dict[int, Row[Any] | None] = {}  # with screen: read rows (None: refused)
-    # The full vectors read for exact distances, kept only for a k-reciprocal re-rank.
-    read: dict[int, np.ndarray] | None = {} if index.reciprocal else None
-    while True:
-        hits = index.search(key, vector, fetch, allowed=allowed)
-        ids = [i for i, _ in hits if i != exclude]
-        exhausted = len(hits) < fetch or fetch >= index.partition_size(key)
-        distances = dict(hits)
-        if index.is_approximate(key):  # estimates from the codes: exact ones, full vectors
-            distances.update(exact_distances(index, key, ids, vector, read))
-        ranked = sorted(ids, key=lambda i: (distances[i], i))
-        if screen:
-            ranked = first_passing(connection, key[0], ranked, screened, passes, depth)
-        if len(ranked) >= depth or exhausted:
-            break
-        fetch *= 4
+    # A query model's order without filters or min_score, as computed before (``_orders``).
+    stamp = index.stamp(key) if (query_id is not None and allowed is None and not screen
+                                 and min_score is None) else None
+    memo = None if stamp is None else (*stamp, query_id, depth, fetch)
+    kept = None if memo is None else ORDERS.get(memo)
+    if kept is not None:
+        order = kept.order.tolist()
+        distances = dict(zip(order, kept.distances.tolist(), strict=True))
+        beyond = kept.beyond
+    else:
+        order, distances, beyond = _hub_pool(index, connection, key, query, depth, fetch,
+                                             screened)
+        if memo is not None and index.stamp(key) == stamp:  # unchanged meanwhile
+            ORDERS.put(memo, order, [distances[i] for i in order], beyond)
     if screen and query_id is not None:  # the query model's own row, confirmed alone
         without_query(ready_candidates(connection, key[0], [query_id], "descriptor_version"),
                       query_id, key)
         query_id = None
-    nearest = ranked[:depth]
-    beyond = len(ids) > depth or not exhausted  # more candidates than those ordered here
-    if min_score is not None:
-        qualifying = [i for i in nearest if score_of(distances[i]) >= min_score]
-        beyond = beyond and len(qualifying) == len(nearest)
-        nearest = qualifying
-    # A query by model id is that model's own vector, at plain distances here.
-    order = hub_order(index, key, nearest, [distances[i] for i in nearest], exclude,
-                      query_is_excluded=True, query=vector, read=read)
     matches: list[Match] = []
     for start in range(0, max(len(order), 1), k):
         chunk = order[start : start + k]
@@ -153,6 +144,41 @@ def hub_answer(
             return matches[:k]
     return None if beyond else matches
 
+
+def _hub_pool(
+    index: ShapeIndex, connection: Connection, key: PartitionKey, query: Query, depth: int,
+    fetch: int, screened: dict[int, Row[Any] | None],
+) -> tuple[list[int], dict[int, float], bool]:
+    """``hub_answer``'s candidates in the order the answer takes them, their plain distances
+    by id, and whether models beyond them may qualify (``screened``: the rows read, with
+    ``query.screen``)."""
+    vector, min_score = query.vector, query.min_score
+    exclude, allowed, passes, screen = query.exclude, query.allowed, query.passes, query.screen
+    # The full vectors read for exact distances, kept only for a k-reciprocal re-rank.
+    read: dict[int, np.ndarray] | None = {} if index.reciprocal else None
+    while True:
+        hits = index.search(key, vector, fetch, allowed=allowed)
+        ids = [i for i, _ in hits if i != exclude]
+        exhausted = len(hits) < fetch or fetch >= index.partition_size(key)
+        distances = dict(hits)
+        if index.is_approximate(key):  # estimates from the codes: exact ones, full vectors
+            distances.update(exact_distances(index, key, ids, vector, read))
+        ranked = sorted(ids, key=lambda i: (distances[i], i))
+        if screen:
+            ranked = first_passing(connection, key[0], ranked, screened, passes, depth)
+        if len(ranked) >= depth or exhausted:
+            break
+        fetch *= 4
+    nearest = ranked[:depth]
+    beyond = len(ids) > depth or not exhausted  # more candidates than those ordered here
+    if min_score is not None:
+        qualifying = [i for i in nearest if score_of(distances[i]) >= min_score]
+        beyond = beyond and len(qualifying) == len(nearest)
+        nearest = qualifying
+    # A query by model id is that model's own vector, at plain distances here.
+    order = hub_order(index, key, nearest, [distances[i] for i in nearest], exclude,
+                      query_is_excluded=True, query=vector, read=read)
+    return order, distances, beyond
 
 def hub_order(index: ShapeIndex, key: PartitionKey, ids: list[int], distances: list[float],
               exclude: int | None, query_is_excluded: bool = False,

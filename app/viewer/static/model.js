@@ -2,6 +2,7 @@
 // eigenvalues, the timings, the most similar models and a side-by-side comparison.
 
 import { ApiError, el, getJson, getPreview, modelLabel, sizeLabel, statusBadge } from "./api.js";
+import { assemblyPanel } from "./assemblies.js";
 import { plotXY } from "./plots.js";
 import { PointView, drawThumbnail, scaledColumn } from "./pointview.js";
 
@@ -71,7 +72,8 @@ export async function modelPage(page, modelId) {
   getPreview(modelId).catch(() => {});
   const model = await getJson(`/v1/models/${modelId}`);
   const main = el("div", {});
-  const side = el("div", { class: "panel" }, el("h2", {}, "Facts"), facts(model), el("h2", {}, "Timings"), timings(model));
+  const side = el("div", { class: "panel" }, el("h2", {}, "Facts"), facts(model), el("h2", {}, "Timings"), timings(model),
+    assemblyPanel(model.id));
   page.replaceChildren(el("h1", {}, modelLabel(model)), el("div", { class: "columns" }, main, side));
   if (model.status !== "ready") {
     main.append(el("p", { class: "hint" },

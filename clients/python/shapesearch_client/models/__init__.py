@@ -5,9 +5,11 @@ from .attempt_resource import AttemptResource
 from .body_search_by_upload import BodySearchByUpload
 from .body_search_by_upload_units import BodySearchByUploadUnits
 from .body_upload_model import BodyUploadModel
+from .body_upload_model_assembly import BodyUploadModelAssembly
 from .body_upload_model_metadata import BodyUploadModelMetadata
 from .body_upload_model_units import BodyUploadModelUnits
 from .body_upsert_model import BodyUpsertModel
+from .body_upsert_model_assembly import BodyUpsertModelAssembly
 from .body_upsert_model_metadata import BodyUpsertModelMetadata
 from .body_upsert_model_units import BodyUpsertModelUnits
 from .compare_points import ComparePoints
@@ -53,6 +55,8 @@ from .model_resource_status import ModelResourceStatus
 from .model_resource_timings_type_0 import ModelResourceTimingsType0
 from .model_summary import ModelSummary
 from .model_summary_metadata import ModelSummaryMetadata
+from .part_use import PartUse
+from .parts_response import PartsResponse
 from .point_set import PointSet
 from .points_sources import PointsSources
 from .points_sources_model import PointsSourcesModel
@@ -90,6 +94,8 @@ from .webhook_created_events_item import WebhookCreatedEventsItem
 from .webhook_list import WebhookList
 from .webhook_resource import WebhookResource
 from .webhook_resource_events_item import WebhookResourceEventsItem
+from .where_used_entry import WhereUsedEntry
+from .where_used_response import WhereUsedResponse
 
 __all__ = (
     "AlignmentRecord",
@@ -97,9 +103,11 @@ __all__ = (
     "BodySearchByUpload",
     "BodySearchByUploadUnits",
     "BodyUploadModel",
+    "BodyUploadModelAssembly",
     "BodyUploadModelMetadata",
     "BodyUploadModelUnits",
     "BodyUpsertModel",
+    "BodyUpsertModelAssembly",
     "BodyUpsertModelMetadata",
     "BodyUpsertModelUnits",
     "ComparePoints",
@@ -145,6 +153,8 @@ __all__ = (
     "ModelResourceTimingsType0",
     "ModelSummary",
     "ModelSummaryMetadata",
+    "PartsResponse",
+    "PartUse",
     "PointSet",
     "PointsSources",
     "PointsSourcesModel",
@@ -182,4 +192,6 @@ __all__ = (
     "WebhookList",
     "WebhookResource",
     "WebhookResourceEventsItem",
+    "WhereUsedEntry",
+    "WhereUsedResponse",
 )

@@ -10,6 +10,7 @@ from .. import types
 
 from ..types import UNSET, Unset
 
+from ..models.body_upload_model_assembly import BodyUploadModelAssembly
 from ..models.body_upload_model_units import BodyUploadModelUnits
 from ..types import File, FileTypes
 from ..types import UNSET, Unset
@@ -33,6 +34,10 @@ class BodyUploadModel:
         Attributes:
             file (File): Mesh, point cloud, scanner or CAD file; its name's extension tells the format: stl, obj, off, ply,
                 glb, xyz, txt, csv, pts, pcd, npy, e57, las, laz, step, iges (stp and igs too).
+            assembly (BodyUploadModelAssembly | Unset): `split`: the file is an assembly (GLB, OBJ or another mesh scene:
+                its geometry nodes; STEP or IGES: its solids); besides the model of the whole assembly, each distinct part
+                becomes a model of its own, its instances counted and placed (`GET /v1/models/{id}/parts`). `whole` or absent:
+                one model.
             background (bool | Unset): true for an upload that is part of a bulk load (`shapesearch import` sends it): its
                 job takes turns with the tenant's other uploads instead of holding them up, as a catalogue's re-describe does.
                 Scheduling only: the model and its descriptor are the same. Default: False.
@@ -46,6 +51,7 @@ class BodyUploadModel:
      """
 
     file: File
+    assembly: BodyUploadModelAssembly | Unset = UNSET
     background: bool | Unset = False
     external_id: str | Unset = UNSET
     metadata: BodyUploadModelMetadata | Unset = UNSET
@@ -60,6 +66,11 @@ class BodyUploadModel:
     def to_dict(self) -> dict[str, Any]:
         from ..models.body_upload_model_metadata import BodyUploadModelMetadata # noqa: PLC0415
         file = self.file.to_tuple()
+
+
+        assembly: str | Unset = UNSET
+        if not isinstance(self.assembly, Unset):
+            assembly = self.assembly.value
 
 
         background = self.background
@@ -83,6 +94,8 @@ class BodyUploadModel:
         field_dict.update({
             "file": file,
         })
+        if assembly is not UNSET:
+            field_dict["assembly"] = assembly
         if background is not UNSET:
             field_dict["background"] = background
         if external_id is not UNSET:
@@ -102,6 +115,11 @@ class BodyUploadModel:
         files: types.RequestFiles = []
 
         files.append(("file", self.file.to_tuple()))
+
+
+
+        if not isinstance(self.assembly, Unset):
+            files.append(("assembly",  (None, str(self.assembly.value).encode(), "text/plain")))
 
 
 
@@ -150,6 +168,16 @@ class BodyUploadModel:
 
 
 
+        _assembly = d.pop("assembly", UNSET)
+        assembly: BodyUploadModelAssembly | Unset
+        if isinstance(_assembly,  Unset):
+            assembly = UNSET
+        else:
+            assembly = BodyUploadModelAssembly(_assembly)
+
+
+
+
         background = d.pop("background", UNSET)
 
         external_id = d.pop("external_id", UNSET)
@@ -178,6 +206,7 @@ class BodyUploadModel:
 
         body_upload_model = cls(
             file=file,
+            assembly=assembly,
             background=background,
             external_id=external_id,
             metadata=metadata,

@@ -10,6 +10,7 @@ from .. import types
 
 from ..types import UNSET, Unset
 
+from ..models.body_upsert_model_assembly import BodyUpsertModelAssembly
 from ..models.body_upsert_model_units import BodyUpsertModelUnits
 from ..types import File, FileTypes
 from ..types import UNSET, Unset
@@ -33,6 +34,10 @@ class BodyUpsertModel:
         Attributes:
             file (File): Mesh, point cloud, scanner or CAD file; its name's extension tells the format: stl, obj, off, ply,
                 glb, xyz, txt, csv, pts, pcd, npy, e57, las, laz, step, iges (stp and igs too).
+            assembly (BodyUpsertModelAssembly | Unset): `split`: the file is an assembly (GLB, OBJ or another mesh scene:
+                its geometry nodes; STEP or IGES: its solids); besides the model of the whole assembly, each distinct part
+                becomes a model of its own, its instances counted and placed (`GET /v1/models/{id}/parts`). `whole` or absent:
+                one model.
             background (bool | Unset): true for an upload that is part of a bulk load (`shapesearch import` sends it): its
                 job takes turns with the tenant's other uploads instead of holding them up, as a catalogue's re-describe does.
                 Scheduling only: the model and its descriptor are the same. Default: False.
@@ -45,6 +50,7 @@ class BodyUpsertModel:
      """
 
     file: File
+    assembly: BodyUpsertModelAssembly | Unset = UNSET
     background: bool | Unset = False
     metadata: BodyUpsertModelMetadata | Unset = UNSET
     name: str | Unset = UNSET
@@ -58,6 +64,11 @@ class BodyUpsertModel:
     def to_dict(self) -> dict[str, Any]:
         from ..models.body_upsert_model_metadata import BodyUpsertModelMetadata # noqa: PLC0415
         file = self.file.to_tuple()
+
+
+        assembly: str | Unset = UNSET
+        if not isinstance(self.assembly, Unset):
+            assembly = self.assembly.value
 
 
         background = self.background
@@ -79,6 +90,8 @@ class BodyUpsertModel:
         field_dict.update({
             "file": file,
         })
+        if assembly is not UNSET:
+            field_dict["assembly"] = assembly
         if background is not UNSET:
             field_dict["background"] = background
         if metadata is not UNSET:
@@ -96,6 +109,11 @@ class BodyUpsertModel:
         files: types.RequestFiles = []
 
         files.append(("file", self.file.to_tuple()))
+
+
+
+        if not isinstance(self.assembly, Unset):
+            files.append(("assembly",  (None, str(self.assembly.value).encode(), "text/plain")))
 
 
 
@@ -139,6 +157,16 @@ class BodyUpsertModel:
 
 
 
+        _assembly = d.pop("assembly", UNSET)
+        assembly: BodyUpsertModelAssembly | Unset
+        if isinstance(_assembly,  Unset):
+            assembly = UNSET
+        else:
+            assembly = BodyUpsertModelAssembly(_assembly)
+
+
+
+
         background = d.pop("background", UNSET)
 
         _metadata = d.pop("metadata", UNSET)
@@ -165,6 +193,7 @@ class BodyUpsertModel:
 
         body_upsert_model = cls(
             file=file,
+            assembly=assembly,
             background=background,
             metadata=metadata,
             name=name,

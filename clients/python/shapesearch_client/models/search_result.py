@@ -15,6 +15,7 @@ from typing import cast
 if TYPE_CHECKING:
   from ..models.explanation import Explanation
   from ..models.model_summary import ModelSummary
+  from ..models.where_used_entry import WhereUsedEntry
 
 
 
@@ -42,6 +43,8 @@ class SearchResult:
                 "same kind" from 0.95 (5 %; about 70 % of same-kind pairs), "different kind" below. Words for reading, not
                 proof: a copy at another size and a same-kind part of the same proportions read alike (compare sizes, or
                 /v1/models/{id}/compare/{other_id}). Null without a calibration.
+            where_used (list[WhereUsedEntry] | None | Unset): With `where_used=true` only: the assemblies that contain this
+                model or a copy of it, as `GET /v1/models/{id}/where-used` answers.
      """
 
     distance: float
@@ -50,6 +53,7 @@ class SearchResult:
     calibrated_score: float | None | Unset = UNSET
     explanation: Explanation | None | Unset = UNSET
     likeness: None | SearchResultLikenessType0 | Unset = UNSET
+    where_used: list[WhereUsedEntry] | None | Unset = UNSET
     additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
 
 
@@ -59,6 +63,7 @@ class SearchResult:
     def to_dict(self) -> dict[str, Any]:
         from ..models.explanation import Explanation # noqa: PLC0415
         from ..models.model_summary import ModelSummary # noqa: PLC0415
+        from ..models.where_used_entry import WhereUsedEntry # noqa: PLC0415
         distance = self.distance
 
         model = self.model.to_dict()
@@ -87,6 +92,19 @@ class SearchResult:
         else:
             likeness = self.likeness
 
+        where_used: list[dict[str, Any]] | None | Unset
+        if isinstance(self.where_used, Unset):
+            where_used = UNSET
+        elif isinstance(self.where_used, list):
+            where_used = []
+            for where_used_type_0_item_data in self.where_used:
+                where_used_type_0_item = where_used_type_0_item_data.to_dict()
+                where_used.append(where_used_type_0_item)
+
+
+        else:
+            where_used = self.where_used
+
 
         field_dict: dict[str, Any] = {}
         field_dict.update(self.additional_properties)
@@ -101,6 +119,8 @@ class SearchResult:
             field_dict["explanation"] = explanation
         if likeness is not UNSET:
             field_dict["likeness"] = likeness
+        if where_used is not UNSET:
+            field_dict["where_used"] = where_used
 
         return field_dict
 
@@ -110,6 +130,7 @@ class SearchResult:
     def from_dict(cls: type[T], src_dict: Mapping[str, Any]) -> T:
         from ..models.explanation import Explanation # noqa: PLC0415
         from ..models.model_summary import ModelSummary # noqa: PLC0415
+        from ..models.where_used_entry import WhereUsedEntry # noqa: PLC0415
         d = dict(src_dict)
         distance = d.pop("distance")
 
@@ -170,6 +191,31 @@ class SearchResult:
         likeness = _parse_likeness(d.pop("likeness", UNSET))
 
 
+        def _parse_where_used(data: object) -> list[WhereUsedEntry] | None | Unset:
+            if data is None:
+                return data
+            if isinstance(data, Unset):
+                return data
+            try:
+                if not isinstance(data, list):
+                    raise TypeError()
+                where_used_type_0 = []
+                _where_used_type_0 = data
+                for where_used_type_0_item_data in (_where_used_type_0):
+                    where_used_type_0_item = WhereUsedEntry.from_dict(where_used_type_0_item_data)
+
+
+
+                    where_used_type_0.append(where_used_type_0_item)
+
+                return where_used_type_0
+            except (TypeError, ValueError, AttributeError, KeyError):
+                pass
+            return cast(list[WhereUsedEntry] | None | Unset, data)
+
+        where_used = _parse_where_used(d.pop("where_used", UNSET))
+
+
         search_result = cls(
             distance=distance,
             model=model,
@@ -177,6 +223,7 @@ class SearchResult:
             calibrated_score=calibrated_score,
             explanation=explanation,
             likeness=likeness,
+            where_used=where_used,
         )
 
 

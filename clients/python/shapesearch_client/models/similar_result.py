@@ -14,6 +14,7 @@ from typing import cast
 
 if TYPE_CHECKING:
   from ..models.model_summary import ModelSummary
+  from ..models.where_used_entry import WhereUsedEntry
 
 
 
@@ -39,6 +40,8 @@ class SimilarResult:
                 "same kind" from 0.95 (5 %; about 70 % of same-kind pairs), "different kind" below. Words for reading, not
                 proof: a copy at another size and a same-kind part of the same proportions read alike (compare sizes, or
                 /v1/models/{id}/compare/{other_id}). Null without a calibration.
+            where_used (list[WhereUsedEntry] | None | Unset): With `where_used=true` only: the assemblies that contain this
+                model or a copy of it, as `GET /v1/models/{id}/where-used` answers.
      """
 
     distance: float
@@ -46,6 +49,7 @@ class SimilarResult:
     score: float
     calibrated_score: float | None | Unset = UNSET
     likeness: None | SimilarResultLikenessType0 | Unset = UNSET
+    where_used: list[WhereUsedEntry] | None | Unset = UNSET
     additional_properties: dict[str, Any] = _attrs_field(init=False, factory=dict)
 
 
@@ -54,6 +58,7 @@ class SimilarResult:
 
     def to_dict(self) -> dict[str, Any]:
         from ..models.model_summary import ModelSummary # noqa: PLC0415
+        from ..models.where_used_entry import WhereUsedEntry # noqa: PLC0415
         distance = self.distance
 
         model = self.model.to_dict()
@@ -74,6 +79,19 @@ class SimilarResult:
         else:
             likeness = self.likeness
 
+        where_used: list[dict[str, Any]] | None | Unset
+        if isinstance(self.where_used, Unset):
+            where_used = UNSET
+        elif isinstance(self.where_used, list):
+            where_used = []
+            for where_used_type_0_item_data in self.where_used:
+                where_used_type_0_item = where_used_type_0_item_data.to_dict()
+                where_used.append(where_used_type_0_item)
+
+
+        else:
+            where_used = self.where_used
+
 
         field_dict: dict[str, Any] = {}
         field_dict.update(self.additional_properties)
@@ -86,6 +104,8 @@ class SimilarResult:
             field_dict["calibrated_score"] = calibrated_score
         if likeness is not UNSET:
             field_dict["likeness"] = likeness
+        if where_used is not UNSET:
+            field_dict["where_used"] = where_used
 
         return field_dict
 
@@ -94,6 +114,7 @@ class SimilarResult:
     @classmethod
     def from_dict(cls: type[T], src_dict: Mapping[str, Any]) -> T:
         from ..models.model_summary import ModelSummary # noqa: PLC0415
+        from ..models.where_used_entry import WhereUsedEntry # noqa: PLC0415
         d = dict(src_dict)
         distance = d.pop("distance")
 
@@ -134,12 +155,38 @@ class SimilarResult:
         likeness = _parse_likeness(d.pop("likeness", UNSET))
 
 
+        def _parse_where_used(data: object) -> list[WhereUsedEntry] | None | Unset:
+            if data is None:
+                return data
+            if isinstance(data, Unset):
+                return data
+            try:
+                if not isinstance(data, list):
+                    raise TypeError()
+                where_used_type_0 = []
+                _where_used_type_0 = data
+                for where_used_type_0_item_data in (_where_used_type_0):
+                    where_used_type_0_item = WhereUsedEntry.from_dict(where_used_type_0_item_data)
+
+
+
+                    where_used_type_0.append(where_used_type_0_item)
+
+                return where_used_type_0
+            except (TypeError, ValueError, AttributeError, KeyError):
+                pass
+            return cast(list[WhereUsedEntry] | None | Unset, data)
+
+        where_used = _parse_where_used(d.pop("where_used", UNSET))
+
+
         similar_result = cls(
             distance=distance,
             model=model,
             score=score,
             calibrated_score=calibrated_score,
             likeness=likeness,
+            where_used=where_used,
         )
 
 

@@ -24,6 +24,7 @@ def _get_kwargs(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -55,6 +56,8 @@ def _get_kwargs(
         json_mode = mode.value
 
     params["mode"] = json_mode
+
+    params["where_used"] = where_used
 
     params["size_tolerance"] = size_tolerance
 
@@ -174,6 +177,7 @@ def sync_detailed(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -226,6 +230,8 @@ def sync_detailed(
         mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for scans, partial
             or merged, the best entry (whole or a view) of each model. Default:
             SimilarModelsMode.SHAPE.
+        where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
+            contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -260,6 +266,7 @@ def sync_detailed(
 k=k,
 min_score=min_score,
 mode=mode,
+where_used=where_used,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -290,6 +297,7 @@ def sync(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -342,6 +350,8 @@ def sync(
         mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for scans, partial
             or merged, the best entry (whole or a view) of each model. Default:
             SimilarModelsMode.SHAPE.
+        where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
+            contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -377,6 +387,7 @@ client=client,
 k=k,
 min_score=min_score,
 mode=mode,
+where_used=where_used,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -401,6 +412,7 @@ async def asyncio_detailed(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -453,6 +465,8 @@ async def asyncio_detailed(
         mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for scans, partial
             or merged, the best entry (whole or a view) of each model. Default:
             SimilarModelsMode.SHAPE.
+        where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
+            contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -487,6 +501,7 @@ async def asyncio_detailed(
 k=k,
 min_score=min_score,
 mode=mode,
+where_used=where_used,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -517,6 +532,7 @@ async def asyncio(
     k: int | Unset = 10,
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -569,6 +585,8 @@ async def asyncio(
         mode (SimilarModelsMode | Unset): shape (default): whole models; scan: for scans, partial
             or merged, the best entry (whole or a view) of each model. Default:
             SimilarModelsMode.SHAPE.
+        where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
+            contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -604,6 +622,7 @@ client=client,
 k=k,
 min_score=min_score,
 mode=mode,
+where_used=where_used,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,

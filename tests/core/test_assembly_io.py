@@ -1,0 +1,91 @@
+"""core.io._assembly: a scene's geometry nodes and a STEP file's solids become distinct parts
+with their placements (instances merged, nesting flattened); bombs are refused from the
+glTF JSON alone, fast."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+import trimesh
+
+from core.errors import InvalidShapeError
+from core.io import load_points
+from core.io._assembly import MAX_PARTS, check_gltf_graph, split_assembly, stl_bytes
+from tests.assembly_files import (
+    assembly_glb,
+    cyclic_bomb,
+    deep_bomb,
+    doubling_bomb,
+    part_a,
+    step_assembly,
+    translations,
+    wide_bomb,
+)
+
+
+def test_a_glb_scene_splits_into_its_distinct_parts() -> None:
+    parts = split_assembly(assembly_glb(), "asm.glb")
+    assert sorted(p.count for p in parts) == [1, 4]
+    a = next(p for p in parts if p.count == 4)
+    # The nested instance's placement is the composed one (sub at z=100, rotated).
+    assert translations([list(p) for p in a.placements]) == [
+        [0.0, 0.0, 0.0], [0.0, 0.0, 100.0], [60.0, 0.0, 0.0], [120.0, 0.0, 0.0]]
+    nested = next(np.asarray(p).reshape(4, 4) for p in a.placements if p[11] == 100.0)
+    assert np.allclose(nested[:3, :3], trimesh.transformations.rotation_matrix(
+        0.7, [0, 0, 1])[:3, :3])
+    # Each part in its own frame: A's vertices are the bracket's.
+    assert np.allclose(np.sort(a.vertices, axis=0), np.sort(part_a().vertices, axis=0))
+
+
+def test_the_same_mesh_under_two_keys_is_one_part() -> None:
+    scene = trimesh.Scene()
+    scene.add_geometry(part_a(), geom_name="A1", node_name="n1")
+    scene.add_geometry(part_a(), geom_name="A2", node_name="n2",
+                       transform=trimesh.transformations.translation_matrix([50, 0, 0]))
+    parts = split_assembly(bytes(scene.export(file_type="glb")), "twins.glb")
+    assert [p.count for p in parts] == [2]
+
+
+def test_a_part_file_reads_back_as_the_part() -> None:
+    a = next(p for p in split_assembly(assembly_glb(), "asm.glb") if p.count == 4)
+    loaded = load_points(stl_bytes(a.vertices, a.faces), filename="a.stl", max_points=500)
+    assert loaded.kind == "mesh" and loaded.size is not None
+    assert sorted(np.round([loaded.size.length, loaded.size.width, loaded.size.height])) == [
+        25.0, 30.0, 40.0]
+
+
+@pytest.mark.parametrize("bomb", [wide_bomb, deep_bomb, doubling_bomb, cyclic_bomb])
+def test_bombs_are_refused_from_the_json_fast(bomb: object) -> None:
+    data = bomb()  # type: ignore[operator]
+    started = time.monotonic()
+    with pytest.raises(InvalidShapeError) as caught:
+        check_gltf_graph(data)
+    assert caught.value.reason == "assembly_too_large"
+    assert time.monotonic() - started < 2.0
+    with pytest.raises(InvalidShapeError) as caught:
+        split_assembly(data, "bomb.glb")
+    assert caught.value.reason == "assembly_too_large"
+
+
+def test_more_distinct_parts_than_the_limit_are_refused() -> None:
+    scene = trimesh.Scene()
+    for number in range(MAX_PARTS + 1):
+        scene.add_geometry(trimesh.creation.box(extents=(1.0 + number * 0.01, 1.0, 1.0)),
+                           geom_name=f"p{number}", node_name=f"n{number}")
+    with pytest.raises(InvalidShapeError) as caught:
+        split_assembly(bytes(scene.export(file_type="glb")), "many.glb")
+    assert caught.value.reason == "assembly_too_large"
+
+
+@pytest.mark.slow
+def test_a_step_assembly_splits_into_its_solids() -> None:
+    pytest.importorskip("OCP.STEPControl", reason="OpenCascade (cadquery-ocp) is not installed")
+    parts = split_assembly(step_assembly(), "asm.step")
+    assert sorted(p.count for p in parts) == [1, 4]
+    a = next(p for p in parts if p.count == 4)
+    assert translations([list(p) for p in a.placements]) == [
+        [0.0, 0.0, 0.0], [5.0, 5.0, 100.0], [60.0, 0.0, 0.0], [120.0, 0.0, 0.0]]
+    assert np.allclose(a.vertices.min(axis=0), 0.0)
+    assert np.allclose(a.vertices.max(axis=0), [40.0, 30.0, 5.0])
