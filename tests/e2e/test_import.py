@@ -337,7 +337,7 @@ def test_a_full_service_stops_the_import_and_a_second_run_completes_it(
     new_database_url: Callable[[str], str], catalogue: Path, tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    from test_storage_full import cap_growth
+    from tests.api.test_storage_full import cap_growth
 
     app = create_app(make_settings(new_database_url("sqlite"), workers=1),
                      embedded_worker=True, job_handler=fake_describe)

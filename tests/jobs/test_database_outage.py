@@ -52,7 +52,7 @@ def locked_database_error(folder: Path) -> sqlite3.OperationalError:
     return locked.value
 
 
-def test_a_restarted_database_is_503_once_then_found_again(
+def test_a_read_after_a_database_restart_is_answered_on_a_new_connection(
     new_database_url: Callable[[str], str],
 ) -> None:
     url = new_database_url("postgresql")
@@ -66,14 +66,13 @@ def test_a_restarted_database_is_503_once_then_found_again(
 
         assert end_every_connection(url) > 0
         # The read path's pooled connections are not pinged (a round trip per request):
-        # the first request on a dead one learns of the restart. It was a 500.
+        # the first try on a dead one learns of the restart, and the pool is dropped. The
+        # hot path (app.api.hot_reads) hands a failed try to the route, which runs on a new
+        # connection: the client sees an answer, not the restart.
         # (Each request asks for another k: the response cache must not answer it.)
-        refused = client.get(f"/v1/models/{first}/similar", params={"k": 3})
-        assert refused.status_code == 503, refused.text
-        assert refused.json()["type"] == "urn:shapesearch:problem:database-unavailable"
-        assert refused.headers["retry-after"] == "1"
-        again = client.get(f"/v1/models/{first}/similar", params={"k": 4})  # found again
-        assert again.json()["results"] == answer["results"]
+        after = client.get(f"/v1/models/{first}/similar", params={"k": 3})
+        assert after.status_code == 200, after.text
+        assert after.json()["results"] == answer["results"]
         # Writes go through pinged connections: they never saw the restart.
         assert upload(client, PARTS / "angle_block.STL").status_code == 202
 
