@@ -106,6 +106,7 @@ def test_upload_is_accepted_and_becomes_ready(client: TestClient) -> None:
     assert [m["id"] for m in listing["items"]] == [model["id"]]
 
 
+@pytest.mark.slow
 def test_job_resource(client: TestClient) -> None:
     from sqlalchemy import select
 
@@ -194,6 +195,7 @@ def test_delete_is_204_then_404(client: TestClient) -> None:
     assert len(client.app.state.services.index) == 0  # type: ignore[attr-defined]
 
 
+@pytest.mark.slow
 def test_similar_with_metadata_filters_returns_k_matches(
     client: TestClient, make_client: ClientFactory
 ) -> None:
@@ -329,6 +331,7 @@ def test_a_quick_check_out_of_time_lets_the_upload_through(make_client: ClientFa
     assert_problem(hurried.post("/v1/models", files={"file": ("e.xyz", b"nan 1 2\n" * 300)}), 422)
 
 
+@pytest.mark.slow
 def test_sandboxed_quick_checks_are_bounded_in_number(make_client: ClientFactory) -> None:
     """At most ``upload_check_max_concurrent`` check children per process: an upload that
     finds every slot taken for the whole time limit is accepted unchecked, and checked
@@ -356,6 +359,7 @@ def test_422_for_metadata_that_is_not_an_object(client: TestClient) -> None:
 # --- problem+json for framework errors -------------------------------------------------
 
 
+@pytest.mark.slow
 def test_framework_errors_are_problem_json(client: TestClient) -> None:
     assert_problem(client.get("/no/such/route"), 404)
     assert_problem(client.put("/v1/models"), 405)
@@ -454,6 +458,7 @@ def test_readyz_fails_when_the_index_is_out_of_step(
     assert "index" in body["detail"] and body["checks"]["index"] != "ok"
 
 
+@pytest.mark.slow
 def test_similar_by_id_answers_from_the_database_when_the_index_lags(
     make_client: ClientFactory, database_url: str
 ) -> None:
@@ -517,6 +522,7 @@ def test_a_stored_file_keeps_only_its_base_name(client: TestClient) -> None:
         assert f'filename="{expected}"' in served.headers["content-disposition"]
 
 
+@pytest.mark.slow
 def test_cors_is_off_by_default_and_answers_preflights_for_configured_origins(
     make_client: ClientFactory,
 ) -> None:
@@ -538,6 +544,7 @@ def test_cors_is_off_by_default_and_answers_preflights_for_configured_origins(
     assert "location" in simple.headers["access-control-expose-headers"].lower()
 
 
+@pytest.mark.slow
 def test_the_contract_has_readable_operation_ids_and_one_problem_component(
     client: TestClient,
 ) -> None:

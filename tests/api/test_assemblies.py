@@ -192,6 +192,7 @@ def test_a_step_assembly_is_split_into_its_solids(client: TestClient) -> None:
     assert where_used(client, parts[4]["model"]["id"]) == {accepted.json()["id"]: 4}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("bomb", [wide_bomb, deep_bomb, doubling_bomb, cyclic_bomb])
 def test_assembly_bombs_are_refused(client: TestClient, bomb: Any) -> None:
     data = bomb()

@@ -178,6 +178,7 @@ def test_a_model_described_before_samples_compares_on_its_preview(client: TestCl
                    "points-not-available")
 
 
+@pytest.mark.slow
 def test_bad_input_is_answered_with_problems(
     make_client: ClientFactory, database_url: str
 ) -> None:
@@ -215,6 +216,7 @@ def test_bad_input_is_answered_with_problems(
                    "model-not-found")
 
 
+@pytest.mark.slow
 def test_a_comparison_beyond_its_slots_or_budget_is_busy(client: TestClient) -> None:
     model = ready(client, "featuretype.stl", PART.read_bytes())
     other = ready(client, "featuretype-small.stl", stl_bytes(PART, lambda v: v * 0.9))
@@ -281,6 +283,7 @@ def test_a_single_view_scan_is_placed_on_the_part_it_shows(engine_client: TestCl
 # --- shapesearch compare ---------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_the_command_line_prints_the_services_figures(
     client: TestClient, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
     tmp_path: Path,

@@ -151,6 +151,7 @@ def test_metadata_null_is_refused_as_the_schema_says(client: TestClient) -> None
     assert patch_schema["properties"]["metadata"]["type"] == "object"  # not nullable
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("path", "pointer"),
     [

@@ -214,6 +214,7 @@ def test_the_grafana_dashboard_asks_for_metrics_that_exist(
     assert len(dashboard["panels"]) == len({panel["id"] for panel in dashboard["panels"]})
 
 
+@pytest.mark.slow
 def test_the_webhook_outbox_is_exported_by_status_with_its_oldest_age(
     sessions: sessionmaker[Session],
 ) -> None:

@@ -110,6 +110,7 @@ def test_a_hit_carries_its_own_request_headers(database_url: str) -> None:
             assert answer.headers["access-control-allow-origin"] == "https://plm.example"
 
 
+@pytest.mark.slow
 def test_an_answer_is_the_same_with_the_cache_on_and_off(database_url: str) -> None:
     """One query's answer, cache on (the miss that fills it, then the hit) and cache off (each
     request computed): the same bytes, for a similar list and a page."""

@@ -56,6 +56,7 @@ def test_a_part_file_reads_back_as_the_part() -> None:
         25.0, 30.0, 40.0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("bomb", [wide_bomb, deep_bomb, doubling_bomb, cyclic_bomb])
 def test_bombs_are_refused_from_the_json_fast(bomb: object) -> None:
     data = bomb()  # type: ignore[operator]

@@ -164,6 +164,7 @@ def test_a_scan_file_finds_the_part_it_was_sampled_from(
     assert results[0]["score"] > results[1]["score"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("route", ["/v1/models", "/v1/search"])
 @pytest.mark.parametrize("name", list(HOSTILE))
 def test_a_hostile_scan_upload_is_a_problem(client: TestClient, route: str, name: str) -> None:

@@ -146,6 +146,7 @@ def test_a_rotated_resampled_copy_finds_its_part_first(library: Library) -> None
     assert body["query"]["n_points"] > 0 and body["query"]["cutoff"]["mode"] == "adaptive"
 
 
+@pytest.mark.slow
 def test_metadata_filters_apply_before_the_top_k_cut(library: Library) -> None:
     query = library.ids["round.stl"]
     results = similar(library.client, query, k=2, **{"metadata.family": "a"})

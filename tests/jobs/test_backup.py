@@ -180,6 +180,7 @@ def test_a_postgresql_backup_taken_while_serving_restores_the_whole_service(
         client.__exit__(None, None, None)
 
 
+@pytest.mark.slow
 def test_the_command_backs_up_postgresql_and_says_why_it_could_not(
     tmp_path: Path,
     monkeypatch: pytest.MonkeyPatch,

@@ -52,6 +52,7 @@ def locked_database_error(folder: Path) -> sqlite3.OperationalError:
     return locked.value
 
 
+@pytest.mark.slow
 def test_a_read_after_a_database_restart_is_answered_on_a_new_connection(
     new_database_url: Callable[[str], str],
 ) -> None:

@@ -229,6 +229,7 @@ def test_a_socket_left_by_a_process_that_died_is_removed(new_database_url: Any) 
     assert not neighbours.folder.exists()  # the last listener took its socket and folder
 
 
+@pytest.mark.slow
 def test_a_listener_whose_connection_is_killed_listens_again(new_database_url: Any) -> None:
     sessions = open_sessions(new_database_url("postgresql"))
     bell = Doorbell(JOBS.channel)

@@ -148,6 +148,7 @@ def test_stopping_the_pool_releases_a_job_that_does_not_finish(
         assert session.get(Job, job_id).status == "queued"  # type: ignore[union-attr]
 
 
+@pytest.mark.slow
 def test_stopping_the_pool_lets_a_quick_job_finish(sessions: sessionmaker[Session]) -> None:
     add_jobs(sessions, 1)
     started = threading.Event()

@@ -146,6 +146,7 @@ def test_a_query_model_is_in_no_neighbourhood_and_not_an_answer(
         {i: direct_radius(rows, x, 0, 4) for x, i in enumerate(ids) if x > 0}, abs=1e-5)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("whole_pass", [False, True], ids=["by-queries", "by-a-pass"])
 def test_kept_neighbourhoods_a_change_moves_are_forgotten(
     sessions: sessionmaker[Session], whole_pass: bool

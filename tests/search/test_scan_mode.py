@@ -108,6 +108,7 @@ def test_views_are_described_as_scans_of_the_loaded_points() -> None:
     assert np.linalg.norm(alone.scan_descriptor - alone.descriptor) > 1e-3
 
 
+@pytest.mark.slow
 def test_a_views_size_is_not_measured(monkeypatch: pytest.MonkeyPatch) -> None:
     """A view keeps only its scan descriptor: the oriented box of its points (a fifth of
     a view's time on a torus) is measured once, for the model, not once per view."""
@@ -765,6 +766,7 @@ def test_default_mode_answers_exactly_as_before(sessions: sessionmaker[Session])
     assert scan[0].model.index_id == planted and scan[0].view == 0
 
 
+@pytest.mark.slow
 def test_deletes_remove_every_view_directly_and_through_the_change_feed(
     sessions: sessionmaker[Session],
 ) -> None:
