@@ -4,8 +4,6 @@ glTF JSON alone, fast."""
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 import trimesh
@@ -58,13 +56,19 @@ def test_a_part_file_reads_back_as_the_part() -> None:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("bomb", [wide_bomb, deep_bomb, doubling_bomb, cyclic_bomb])
-def test_bombs_are_refused_from_the_json_fast(bomb: object) -> None:
+def test_bombs_are_refused_from_the_json_fast(
+    bomb: object, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Refused from the JSON chunk alone: trimesh never builds the scene (how fast that is,
+    # is bench's to measure, not a test's).
+    def no_scene(*args: object, **kwargs: object) -> None:
+        raise AssertionError("trimesh was asked to load a bomb")
+
+    monkeypatch.setattr(trimesh, "load", no_scene)
     data = bomb()  # type: ignore[operator]
-    started = time.monotonic()
     with pytest.raises(InvalidShapeError) as caught:
         check_gltf_graph(data)
     assert caught.value.reason == "assembly_too_large"
-    assert time.monotonic() - started < 2.0
     with pytest.raises(InvalidShapeError) as caught:
         split_assembly(data, "bomb.glb")
     assert caught.value.reason == "assembly_too_large"
