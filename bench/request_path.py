@@ -67,7 +67,7 @@ DISTINCT_PAGES = """
 local i = 0
 request = function()
   i = i + 1
-  return wrk.format("GET", "/v1/models?limit=" .. (5 + i %% 11))
+  return wrk.format("GET", "/v1/models?limit=" .. (5 + i % 11))
 end
 """
 
@@ -126,7 +126,10 @@ def wrk(url: str, connections: int, seconds: int, script: str | None = None) -> 
             lua.write(script)
             lua.flush()
             command[1:1] = ["-s", lua.name]
-        output = subprocess.run(command, capture_output=True, text=True, check=True).stdout
+        done = subprocess.run(command, capture_output=True, text=True, check=True)
+    if done.stderr.strip():  # a script wrk could not load: it would measure the bare URL
+        raise RuntimeError(f"wrk: {done.stderr.strip()}")
+    output = done.stdout
     rate = float(re.search(r"Requests/sec:\s+([\d.]+)", output).group(1))  # type: ignore[union-attr]
     errors = re.search(r"Non-2xx or 3xx responses: (\d+)", output)
     return {

@@ -22,14 +22,13 @@ from __future__ import annotations
 
 import asyncio
 import re
-from typing import Any
 from urllib.parse import parse_qsl
 
 from fastapi.security.utils import get_authorization_scheme_param
 from starlette.responses import Response
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from app.api.answers import JSON, json_body
+from app.api.answers import JSON
 from app.api.cursors import keyset_after
 from app.api.problems import Problem
 from app.api.routes import models
@@ -86,14 +85,14 @@ class HotReads:
             return False
         services = scope["app"].state.services
         try:
-            answer = await asyncio.get_running_loop().run_in_executor(
-                services.queries, models.similar_answer, services, tenant, model_id, k, score,
+            body = await asyncio.get_running_loop().run_in_executor(
+                services.queries, models.similar_json, services, tenant, model_id, k, score,
                 {}, {}, mode, _NO_SIZE,
             )
         except Exception:  # a 404, 409, 503...: the route answers it
             return False
         scope["route"] = self._similar_route
-        await _send_json(scope, receive, send, answer)
+        await Response(body, media_type=JSON)(scope, receive, send)
         return True
 
     async def _list(self, scope: Scope, receive: Receive, send: Send) -> bool:
@@ -112,13 +111,13 @@ class HotReads:
         services = scope["app"].state.services
         kind, values = models.page_query(tenant, status, query.get("external_id"), after, limit)
         try:
-            page = await asyncio.get_running_loop().run_in_executor(
-                services.queries, models.model_page, services.reader, kind, values, limit
+            body = await asyncio.get_running_loop().run_in_executor(
+                services.queries, models.page_json, services.reader, kind, values, limit
             )
         except Exception:  # the database unavailable...: the route answers it
             return False
         scope["route"] = self._list_route
-        await _send_json(scope, receive, send, page)
+        await Response(body, media_type=JSON)(scope, receive, send)
         return True
 
 
@@ -160,8 +159,3 @@ def _tenant(scope: Scope) -> str | None:
             break
     hit, tenant = cache.get(token)
     return tenant if hit else None
-
-
-async def _send_json(scope: Scope, receive: Receive, send: Send, content: Any) -> None:
-    """What the routes' ``json_response`` sends."""
-    await Response(json_body(content), media_type=JSON)(scope, receive, send)

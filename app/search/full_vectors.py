@@ -86,11 +86,14 @@ class FullVectors:
     def get(self, ids: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
         """``(m, dim) float32`` copies of the rows of ``ids`` and a ``(m,) bool`` mask of
         the ids held (the rows of the others are zeros)."""
-        held = np.array([int(i) in self._row_of for i in ids], dtype=bool)
+        row_of = self._row_of
+        rows = [row_of.get(int(i), -1) for i in ids]
+        held = np.array([row >= 0 for row in rows], dtype=bool)
+        if self._rows is not None and len(rows) and held.all():  # the rule: one copy
+            return np.ascontiguousarray(self._rows[rows]), held
         vectors = np.zeros((len(ids), self.dim), dtype=np.float32)
         if held.any() and self._rows is not None:
-            rows = [self._row_of[int(i)] for i, h in zip(ids, held, strict=True) if h]
-            vectors[held] = self._rows[rows]
+            vectors[held] = self._rows[[row for row in rows if row >= 0]]
         return vectors, held
 
     def evict(self) -> None:

@@ -31,10 +31,12 @@ from sqlalchemy.orm import Session, aliased
 
 from app.api.answers import (
     JOB_COLUMNS,
+    JSON,
     MODEL_COLUMNS,
     STORED_JSON,
     STORED_TIMES,
     STORED_UUIDS,
+    json_body,
     json_response,
     model_fields,
     similar_body,
@@ -199,10 +201,10 @@ async def list_models(
     # session dependency took three hops of the framework's 40-thread pool, whose threads
     # then contend for the GIL under load).
     kind, values = page_query(tenant, status, external_id, keyset_after(cursor), limit)
-    page = await asyncio.get_running_loop().run_in_executor(
-        services.queries, model_page, services.reader, kind, values, limit
+    body = await asyncio.get_running_loop().run_in_executor(
+        services.queries, page_json, services.reader, kind, values, limit
     )
-    return json_response(page)
+    return Response(body, media_type=JSON)
 
 
 def page_query(tenant: str, status: str | None, external_id: str | None,
@@ -261,6 +263,12 @@ def _column(entity: Any, name: str, stored: bool) -> Any:
     if stored and name in STORED_UUIDS | STORED_JSON | STORED_TIMES:
         return type_coerce(column, Text)  # the same SQL; the value as stored
     return column
+
+
+def page_json(reader: Engine, kind: tuple[bool, bool, bool], values: dict[str, Any],
+              limit: int) -> bytes:
+    """``model_page`` encoded (in the query pool: the event loop only sends it)."""
+    return json_body(model_page(reader, kind, values, limit))
 
 
 def model_page(reader: Engine, kind: tuple[bool, bool, bool], values: dict[str, Any],
@@ -402,14 +410,20 @@ async def similar_models(
     # event loop is never blocked, and a few threads per core contend less for the GIL
     # than one per concurrent request would. The index is kept in step by the
     # background sync, not polled per request.
-    answer = await asyncio.get_running_loop().run_in_executor(
+    loop = asyncio.get_running_loop()
+    if not where_used:  # encoded in the query pool too: the event loop only sends it
+        body = await loop.run_in_executor(
+            services.queries, similar_json, services, tenant, model_id, k, min_score, filters,
+            ranges, mode, size,
+        )
+        return Response(body, media_type=JSON)
+    answer = await loop.run_in_executor(
         services.queries, similar_answer, services, tenant, model_id, k, min_score, filters,
         ranges, mode, size,
     )
-    if where_used:  # issue 76
-        answer = await asyncio.get_running_loop().run_in_executor(
-            services.queries, with_where_used, services, tenant, answer
-        )
+    answer = await loop.run_in_executor(  # issue 76
+        services.queries, with_where_used, services, tenant, answer
+    )
     return json_response(answer)
 
 
@@ -445,6 +459,12 @@ def ready_query(
             model_status=model.status,
         )
     return model
+
+
+def similar_json(*arguments: Any) -> bytes:
+    """``similar_answer(*arguments)`` encoded (in the query pool: the event loop only sends
+    it)."""
+    return json_body(similar_answer(*arguments))
 
 
 def similar_answer(
