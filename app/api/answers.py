@@ -30,7 +30,8 @@ from core.cutoff import CutoffRecord
 from core.rank.score_calibration import calibration_for, in_words
 
 __all__ = [
-    "JOB_COLUMNS", "JSON", "MODEL_COLUMNS", "STORED_JSON", "STORED_TIMES", "STORED_UUIDS",
+    "JOB_COLUMNS", "JSON", "MODEL_COLUMNS", "STORED_JSON", "STORED_ROWS", "STORED_TIMES",
+    "STORED_UUIDS",
     "json_body", "json_response", "model_fields", "similar_body", "size_fields",
     "stored_fields", "stored_time", "stored_uuid",
 ]
@@ -124,8 +125,20 @@ def model_fields(row: Sequence[Any], job: Sequence[Any] | None) -> dict[str, Any
 def stored_fields(row: Sequence[Any], job: Sequence[Any] | None) -> dict[str, Any]:
     """``model_fields`` of a row as SQLite stores it (the ``STORED_*`` columns as text): the
     same answer without SQLAlchemy's decoding of each value (UUID and datetime objects that
-    pydantic then writes out again: a third of a page's time). A cutoff, which only a
-    describe changes, is decoded once per process (``_stored_cutoff``)."""
+    pydantic then writes out again: a third of a page's time).
+
+    Kept per process for the ``STORED_ROWS`` rows last read, by everything they hold (the
+    text as stored, each value: a row that changed in any column is another key), so a page
+    of models read again decodes only what changed; the values are shared, never changed."""
+    return _stored_fields(tuple(row), None if job is None else tuple(job))
+
+
+#: Decoded rows kept per process (``stored_fields``): about 2 KB each.
+STORED_ROWS = 4096
+
+
+@functools.lru_cache(maxsize=STORED_ROWS)
+def _stored_fields(row: tuple[Any, ...], job: tuple[Any, ...] | None) -> dict[str, Any]:
     values = list(row)
     values[_ID_AT] = stored_uuid(values[_ID_AT])
     for at in _JSON_AT:
