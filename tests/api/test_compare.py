@@ -31,6 +31,7 @@ from core.errors import InvalidShapeError
 from core.evaluation.scans import ScanSettings, random_rotation, single_view_scan
 from core.io import load_points
 from tests.conftest import PARTS, fake_describe, make_settings, upload, wait_for_status
+from tests.plm_helpers import started_clients
 
 PROBLEM = "application/problem+json"
 PART = PARTS / "featuretype.STL"
@@ -63,19 +64,9 @@ def sampled_describe(content: bytes, filename: str) -> dict[str, Any]:
 
 @pytest.fixture
 def make_client(database_url: str) -> Iterator[ClientFactory]:
-    clients: list[TestClient] = []
-
-    def make(**overrides: Any) -> TestClient:
-        app = create_app(make_settings(database_url, **overrides), embedded_worker=True,
-                         job_handler=sampled_describe)
-        client = TestClient(app, raise_server_exceptions=False)
-        client.__enter__()
-        clients.append(client)
-        return client
-
-    yield make
-    for client in reversed(clients):
-        client.__exit__(None, None, None)
+    """``make_client(**settings)``: started apps whose worker describes by ``sampled_describe``."""
+    with started_clients(database_url) as make:
+        yield lambda **overrides: make(handler=sampled_describe, **overrides)
 
 
 @pytest.fixture

@@ -28,21 +28,20 @@ __all__ = ["DnaBlock", "HksBlock", "SlopeBlock", "WksBlock"]
 
 
 @dataclass(frozen=True)
-class HksBlock(Block):
-    """Histograms of log HKS, ``(columns * bins,)`` of unit norm.
+class _ScaleHistograms(Block):
+    """Per column of a per-point signature, its area-weighted histogram, ``(columns * bins,)``
+    of unit norm (Hellinger embedding). Subclasses say which columns (``values``).
 
     Parameters
     ----------
     columns : int
-        Heat times (the sample's ``log_hks`` columns).
+        Columns of the signature (heat times or energies); 0: the block is left out.
     bins : int
-        Bins per time.
+        Bins per column.
     bounds : (2,) float
         Bin range; values outside go to the end bins.
     """
 
-    name: ClassVar[str] = "hks"
-
     columns: int
     bins: int
     bounds: tuple[float, float]
@@ -51,37 +50,34 @@ class HksBlock(Block):
     def width(self) -> int:
         return self.columns * self.bins
 
+    def values(self, sample: Sample) -> np.ndarray:
+        """The ``(n, columns)`` signature values this block histograms."""
+        raise NotImplementedError
+
     def measure(self, sample: Sample) -> np.ndarray:
-        return hellinger_histograms(sample.log_hks, sample.areas,
+        return hellinger_histograms(self.values(sample), sample.areas,
                                     bin_edges(self.bounds, self.bins))
 
 
 @dataclass(frozen=True)
-class WksBlock(Block):
-    """Histograms of log WKS, ``(columns * bins,)`` of unit norm.
+class HksBlock(_ScaleHistograms):
+    """Histograms of log HKS per heat time (``bounds`` about [-2, 2.5] on capod)."""
 
-    Parameters
-    ----------
-    columns : int
-        Energies (the sample's ``log_wks`` columns); 0: no WKS, the block is left out.
-    bins : int
-    bounds : (2,) float
-        Bin range of log WKS (its area-weighted mean is 1, so the log is centred near 0).
-    """
+    name: ClassVar[str] = "hks"
+
+    def values(self, sample: Sample) -> np.ndarray:
+        return sample.log_hks
+
+
+@dataclass(frozen=True)
+class WksBlock(_ScaleHistograms):
+    """Histograms of log WKS per energy (its area-weighted mean is 1, so the log is centred
+    near 0)."""
 
     name: ClassVar[str] = "wks"
 
-    columns: int
-    bins: int
-    bounds: tuple[float, float]
-
-    @property
-    def width(self) -> int:
-        return self.columns * self.bins
-
-    def measure(self, sample: Sample) -> np.ndarray:
-        return hellinger_histograms(sample.log_wks, sample.areas,
-                                    bin_edges(self.bounds, self.bins))
+    def values(self, sample: Sample) -> np.ndarray:
+        return sample.log_wks
 
 
 @dataclass(frozen=True)
