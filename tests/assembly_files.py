@@ -1,17 +1,22 @@
 """Assemblies made in code for the assembly tests: a GLB scene (part A placed three times,
-part B once, a nested sub-assembly holding A once more), a STEP assembly through OpenCascade,
-and GLB bombs whose node graph is too large, too deep or cyclic."""
+part B once, a nested sub-assembly holding A once more), the same as a text glTF with its
+buffers embedded, a 3MF package written by hand (its XML as the 3MF core specification
+gives it), a STEP assembly through OpenCascade, and GLB bombs whose node graph is too large,
+too deep or cyclic."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import struct
 import tempfile
+import zipfile
 from typing import Any
 
 import numpy as np
 import trimesh
+from trimesh.exchange.gltf import export_gltf
 from trimesh.transformations import rotation_matrix, translation_matrix
 
 
@@ -48,6 +53,41 @@ def assembly_scene(with_b: bool = True, a_outside: int = 3) -> trimesh.Scene:
 
 def assembly_glb(with_b: bool = True, a_outside: int = 3) -> bytes:
     return bytes(assembly_scene(with_b, a_outside).export(file_type="glb"))
+
+
+def assembly_gltf(with_b: bool = True, a_outside: int = 3) -> bytes:
+    """The same assembly as a text ``.gltf``, its buffers embedded as data URIs."""
+    return bytes(export_gltf(assembly_scene(with_b, a_outside), embed_buffers=True)[
+        "model.gltf"])
+
+
+def _mesh_object(number: int, mesh: trimesh.Trimesh) -> str:
+    vertices = "".join(f'<vertex x="{x:.6f}" y="{y:.6f}" z="{z:.6f}"/>'
+                       for x, y, z in mesh.vertices)
+    triangles = "".join(f'<triangle v1="{p}" v2="{q}" v3="{r}"/>' for p, q, r in mesh.faces)
+    return (f'<object id="{number}" type="model"><mesh><vertices>{vertices}</vertices>'
+            f"<triangles>{triangles}</triangles></mesh></object>")
+
+
+def assembly_3mf(a_count: int = 3, with_b: bool = True) -> bytes:
+    """A 3MF package: part A as one object placed ``a_count`` times along x (build items
+    with a transform, 3 x 4 column-major as the format has it), B once."""
+    items = "".join(f'<item objectid="1" transform="1 0 0 0 1 0 0 0 1 {60 * n} 0 0"/>'
+                    for n in range(a_count))
+    if with_b:
+        items += '<item objectid="2" transform="1 0 0 0 1 0 0 0 1 0 60 0"/>'
+    model = ('<?xml version="1.0" encoding="UTF-8"?><model unit="millimeter" xmlns='
+             '"http://schemas.microsoft.com/3dmanufacturing/core/2015/02"><resources>'
+             f"{_mesh_object(1, part_a())}{_mesh_object(2, part_b())}</resources>"
+             f"<build>{items}</build></model>")
+    types = ('<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats'
+             '.org/package/2006/content-types"><Default Extension="model" ContentType='
+             '"application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/></Types>')
+    package = io.BytesIO()
+    with zipfile.ZipFile(package, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("[Content_Types].xml", types)
+        archive.writestr("3D/3dmodel.model", model)
+    return package.getvalue()
 
 
 def rotated_a_stl() -> bytes:

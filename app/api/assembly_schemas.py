@@ -23,10 +23,12 @@ __all__ = [
 #: The form field that splits an uploaded assembly into part models.
 AssemblyField = Annotated[
     Literal["whole", "split"] | None,
-    Form(description="`split`: the file is an assembly (GLB, OBJ or another mesh scene: "
-         "its geometry nodes; STEP or IGES: its solids); besides the model of the whole "
-         "assembly, each distinct part becomes a model of its own, its instances counted "
-         "and placed (`GET /v1/models/{id}/parts`). `whole` or absent: one model."),
+    Form(description="`split`: the file is an assembly (GLB, glTF, 3MF, OBJ: its geometry "
+         "nodes; STEP or IGES: its solids); besides the model of the whole assembly, each "
+         "distinct part becomes a model of its own, its instances counted and placed "
+         "(`GET /v1/models/{id}/parts`). `whole`: one model. Absent: "
+         "SHAPESEARCH_ASSEMBLY_DEFAULT (`whole` unless set; with `split`, a file that "
+         "places one part once stays one model)."),
 ]
 
 

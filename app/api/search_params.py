@@ -13,6 +13,7 @@ ranges as the ten fixed parameters they are.
 from __future__ import annotations
 
 import math
+import uuid
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
@@ -26,6 +27,7 @@ __all__ = [
     "FILTER_PARAMETERS",
     "FILTER_SCHEMAS",
     "ORDER_HELP",
+    "AssemblyQuery",
     "SCAN_MODE_HELP",
     "SIZE_HELP",
     "ModeQuery",
@@ -60,6 +62,11 @@ ORDER_HELP = (
     "gives them for that descriptor, so the first answer's kind comes next, also where the "
     "scan itself missed it (off with SHAPESEARCH_SEARCH_HUB_NEIGHBOURS=0)."
 )
+AssemblyQuery = Annotated[
+    uuid.UUID | None,
+    Query(description="Only the parts that this assembly places (the id of a model uploaded "
+          "with `assembly=split`); an id that places nothing: no results."),
+]
 ModeQuery = Annotated[
     SearchMode,
     Query(description="shape (default): whole models; scan: for scans, partial or merged, "

@@ -13,6 +13,7 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch --version
     shapesearch compare A B [--scale] [--tolerance T] [--url URL] [--key KEY] [--json]
     shapesearch import PATH [--url URL] [--key KEY] [--external-id path|stem] [--metadata F]
+                            [--assembly split|whole]
                        [--units mm|cm|m|in]
                        [--concurrency N] [--wait] [--report CSV] [--retries N]
                        [--max-file-bytes B]
@@ -118,7 +119,7 @@ def _import(args: argparse.Namespace) -> int:
         url=args.url, key=args.key, external_id=args.external_id,
         metadata=Path(args.metadata) if args.metadata else None,
         concurrency=args.concurrency, wait=args.wait, report=Path(args.report),
-        retries=args.retries, units=args.units,
+        retries=args.retries, units=args.units, assembly=args.assembly,
         max_file_bytes=args.max_file_bytes or DEFAULT_MAX_FILE_BYTES,
     )
     try:
@@ -265,6 +266,10 @@ def build_parser() -> argparse.ArgumentParser:
     importer.add_argument("--metadata", default=None, help="sidecar .csv or .json of metadata")
     importer.add_argument("--units", choices=("mm", "cm", "m", "in"), default=None,
                           help="units of the files' coordinates (sizes compare in mm)")
+    importer.add_argument("--assembly", choices=("split", "whole"), default=None,
+                          help="split: each assembly (GLB, glTF, 3MF, OBJ, STEP, IGES) also "
+                          "becomes a model per distinct part; whole: one model a file; "
+                          "default: the service's SHAPESEARCH_ASSEMBLY_DEFAULT")
     importer.add_argument("--concurrency", type=int, default=4)
     importer.add_argument("--wait", action="store_true", help="wait until described")
     importer.add_argument("--report", default="import-report.csv", help="CSV of every file")

@@ -18,8 +18,11 @@ It is a client of the service, like any PLM connector:
        uploads instead of holding them up (``app.jobs.turns``). A 507
        (the service's storage is full) stops the sending: no later file could be stored,
        and each would be sent whole to be refused; those files are reported as not sent;
-    4. with ``--wait``, follow every accepted model to ready or failed;
-    5. write a CSV report (one row per file) and exit non-zero if anything was refused
+    4. an assembly file sent with ``--assembly split`` (or that the service's default
+       splits) is asked for its parts (GET /v1/models/{id}/parts): the report gives the
+       parts and the instances found, and the summary their totals;
+    5. with ``--wait``, follow every accepted model to ready or failed;
+    6. write a CSV report (one row per file) and exit non-zero if anything was refused
        or failed.
 """
 
@@ -61,7 +64,10 @@ RETRY_STATUSES = (429, 502, 503, 504)
 STORAGE_FULL = 507  # the service's storage is full: stop sending
 NOT_SENT = ("not sent: the service's storage is full (507); free space and run the import "
             "again (what was stored is skipped)")
-REPORT_FIELDS = ["path", "external_id", "sha256", "outcome", "http_status", "model_id", "detail"]
+REPORT_FIELDS = ["path", "external_id", "sha256", "outcome", "http_status", "model_id", "parts",
+                 "instances", "detail"]
+# the service's formats that can hold an assembly (app.ingest.assemblies.ASSEMBLY_FORMATS)
+ASSEMBLY_EXTENSIONS = frozenset(("glb", "gltf", "3mf", "obj", *CAD_EXTENSIONS))
 # the service's default SHAPESEARCH_MAX_UPLOAD_BYTES (a larger file would get 413); not read
 # from app.settings, whose pydantic would add 13 MB to the importer (a test keeps them equal)
 DEFAULT_MAX_FILE_BYTES = 64 * 1024 * 1024
@@ -96,6 +102,8 @@ class Outcome:
     http_status: int | None = None
     model_id: str | None = None
     detail: str = ""
+    parts: int | None = None  # an assembly's distinct parts; None: not split
+    instances: int | None = None  # and their placements
 
 
 @dataclass
@@ -112,6 +120,7 @@ class ImportOptions:
     wait_timeout: float = 3600.0
     progress: bool = True
     units: str | None = None  # mm, cm, m or in: the units of every file's coordinates
+    assembly: str | None = None  # split | whole; None: the service's default
     max_file_bytes: int = DEFAULT_MAX_FILE_BYTES
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -318,7 +327,7 @@ def _problem_detail(response: httpx.Response) -> str:
 
 def _upload(
     client: httpx.Client, path: str, content: bytes, sha256: str, external_id: str,
-    meta: dict[str, Any] | None, units: str | None = None,
+    meta: dict[str, Any] | None, units: str | None = None, assembly: str | None = None,
 ) -> Outcome:
     # A bulk load: its jobs take turns with the tenant's other uploads (app.jobs.turns).
     data = {"background": "true"}
@@ -326,6 +335,8 @@ def _upload(
         data["metadata"] = json.dumps(meta)
     if units is not None:
         data["units"] = units
+    if assembly is not None:
+        data["assembly"] = assembly
     filename = PurePosixPath(path).name
     try:
         response = client.request(
@@ -377,11 +388,32 @@ class _Importer:
             return Outcome(item.path, external_id, sha256, "skipped", model_id=known[0])
         meta = (self.sidecar.get(external_id) or self.sidecar.get(item.path)
                 or self.sidecar.get(PurePosixPath(item.path).name))
+        may_split = PurePosixPath(item.path).suffix.lower().lstrip(".") in ASSEMBLY_EXTENSIONS
+        # --assembly split asks only of the formats that can hold an assembly: a loose STL
+        # stays one model, not an assembly of one part.
+        assembly = self.options.assembly if may_split else None
         outcome = _upload(self.client, item.path, content, sha256, external_id, meta,
-                          self.options.units)
+                          self.options.units, assembly)
         if outcome.http_status == STORAGE_FULL:
             self.storage_full.set()
+        elif outcome.model_id is not None and may_split and assembly != "whole":
+            _count_parts(self.client, outcome)
         return outcome
+
+
+def _count_parts(client: httpx.Client, outcome: Outcome) -> None:
+    """The parts and instances of an uploaded assembly, in its outcome (none: not split).
+    A failed look leaves them unknown; the upload itself stands."""
+    try:
+        response = client.request("GET", f"/v1/models/{outcome.model_id}/parts")
+    except httpx.HTTPError:
+        return
+    if response.status_code != 200:
+        return
+    parts = response.json().get("parts") or []
+    if parts:
+        outcome.parts = len(parts)
+        outcome.instances = sum(int(part["count"]) for part in parts)
 
 
 def upload_all(
@@ -453,7 +485,9 @@ def _write_report(path: Path, outcomes: list[Outcome]) -> None:
         writer.writerow(REPORT_FIELDS)
         for o in sorted(outcomes, key=lambda o: o.path):
             writer.writerow([o.path, o.external_id, o.sha256, o.outcome,
-                             o.http_status or "", o.model_id or "", o.detail])
+                             o.http_status or "", o.model_id or "",
+                             "" if o.parts is None else o.parts,
+                             "" if o.instances is None else o.instances, o.detail])
 
 
 def _follow(client: httpx.Client, outcomes: list[Outcome], options: ImportOptions) -> None:
@@ -515,6 +549,11 @@ def run_import(path: Path, options: ImportOptions) -> tuple[int, Counter[str]]:
     summary = ", ".join(f"{counts.get(k, 0)} {k}" for k in
                         ("accepted", "updated", "skipped", "refused", "failed", "ready"))
     print(f"{len(outcomes)} files: {summary}; report: {options.report}", file=sys.stderr)
+    split = [o for o in outcomes if o.parts is not None]
+    if split:
+        print(f"{len(split)} assemblies split: "
+              f"{sum(o.parts or 0 for o in split)} parts created, "
+              f"{sum(o.instances or 0 for o in split)} instances found", file=sys.stderr)
     if importer.storage_full.is_set():
         unsent = sum(o.detail == NOT_SENT for o in outcomes)
         print(f"the service's storage is full (507): {unsent} file(s) not sent; free space "

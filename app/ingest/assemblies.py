@@ -41,6 +41,7 @@ from core.io import AssemblyPart, check_gltf_graph, detect_format, split_assembl
 from core.rank.score_calibration import calibration_for, in_words
 
 __all__ = [
+    "ASSEMBLY_FORMATS",
     "COPY_NEIGHBOURS",
     "SIZE_TOLERANCE",
     "UNCALIBRATED_COPY",
@@ -49,8 +50,11 @@ __all__ = [
     "add_parts",
     "assembly_parts",
     "copies_of",
+    "is_assembly",
     "split_upload",
+    "splits_by_default",
     "where_used",
+    "where_used_of_groups",
 ]
 
 #: Relative difference of each extent under which two parts' sizes agree.
@@ -81,13 +85,31 @@ def _part_files(parts: Sequence[AssemblyPart]) -> list[PartFile]:
     return files
 
 
+#: The formats that can hold an assembly: scenes of meshes, and CAD files of solids.
+ASSEMBLY_FORMATS = ("glb", "gltf", "3mf", "obj", "step", "iges")
+
+
 def split_upload(settings: Settings, content: bytes, filename: str) -> list[PartFile]:
-    """The parts of an uploaded assembly; raises ``InvalidShapeError`` (a GLB bomb in this
-    process, before anything is built; every other refusal from the sandbox)."""
-    if detect_format(filename, content[:4096]) == "glb":
+    """The parts of an uploaded assembly (at most ``assembly_max_parts``); raises
+    ``InvalidShapeError`` (a glTF bomb in this process, before anything is built; every
+    other refusal from the sandbox)."""
+    if detect_format(filename, content[:4096]) in ("glb", "gltf"):
         check_gltf_graph(content)
     sandbox = sandbox_of(settings, max(settings.upload_check_timeout_seconds, 30.0))
-    return _part_files(sandbox.run(split_assembly, content, filename))
+    return _part_files(sandbox.run(split_assembly, content, filename,
+                                   settings.assembly_max_parts))
+
+
+def splits_by_default(settings: Settings, file_format: str) -> bool:
+    """Whether an upload that does not say ``assembly`` is split: with
+    ``assembly_default=split``, a file of a format that can hold an assembly."""
+    return settings.assembly_default == "split" and file_format in ASSEMBLY_FORMATS
+
+
+def is_assembly(parts: Sequence[PartFile]) -> bool:
+    """Whether split parts make an assembly: more than one placement (a file of one part
+    placed once is that part, one model)."""
+    return sum(len(part.placements) for part in parts) > 1
 
 
 def _file_stem(name: str) -> str:
@@ -262,3 +284,35 @@ def where_used(index: ShapeIndex, connection: Connection, tenant: str,
         WhereUsed(row, counts[row.id], sorted(parts[row.id], key=order.__getitem__))
         for row in _summaries(connection, tenant, list(counts))
     ]
+
+
+def where_used_of_groups(connection: Connection, tenant: str,
+                         groups: Sequence[Sequence[uuid.UUID]]) -> list[list[WhereUsed]]:
+    """For each group of models (a duplicates report's groups), the tenant's assemblies that
+    place any of its members, oldest first, each with the members' placements counted: a
+    group used in several assemblies is one part used across products. One statement for
+    all the groups' placements, one for the assemblies."""
+    members = {member for group in groups for member in group}
+    rows = connection.execute(
+        select(PartRow.assembly_id, PartRow.part_id)
+        .where(PartRow.tenant == tenant, PartRow.part_id.in_(members))
+    ).all() if members else []
+    placed: dict[uuid.UUID, list[uuid.UUID]] = defaultdict(list)
+    for assembly_id, part_id in rows:
+        placed[part_id].append(assembly_id)
+    assemblies = {row.id: row for row in _summaries(
+        connection, tenant, list({a for ids in placed.values() for a in ids}))}
+    answers = []
+    for group in groups:
+        counts: dict[uuid.UUID, int] = defaultdict(int)
+        parts: dict[uuid.UUID, list[uuid.UUID]] = defaultdict(list)
+        for member in group:
+            for assembly_id in placed.get(member, []):
+                counts[assembly_id] += 1
+                if member not in parts[assembly_id]:
+                    parts[assembly_id].append(member)
+        answers.append([
+            WhereUsed(row, counts[row.id], parts[row.id])
+            for row in assemblies.values() if row.id in counts
+        ])
+    return answers

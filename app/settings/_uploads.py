@@ -3,6 +3,8 @@ its describe may take, and how long a request's Idempotency-Key is remembered.""
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import BaseModel, Field
 
 __all__ = ["MIB", "UploadSettings"]
@@ -25,8 +27,8 @@ class UploadSettings(BaseModel):
     upload_check_timeout_seconds: float = Field(
         default=10.0,
         gt=0,
-        description="Time an upload's sandboxed quick check (STEP, IGES, GLB, LAZ, E57 and "
-        "files over 256 KiB) may take, waiting for a free check slot included; past it the "
+        description="Time an upload's sandboxed quick check (STEP, IGES, GLB, glTF, 3MF, LAZ, E57 "
+        "and files over 256 KiB) may take, waiting for a free check slot included; past it the "
         "upload is accepted unchecked and its describe in the worker decides.",
     )
     upload_check_max_concurrent: int = Field(
@@ -79,6 +81,20 @@ class UploadSettings(BaseModel):
         ge=0,
         description="What each MB of a file adds to its limit (valid mesh and cloud files "
         "of 6 MB and more needed at most 1.1 s a MB, bench/describe_by_size.py).",
+    )
+    assembly_default: Literal["whole", "split"] = Field(
+        default="whole",
+        description="What an upload without the assembly field is: whole (one model) or "
+        "split (a GLB, glTF, 3MF, OBJ, STEP or IGES file that places more than one part "
+        "becomes the assembly's model and a model per distinct part, as with "
+        "assembly=split; a file of one part stays one model).",
+    )
+    assembly_max_parts: int = Field(
+        default=500,
+        ge=1,
+        le=5000,
+        description="Most distinct parts an assembly split on upload may have (more: 422 "
+        "assembly-too-large); each part is then described with the usual limits.",
     )
     idempotency_ttl_seconds: float = Field(
         default=86400.0,

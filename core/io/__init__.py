@@ -5,8 +5,8 @@ Public face of the package; everything else in ``core.io`` is private::
     from core.io import load_points, validate_points, detect_format, LoadedShape
 
 ``load_points`` reads point clouds (``.xyz .txt .csv .pts .ply .pcd .npy``), scanner files
-(``.e57 .las .laz``), meshes (``.stl .obj .off .ply .glb``) and CAD files (``.step .iges``;
-meshes and CAD are sampled by area with a fixed seed), then
+(``.e57 .las .laz``), meshes (``.stl .obj .off .ply .glb .gltf .3mf``) and CAD files
+(``.step .iges``; meshes and CAD are sampled by area with a fixed seed), then
 ``split_assembly`` splits an assembly into its distinct parts with their placements;
 ``validate_points`` refuses bad geometry and thins large clouds evenly; ``denoise_points``
 projects scanned points onto local surface fits. Every refusal is a

@@ -1,6 +1,7 @@
 """Splitting an assembly into its parts: each distinct geometry once, with every placement.
 
-    GLB / OBJ / ... (trimesh scene)   every graph node holding a mesh, at its world transform
+    GLB / glTF / 3MF / OBJ (trimesh scene)   every graph node holding a mesh, at its world
+                                             transform
     STEP / IGES (OpenCascade)         every solid, at its location
 
 Nested sub-assemblies are flattened: a leaf geometry placed through several levels of the
@@ -9,16 +10,15 @@ node graph gets one placement per path, the composed transform. Instances of one
 ``AssemblyPart`` with all their placements, not one part each.
 
 A scene can promise far more than its bytes hold: a glTF node graph that reuses nodes
-(a DAG) expands to exponentially many placements, and a cycle to infinitely many. For GLB
-the node graph is read from the JSON chunk and counted (``check_gltf_graph``) before trimesh
+(a DAG) expands to exponentially many placements, and a cycle to infinitely many. For glTF
+the node graph is read from its JSON and counted (``check_gltf_graph``) before trimesh
 builds anything; any format is refused once it has more than ``MAX_INSTANCES`` placements
-or ``MAX_PARTS`` distinct parts (``assembly_too_large``).
+or ``max_parts`` distinct parts (``assembly_too_large``).
 """
 
 from __future__ import annotations
 
 import hashlib
-import json
 import struct
 from dataclasses import dataclass
 
@@ -28,6 +28,7 @@ import trimesh
 from core.errors import InvalidShapeError
 from core.io._cad import _import_ocp, _read_shape, _tessellate
 from core.io._formats import CAD_FORMATS, detect_format
+from core.io._headers import gltf_document
 from core.io._meshes import _load_scene
 
 __all__ = [
@@ -41,7 +42,7 @@ __all__ = [
     "stl_bytes",
 ]
 
-#: Distinct parts an assembly may have.
+#: Distinct parts an assembly may have, unless the caller says otherwise.
 MAX_PARTS = 500
 #: Placements (leaf instances, after flattening) an assembly may have.
 MAX_INSTANCES = 10_000
@@ -82,7 +83,7 @@ class AssemblyPart:
 def too_large(detail: str) -> InvalidShapeError:
     return InvalidShapeError(
         "assembly_too_large",
-        f"{detail}: split it into sub-assemblies, or upload it whole without assembly=split",
+        f"{detail}: split it into sub-assemblies, or upload it as one model (assembly=whole)",
     )
 
 
@@ -101,31 +102,11 @@ def stl_bytes(vertices: np.ndarray, faces: np.ndarray) -> bytes:
     return header + struct.pack("<I", len(faces)) + triangles.tobytes()
 
 
-def _gltf_json(data: bytes) -> dict[str, object] | None:
-    """The JSON chunk of a GLB, or None when the file is not one (trimesh then decides)."""
-    if len(data) < 20 or data[:4] != b"glTF":
-        return None
-    length, kind = struct.unpack("<I4s", data[12:20])
-    if kind != b"JSON" or 20 + length > len(data):
-        raise InvalidShapeError(
-            "unparsable", "could not read this .glb file (its JSON chunk is cut short)"
-        )
-    try:
-        document = json.loads(data[20 : 20 + length])
-    except ValueError as error:
-        raise InvalidShapeError(
-            "unparsable", f"could not read this .glb file (its JSON chunk: {error})"
-        ) from error
-    return document if isinstance(document, dict) else None
-
-
 def check_gltf_graph(data: bytes) -> None:
-    """Refuse a GLB whose node graph is too large, too deep, cyclic or expands to more
-    than ``MAX_INSTANCES`` mesh placements, reading only its JSON chunk: in time and memory
-    linear in the declared nodes (at most ``MAX_NODES``)."""
-    document = _gltf_json(data)
-    if document is None:
-        return
+    """Refuse a glTF file (GLB or text) whose node graph is too large, too deep, cyclic or
+    expands to more than ``MAX_INSTANCES`` mesh placements, reading only its JSON: in time
+    and memory linear in the declared nodes (at most ``MAX_NODES``)."""
+    document = gltf_document(data)
     nodes = document.get("nodes") or []
     if not isinstance(nodes, list):
         return
@@ -187,7 +168,7 @@ def _placement(matrix: np.ndarray) -> tuple[float, ...]:
     return tuple(float(v) for v in np.asarray(matrix, np.float64).reshape(16))
 
 
-def _group(found: list[tuple[str, str, np.ndarray, np.ndarray, np.ndarray]]
+def _group(found: list[tuple[str, str, np.ndarray, np.ndarray, np.ndarray]], max_parts: int
            ) -> list[AssemblyPart]:
     """Parts from ``(key, name, vertices, faces, placement)`` instances: one per key, and
     keys with the same geometry merged; in the order first met."""
@@ -198,8 +179,8 @@ def _group(found: list[tuple[str, str, np.ndarray, np.ndarray, np.ndarray]]
             digest_of[key] = key if key.startswith("sha256:") else _digest(vertices, faces)
         digest = digest_of[key]
         if digest not in by_digest:
-            if len(by_digest) >= MAX_PARTS:
-                raise too_large(f"it has more than {MAX_PARTS} distinct parts")
+            if len(by_digest) >= max_parts:
+                raise too_large(f"it has more than {max_parts} distinct parts")
             by_digest[digest] = (name, vertices, faces, [])
         by_digest[digest][3].append(_placement(matrix))
     return [
@@ -208,8 +189,8 @@ def _group(found: list[tuple[str, str, np.ndarray, np.ndarray, np.ndarray]]
     ]
 
 
-def _scene_parts(data: bytes, fmt: str) -> list[AssemblyPart]:
-    if fmt == "glb":
+def _scene_parts(data: bytes, fmt: str, max_parts: int) -> list[AssemblyPart]:
+    if fmt in ("glb", "gltf"):
         check_gltf_graph(data)
     scene = _load_scene(data, fmt)
     nodes = scene.graph.nodes_geometry
@@ -224,10 +205,10 @@ def _scene_parts(data: bytes, fmt: str) -> list[AssemblyPart]:
         vertices = np.asarray(geometry.vertices, np.float64)
         faces = np.asarray(geometry.faces, np.int64)
         found.append((str(key), str(key), vertices, faces, np.asarray(matrix)))
-    return _group(found)
+    return _group(found, max_parts)
 
 
-def _cad_parts(data: bytes, fmt: str) -> list[AssemblyPart]:
+def _cad_parts(data: bytes, fmt: str, max_parts: int) -> list[AssemblyPart]:
     try:
         ocp = _import_ocp()
         from OCP.TopAbs import TopAbs_SOLID
@@ -266,11 +247,13 @@ def _cad_parts(data: bytes, fmt: str) -> list[AssemblyPart]:
         quantised = np.round(vertices / (scale * 1e-6)).astype(np.int64)
         found.append(("sha256:" + _digest(quantised, geometry.faces), f"solid-{number}", vertices,
                       geometry.faces, matrix @ shift))
-    return _group(found)
+    return _group(found, max_parts)
 
 
-def split_assembly(data: bytes, filename: str) -> list[AssemblyPart]:
-    """The distinct parts of an assembly file, each with its placements.
+def split_assembly(data: bytes, filename: str, max_parts: int = MAX_PARTS
+                   ) -> list[AssemblyPart]:
+    """The distinct parts of an assembly file, each with its placements; at most
+    ``max_parts`` of them.
 
     Raises
     ------
@@ -279,7 +262,10 @@ def split_assembly(data: bytes, filename: str) -> list[AssemblyPart]:
         triangles, or any refusal of the format's reader.
     """
     fmt = detect_format(filename, data[:4096])
-    parts = _cad_parts(data, fmt) if fmt in CAD_FORMATS else _scene_parts(data, fmt)
+    if fmt in CAD_FORMATS:
+        parts = _cad_parts(data, fmt, max_parts)
+    else:
+        parts = _scene_parts(data, fmt, max_parts)
     if not parts:
         raise InvalidShapeError(
             "empty_file", f"this .{fmt} file holds no triangulated parts to split"

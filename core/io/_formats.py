@@ -31,18 +31,20 @@ TEXT_POINT_FORMATS: tuple[str, ...] = ("xyz", "txt", "csv", "pts")
 SCAN_FORMATS: tuple[str, ...] = ("e57", "las", "laz")
 #: Formats that hold points only.
 POINT_FORMATS: tuple[str, ...] = (*TEXT_POINT_FORMATS, "pcd", "npy", *SCAN_FORMATS)
-#: Formats read through trimesh. PLY is here although a PLY without faces is a point cloud.
-MESH_FORMATS: tuple[str, ...] = ("stl", "obj", "off", "ply", "glb")
+#: Formats read through trimesh. PLY is here although a PLY without faces is a point cloud;
+#: glTF as a text ``.gltf`` only with its buffers embedded (data URIs); 3MF is a zip archive.
+MESH_FORMATS: tuple[str, ...] = ("stl", "obj", "off", "ply", "glb", "gltf", "3mf")
 #: CAD formats, tessellated through OpenCascade (optional extra); stp/igs are aliases.
 CAD_FORMATS: tuple[str, ...] = ("step", "iges")
 _CAD_ALIASES = {"stp": "step", "igs": "iges"}
 #: Every format ``load_points`` reads, named by its usual extension.
 SUPPORTED_FORMATS: tuple[str, ...] = (*MESH_FORMATS, *POINT_FORMATS, *CAD_FORMATS)
-#: Formats whose geometry can be far larger than the file: a GLB scene instances meshes, LAZ
-#: compresses points arithmetically and E57 bit-packs them (a constant field takes no bits).
+#: Formats whose geometry can be far larger than the file: a glTF scene instances meshes, a
+#: 3MF is deflated XML that may also instance them, LAZ compresses points arithmetically and
+#: E57 bit-packs them (a constant field takes no bits).
 #: Their size says nothing about the memory parsing takes, so they are parsed in a sandbox.
 #: (LZF, in PCD files, expands at most 88-fold: a small PCD stays small.)
-EXPANDING_FORMATS: tuple[str, ...] = ("glb", "laz", "e57")
+EXPANDING_FORMATS: tuple[str, ...] = ("glb", "gltf", "3mf", "laz", "e57")
 #: Formats read by native code that a malformed file can crash outright, which no exception
 #: handler sees: OpenCascade's STEP reader dereferences a null handle when an entity a vector
 #: points to has an unknown type (27 of 300 mutated STEP files ended their process with a

@@ -8,7 +8,7 @@ allocates anything in proportion to what the file *claims* (a 186 KB GLB can ins
 thousands of times; a 60 MB STL can declare 3.2 billion triangles).
 
     check_header(data, fmt)     raises InvalidShapeError (too_large, unparsable, empty_file)
-    glb_scene_size(data)        (instances, vertices) of a GLB scene once expanded
+    glb_scene_size(data)        (instances, vertices) of a glTF scene once expanded
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from core.io._meshes import check_ply_header, check_stl_header
 from core.io._pcd import check_pcd_header
 from core.io._validate import MAX_PARSED_POINTS
 
-__all__ = ["MAX_SCENE_INSTANCES", "check_header", "glb_scene_size"]
+__all__ = ["MAX_SCENE_INSTANCES", "check_header", "glb_scene_size", "gltf_document"]
 
 #: Most mesh instances (node visits) a GLB scene may expand to.
 MAX_SCENE_INSTANCES = 10_000
@@ -36,25 +36,30 @@ _GLB_CHUNK = struct.Struct("<I4s")  # chunk length, chunk type
 def _unparsable_glb(detail: str) -> InvalidShapeError:
     return InvalidShapeError(
         "unparsable",
-        f"could not read this .glb file ({detail}): check that it is a complete, valid "
-        ".glb file, or export the part again",
+        f"could not read this glTF file ({detail}): check that it is a complete, valid "
+        ".glb or .gltf file (a .gltf with its buffers embedded), or export the part again",
     )
 
 
-def _gltf_document(data: bytes) -> dict[str, Any]:
-    """The JSON chunk of a GLB file, parsed."""
-    if len(data) < _GLB_HEADER.size + _GLB_CHUNK.size:
-        raise _unparsable_glb("shorter than a GLB header")
-    length, kind = _GLB_CHUNK.unpack_from(data, _GLB_HEADER.size)
-    start = _GLB_HEADER.size + _GLB_CHUNK.size
-    if kind != b"JSON" or start + length > len(data):
-        raise _unparsable_glb("the first chunk is not a complete JSON chunk")
+def gltf_document(data: bytes) -> dict[str, Any]:
+    """The scene description of a glTF file, parsed: a GLB's JSON chunk, or the whole of a
+    text ``.gltf``."""
+    if data[:4] == b"glTF":
+        if len(data) < _GLB_HEADER.size + _GLB_CHUNK.size:
+            raise _unparsable_glb("shorter than a GLB header")
+        length, kind = _GLB_CHUNK.unpack_from(data, _GLB_HEADER.size)
+        start = _GLB_HEADER.size + _GLB_CHUNK.size
+        if kind != b"JSON" or start + length > len(data):
+            raise _unparsable_glb("the first chunk is not a complete JSON chunk")
+        text = data[start : start + length]
+    else:
+        text = data
     try:
-        document = json.loads(data[start : start + length])
+        document = json.loads(text)
     except (ValueError, RecursionError) as error:
-        raise _unparsable_glb("its JSON chunk is not valid JSON") from error
+        raise _unparsable_glb("its JSON is not valid JSON") from error
     if not isinstance(document, dict):
-        raise _unparsable_glb("its JSON chunk is not an object")
+        raise _unparsable_glb("its JSON is not an object")
     return document
 
 
@@ -130,7 +135,7 @@ def glb_scene_size(data: bytes) -> tuple[int, int]:
     -------
     (instances, vertices) : (int, int)
     """
-    document = _gltf_document(data)
+    document = gltf_document(data)
     try:
         return _expanded(document)
     except InvalidShapeError:
@@ -174,7 +179,7 @@ def check_header(data: bytes, fmt: str) -> None:
         check_stl_header(data)
     elif fmt == "ply":
         check_ply_header(data)
-    elif fmt == "glb":
+    elif fmt in ("glb", "gltf"):
         _check_glb(data)
     elif fmt == "pcd":
         check_pcd_header(data)

@@ -1,4 +1,4 @@
-"""Reading ``.stl``, ``.obj``, ``.off``, ``.ply`` and ``.glb`` through trimesh.
+"""Reading ``.stl .obj .off .ply .glb .gltf .3mf`` through trimesh.
 
 trimesh does the parsing (with ``process=False``: merging vertices or fixing normals would only
 cost time, since the mesh is sampled anyway). Around it this module
@@ -197,7 +197,7 @@ def read_mesh(data: bytes, fmt: str) -> RawGeometry:
     data : bytes
         The whole file.
     fmt : str
-        One of ``"stl"``, ``"obj"``, ``"off"``, ``"ply"``, ``"glb"``.
+        One of ``MESH_FORMATS``.
 
     Returns
     -------

@@ -19,7 +19,9 @@ from app.db.models import AssemblyPart, Model
 from app.db.session import make_session_factory
 from app.ingest.assemblies import UNCALIBRATED_COPY
 from tests.assembly_files import (
+    assembly_3mf,
     assembly_glb,
+    assembly_gltf,
     cyclic_bomb,
     deep_bomb,
     doubling_bomb,
@@ -28,7 +30,7 @@ from tests.assembly_files import (
     translations,
     wide_bomb,
 )
-from tests.conftest import wait_for_status
+from tests.conftest import stored_duplicates, wait_for_status
 from tests.plm_helpers import ClientFactory, started_clients
 
 PROBLEM = "application/problem+json"
@@ -132,6 +134,106 @@ def test_a_split_glb_gives_its_parts_with_counts_and_where_used(client: TestClie
         assert_problem(client.get(f"/v1/models/00000000-0000-0000-0000-000000000000/{path}"),
                        404, "model-not-found")
         assert_problem(client.get(f"/v1/models/not-a-uuid/{path}"), 404, "model-not-found")
+
+
+def test_the_default_split_setting_splits_assemblies_and_leaves_single_parts_whole(
+        make_client: ClientFactory) -> None:
+    client = make_client(assembly_default="split")
+    assembly = post(client, assembly_glb(), name="frame").json()
+    assert set(parts_by_count(client, assembly["id"])) == {1, 4}
+    for content, filename in ((rotated_a_stl(), "a.stl"),
+                              (assembly_glb(with_b=False, a_outside=0), "one.glb")):
+        single = post(client, content, filename=filename)
+        assert single.status_code == 202, single.text
+        assert parts_by_count(client, single.json()["id"]) == {}
+    # Asked for, whole wins over the default.
+    whole = post(client, assembly_glb(), filename="whole.glb", assembly="whole").json()
+    assert parts_by_count(client, whole["id"]) == {}
+    assert len(client.get("/v1/models").json()["items"]) == 6  # 3 + 2 parts of the first
+
+
+def test_gltf_and_3mf_assemblies_split_and_the_part_limit_is_a_setting(
+        make_client: ClientFactory) -> None:
+    client = make_client()
+    gltf = post(client, assembly_gltf(), filename="asm.gltf", assembly="split")
+    assert gltf.status_code == 202, gltf.text
+    assert set(parts_by_count(client, gltf.json()["id"])) == {1, 4}
+    package = post(client, assembly_3mf(a_count=3), filename="asm.3mf", assembly="split")
+    assert package.status_code == 202, package.text
+    assert set(parts_by_count(client, package.json()["id"])) == {1, 3}
+    narrow = make_client(assembly_max_parts=1)
+    body = assert_problem(post(narrow, assembly_3mf(), filename="asm.3mf", assembly="split"),
+                          422, "assembly-too-large")
+    assert "more than 1 distinct parts" in body["detail"]
+
+
+def test_assembly_id_narrows_the_list_similar_and_search_to_its_parts(
+        make_client: ClientFactory, database_url: str) -> None:
+    client = make_client(auth_cache_seconds=0)
+    engine = create_engine(database_url)
+    with make_session_factory(engine).begin() as session:
+        alice = {"Authorization": f"Bearer {create_key(session, 'alice')}"}
+        bob = {"Authorization": f"Bearer {create_key(session, 'bob')}"}
+    engine.dispose()
+    client.headers.update(alice)
+    assembly = post(client, assembly_glb(), assembly="split").json()
+    other = post(client, assembly_glb(with_b=False), filename="other.glb",
+                 assembly="split").json()
+    loose = post(client, rotated_a_stl(), filename="bracket.stl").json()
+    part_ids = {part["model"]["id"] for part in parts_by_count(client, assembly["id"]).values()}
+    assert len(part_ids) == 2
+    everything = [item["id"] for item in client.get("/v1/models").json()["items"]]
+    for model_id in everything:
+        assert wait_for_status(client, model_id)["status"] == "ready"
+    listed = client.get("/v1/models", params={"assembly_id": assembly["id"]}).json()["items"]
+    assert {item["id"] for item in listed} == part_ids
+    # The other assembly's A is another model (its own upload): not in this list.
+    assert parts_by_count(client, other["id"])[4]["model"]["id"] not in part_ids
+    similar = client.get(f"/v1/models/{loose['id']}/similar",
+                         params={"k": 10, "assembly_id": assembly["id"]})
+    assert similar.status_code == 200, similar.text
+    assert {r["model"]["id"] for r in similar.json()["results"]} == part_ids
+    unfiltered = client.get(f"/v1/models/{loose['id']}/similar", params={"k": 10}).json()
+    assert len(unfiltered["results"]) > len(part_ids)  # the filter did the narrowing
+    searched = client.post("/v1/search", params={"k": 10, "assembly_id": assembly["id"]},
+                           files={"file": ("a.stl", rotated_a_stl(), "model/stl")})
+    assert searched.status_code == 200, searched.text
+    assert {r["model"]["id"] for r in searched.json()["results"]} <= part_ids
+    # An id that places nothing (unknown, a part, another tenant's assembly): no results.
+    nobody = str(uuid.uuid4())
+    a_part = next(iter(part_ids))
+    for assembly_id, headers in ((nobody, alice), (a_part, alice), (assembly["id"], bob)):
+        assert client.get("/v1/models", params={"assembly_id": assembly_id},
+                          headers=headers).json()["items"] == []
+    assert client.get(f"/v1/models/{loose['id']}/similar",
+                      params={"assembly_id": nobody}).json()["results"] == []
+    assert_problem(client.get("/v1/models", params={"assembly_id": "nope"}), 422,
+                   "validation-error")
+
+
+def test_the_duplicates_report_says_which_assemblies_use_each_group(
+        client: TestClient) -> None:
+    first = post(client, assembly_glb(), assembly="split").json()
+    second = post(client, assembly_glb(with_b=False, a_outside=1), filename="two.glb",
+                  assembly="split").json()
+    loose = post(client, rotated_a_stl(), filename="bracket.stl").json()
+    for model_id in [item["id"] for item in client.get("/v1/models").json()["items"]]:
+        assert wait_for_status(client, model_id)["status"] == "ready"
+    a_first = parts_by_count(client, first["id"])[4]["model"]["id"]
+    a_second = parts_by_count(client, second["id"])[2]["model"]["id"]
+    # The fake engine: equal files, equal descriptors; A is the same file in both.
+    plain = stored_duplicates(client, descriptor_version="fake-1", min_score=0.99)
+    group = next(g for g in plain["groups"] if a_first in {m["id"] for m in g["members"]})
+    assert {m["id"] for m in group["members"]} == {a_first, a_second}
+    assert "where_used" not in group  # absent unless asked
+    page = client.get("/v1/duplicates", params={
+        "descriptor_version": "fake-1", "min_score": 0.99, "where_used": "true"}).json()
+    group = next(g for g in page["groups"] if a_first in {m["id"] for m in g["members"]})
+    used = {entry["assembly"]["id"]: (entry["count"], entry["parts"])
+            for entry in group["where_used"]}
+    assert used == {first["id"]: (4, [a_first]), second["id"]: (2, [a_second])}
+    assert all(g["where_used"] == [] for g in page["groups"]
+               if loose["id"] in {m["id"] for m in g["members"]})
 
 
 @pytest.mark.slow

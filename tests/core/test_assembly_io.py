@@ -12,7 +12,9 @@ from core.errors import InvalidShapeError
 from core.io import load_points
 from core.io._assembly import MAX_PARTS, check_gltf_graph, split_assembly, stl_bytes
 from tests.assembly_files import (
+    assembly_3mf,
     assembly_glb,
+    assembly_gltf,
     cyclic_bomb,
     deep_bomb,
     doubling_bomb,
@@ -35,6 +37,37 @@ def test_a_glb_scene_splits_into_its_distinct_parts() -> None:
         0.7, [0, 0, 1])[:3, :3])
     # Each part in its own frame: A's vertices are the bracket's.
     assert np.allclose(np.sort(a.vertices, axis=0), np.sort(part_a().vertices, axis=0))
+
+
+def test_a_text_gltf_splits_as_its_glb_does() -> None:
+    as_glb = split_assembly(assembly_glb(), "asm.glb")
+    as_gltf = split_assembly(assembly_gltf(), "asm.gltf")
+    assert sorted((p.count, p.digest) for p in as_gltf) == sorted(
+        (p.count, p.digest) for p in as_glb)
+    a = next(p for p in as_gltf if p.count == 4)
+    assert translations([list(p) for p in a.placements]) == [
+        [0.0, 0.0, 0.0], [0.0, 0.0, 100.0], [60.0, 0.0, 0.0], [120.0, 0.0, 0.0]]
+
+
+def test_a_3mf_package_splits_into_its_objects_with_their_build_transforms() -> None:
+    parts = split_assembly(assembly_3mf(a_count=3), "asm.3mf")
+    assert sorted(p.count for p in parts) == [1, 3]
+    a = next(p for p in parts if p.count == 3)
+    assert translations([list(p) for p in a.placements]) == [
+        [0.0, 0.0, 0.0], [60.0, 0.0, 0.0], [120.0, 0.0, 0.0]]
+    b = next(p for p in parts if p.count == 1)
+    assert translations([list(p) for p in b.placements]) == [[0.0, 60.0, 0.0]]
+    # Read whole, it is one shape spanning every placement (three brackets 60 apart: 160
+    # along x, more along the oriented box's longest side), not one part (40).
+    whole = load_points(assembly_3mf(a_count=3), filename="asm.3mf", max_points=500)
+    assert whole.size is not None and whole.size.length >= 160.0
+
+
+def test_a_text_gltf_bomb_is_refused_from_its_json() -> None:
+    text = doubling_bomb()[20:].rstrip()  # the GLB's JSON chunk, as a .gltf file
+    with pytest.raises(InvalidShapeError) as caught:
+        split_assembly(text, "bomb.gltf")
+    assert caught.value.reason == "assembly_too_large"
 
 
 def test_the_same_mesh_under_two_keys_is_one_part() -> None:
@@ -79,9 +112,13 @@ def test_more_distinct_parts_than_the_limit_are_refused() -> None:
     for number in range(MAX_PARTS + 1):
         scene.add_geometry(trimesh.creation.box(extents=(1.0 + number * 0.01, 1.0, 1.0)),
                            geom_name=f"p{number}", node_name=f"n{number}")
+    many = bytes(scene.export(file_type="glb"))
     with pytest.raises(InvalidShapeError) as caught:
-        split_assembly(bytes(scene.export(file_type="glb")), "many.glb")
+        split_assembly(many, "many.glb")
     assert caught.value.reason == "assembly_too_large"
+    assert len(split_assembly(many, "many.glb", max_parts=MAX_PARTS + 1)) == MAX_PARTS + 1
+    with pytest.raises(InvalidShapeError, match="more than 1 distinct parts"):
+        split_assembly(assembly_3mf(), "asm.3mf", max_parts=1)
 
 
 @pytest.mark.slow

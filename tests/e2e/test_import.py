@@ -21,6 +21,7 @@ from fastapi import FastAPI
 
 from app.api.main import create_app
 from app.cli import main
+from tests.assembly_files import assembly_3mf, assembly_glb, rotated_a_stl
 from tests.conftest import EDGE_CASES, PARTS, fake_describe, make_settings
 from tests.plm_helpers import box_stl
 
@@ -116,6 +117,33 @@ def test_a_folder_is_imported_then_a_second_run_uploads_nothing(
     jobs = httpx.get(f"{service}/v1/jobs", params={"limit": 100}).json()["items"]
     assert len(jobs) == 18  # nothing was uploaded or described again
     assert {job["background"] for job in jobs} == {True}  # a bulk load: it takes turns
+
+
+def test_assemblies_are_split_and_their_parts_and_instances_reported(
+    service: str, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+) -> None:
+    folder = tmp_path / "products"
+    folder.mkdir()
+    (folder / "frame.glb").write_bytes(assembly_glb())  # A 4 times, B once
+    (folder / "fixture.3mf").write_bytes(assembly_3mf(a_count=3))  # A 3 times, B once
+    (folder / "bracket.stl").write_bytes(rotated_a_stl())  # a loose part
+    report = tmp_path / "report.csv"
+    code = main(["import", str(folder), "--url", service, "--assembly", "split",
+                 "--report", str(report)])
+    assert code == 0
+    rows = {row["path"]: row for row in read_report(report)}
+    assert (rows["frame.glb"]["parts"], rows["frame.glb"]["instances"]) == ("2", "5")
+    assert (rows["fixture.3mf"]["parts"], rows["fixture.3mf"]["instances"]) == ("2", "4")
+    assert (rows["bracket.stl"]["parts"], rows["bracket.stl"]["instances"]) == ("", "")
+    assert "2 assemblies split: 4 parts created, 9 instances found" in capsys.readouterr().err
+    models = httpx.get(f"{service}/v1/models", params={"limit": 100}).json()["items"]
+    assert len(models) == 3 + 4
+    # Whole: one model a file, nothing counted.
+    whole = tmp_path / "whole.csv"
+    (folder / "frame.glb").write_bytes(assembly_glb(with_b=False))  # changed: sent again
+    assert main(["import", str(folder), "--url", service, "--assembly", "whole",
+                 "--report", str(whole)]) == 0
+    assert {row["parts"] for row in read_report(whole)} == {""}
 
 
 @pytest.mark.slow

@@ -18,12 +18,14 @@ from pydantic import BaseModel, ConfigDict, Field
 from sqlalchemy import Row
 from sqlalchemy.orm import Session
 
+from app.api.assembly_schemas import summary_of
 from app.api.cursors import GroupCursor, encode_group, group_after
 from app.api.deps import ServicesDep, SessionDep
 from app.api.problems import Problem, problem_responses
-from app.api.schemas import JobResource, job_resource
+from app.api.schemas import JobResource, WhereUsedEntry, job_resource
 from app.auth.dependency import TenantDep
 from app.db.models import DuplicateReport
+from app.ingest.assemblies import where_used_of_groups
 from app.search.duplicate_reports import (
     enqueue_report,
     group_page,
@@ -86,6 +88,14 @@ class DuplicateGroupResource(BaseModel):
         description="The edges that joined the group, best first: pairs at least min_score "
         "alike of which one is among the other's 16 most alike parts (at least size - 1 "
         "of them; in a small group, usually every pair)."
+    )
+    # Only when asked with where_used=true (absent otherwise, not null).
+    where_used: list[WhereUsedEntry] | None = Field(
+        default=None,
+        exclude_if=lambda value: value is None,
+        description="With `where_used=true` only: the assemblies that place any member of "
+        "the group, oldest first, with the members' placements counted and the members "
+        "placed (`parts`). Two or more: the same part used across assemblies.",
     )
 
 
@@ -168,6 +178,9 @@ def get_duplicates(
     ] = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     cursor: GroupCursor = "",
+    where_used: Annotated[bool, Query(
+        description="true: each group also lists `where_used`, the assemblies that place "
+        "its members (the same part used across assemblies).")] = False,
 ) -> DuplicateReportResource:
     position = group_after(cursor)
     if position is not None:
@@ -179,7 +192,15 @@ def get_duplicates(
             size_tolerance=size_tolerance,
         )
         report, after = _newest_report(session, tenant, query), 0
-    return _report_page(session, report, group_page(session, report.id, after, limit))
+    page = _report_page(session, report, group_page(session, report.id, after, limit))
+    if where_used:  # issue 76
+        uses = where_used_of_groups(session.connection(), tenant,
+                                    [[m.id for m in group.members] for group in page.groups])
+        for group, used in zip(page.groups, uses, strict=True):
+            group.where_used = [
+                WhereUsedEntry(assembly=summary_of(entry.assembly), count=entry.count,
+                               parts=entry.parts) for entry in used]
+    return page
 
 
 def _cursor_report(

@@ -63,6 +63,7 @@ from app.api.search_params import (
     ORDER_HELP,
     SCAN_MODE_HELP,
     SIZE_HELP,
+    AssemblyQuery,
     ModeQuery,
     SizeOptions,
     UnitsField,
@@ -73,8 +74,8 @@ from app.api.search_params import (
 from app.api.uploads import UPLOAD_FILE_HELP, BackgroundField
 from app.auth.dependency import TenantDep
 from app.db.feed import record_event
-from app.db.models import Job, Model, utcnow
-from app.ingest.assemblies import add_parts
+from app.db.models import AssemblyPart, Job, Model, utcnow
+from app.ingest.assemblies import add_parts, is_assembly, splits_by_default
 from app.ingest.revisions import create_model_rows, latest_jobs, lock_models
 from app.search.similarity import Match, QueryChanged, SearchMode, find_similar
 from app.search.sizing import extents_mm
@@ -133,10 +134,12 @@ def upload_model(
     limits.text(name, "/name")
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata)
-    if assembly == "split":  # issue 76: a bomb is 422 assembly-too-large, said at once
+    wanted = assembly or services.settings.assembly_default
+    if wanted == "split":  # issue 76: a bomb is 422 assembly-too-large, said at once
         refuse_bomb(file.file, file.filename, services.settings.max_upload_bytes)
     upload = services.uploads.read(file.file, file.filename)
-    split = assembly == "split"
+    split = assembly == "split" or (
+        assembly is None and splits_by_default(services.settings, upload.format))
     request_digest = request_sha256(upload.sha256 + (":split" if split else ""), external_id,
                                     name, meta, units, background)
     if idempotency_key is not None:
@@ -145,6 +148,8 @@ def upload_model(
         if replay is not None:
             return replay
     parts = split_checked(services.settings, upload) if split else []
+    if assembly is None and not is_assembly(parts):
+        split = False  # split by default, but a file of one part placed once: one model
     model = Model(
         id=uuid.uuid4(),
         tenant=tenant,
@@ -196,11 +201,13 @@ async def list_models(
     external_id: str | None = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
     cursor: KeysetCursor = "",
+    assembly_id: AssemblyQuery = None,
 ) -> Response:
     # Like similar: one hop to the query pool for the whole page (a sync route and its
     # session dependency took three hops of the framework's 40-thread pool, whose threads
     # then contend for the GIL under load).
-    kind, values = page_query(tenant, status, external_id, keyset_after(cursor), limit)
+    kind, values = page_query(tenant, status, external_id, keyset_after(cursor), limit,
+                              assembly_id)
     body = await asyncio.get_running_loop().run_in_executor(
         services.queries, page_json, services.reader, kind, values, limit
     )
@@ -208,8 +215,9 @@ async def list_models(
 
 
 def page_query(tenant: str, status: str | None, external_id: str | None,
-               after: tuple[datetime, uuid.UUID] | None,
-               limit: int) -> tuple[tuple[bool, bool, bool], dict[str, Any]]:
+               after: tuple[datetime, uuid.UUID] | None, limit: int,
+               assembly_id: uuid.UUID | None = None
+               ) -> tuple[tuple[bool, bool, bool, bool], dict[str, Any]]:
     """What a catalogue page asks: which filters (``_page_statement``'s kind) and the values
     they and its statement bind."""
     values: dict[str, Any] = {"tenant": tenant, "limit": limit + 1}
@@ -219,16 +227,20 @@ def page_query(tenant: str, status: str | None, external_id: str | None,
         values["external_id"] = external_id
     if after is not None:
         values["created_at"], values["model_id"] = after
-    return (status is not None, external_id is not None, after is not None), values
+    if assembly_id is not None:
+        values["assembly_id"] = assembly_id
+    return (status is not None, external_id is not None, after is not None,
+            assembly_id is not None), values
 
 
-@functools.lru_cache(maxsize=16)
+@functools.lru_cache(maxsize=32)
 def _page_statement(stored: bool, by_status: bool, by_external_id: bool,
-                    after: bool) -> Select[Any]:
+                    after: bool, by_assembly: bool) -> Select[Any]:
     """One statement for a whole page: the columns a ``ModelResource`` shows, each model with
     its latest job (``latest_jobs``' choice: the last by ``created_at``, then ``id``); the
     values are bound (``tenant``, ``limit``, and ``status``, ``external_id``,
-    ``created_at`` and ``model_id`` as asked), so it is built once per kind of page.
+    ``created_at``, ``model_id`` and ``assembly_id`` as asked), so it is built once per kind
+    of page.
     ``stored``: the ``STORED_*`` columns read as the text SQLite stores
     (``app.api.answers.stored_fields``)."""
     job = aliased(Job)
@@ -246,6 +258,10 @@ def _page_statement(stored: bool, by_status: bool, by_external_id: bool,
         query = query.where(Model.status == bindparam("status"))
     if by_external_id:
         query = query.where(Model.external_id == bindparam("external_id"))
+    if by_assembly:  # the parts an assembly places (issue 76)
+        query = query.where(Model.id.in_(
+            select(AssemblyPart.part_id).where(AssemblyPart.assembly_id == bindparam(
+                "assembly_id", type_=AssemblyPart.assembly_id.type))))
     if after:
         # Keyset pagination on (created_at, id): stable while models come and go.
         query = query.where(
@@ -265,13 +281,13 @@ def _column(entity: Any, name: str, stored: bool) -> Any:
     return column
 
 
-def page_json(reader: Engine, kind: tuple[bool, bool, bool], values: dict[str, Any],
+def page_json(reader: Engine, kind: tuple[bool, bool, bool, bool], values: dict[str, Any],
               limit: int) -> bytes:
     """``model_page`` encoded (in the query pool: the event loop only sends it)."""
     return json_body(model_page(reader, kind, values, limit))
 
 
-def model_page(reader: Engine, kind: tuple[bool, bool, bool], values: dict[str, Any],
+def model_page(reader: Engine, kind: tuple[bool, bool, bool, bool], values: dict[str, Any],
                limit: int) -> dict[str, Any]:
     """A ``ModelList`` as plain values (``app.api.answers``) of the page ``page_query``
     describes."""
@@ -405,6 +421,7 @@ async def similar_models(
     where_used: Annotated[bool, Query(
         description="true: each result also lists `where_used`, the assemblies that "
         "contain it or a copy of it (as `GET /v1/models/{id}/where-used`).")] = False,
+    assembly_id: AssemblyQuery = None,
 ) -> Response:
     # One hop for the whole query (database and FAISS) to a small pool of its own: the
     # event loop is never blocked, and a few threads per core contend less for the GIL
@@ -414,12 +431,12 @@ async def similar_models(
     if not where_used:  # encoded in the query pool too: the event loop only sends it
         body = await loop.run_in_executor(
             services.queries, similar_json, services, tenant, model_id, k, min_score, filters,
-            ranges, mode, size,
+            ranges, mode, size, assembly_id,
         )
         return Response(body, media_type=JSON)
     answer = await loop.run_in_executor(
         services.queries, similar_answer, services, tenant, model_id, k, min_score, filters,
-        ranges, mode, size,
+        ranges, mode, size, assembly_id,
     )
     answer = await loop.run_in_executor(  # issue 76
         services.queries, with_where_used, services, tenant, answer
@@ -477,6 +494,7 @@ def similar_answer(
     ranges: dict[str, tuple[float | None, float | None]],
     mode: SearchMode,
     size: SizeOptions,
+    assembly_id: uuid.UUID | None = None,
 ) -> Any:
     """A ``SimilarResponse`` as plain values (``app.api.answers.similar_body``)."""
     options: dict[str, Any] = {
@@ -486,6 +504,7 @@ def similar_answer(
         "metadata_ranges": ranges,
         "pushdown_max": services.settings.filter_pushdown_max,
         "mode": mode,
+        "assembly_id": assembly_id,
     }
     with services.reader.connect() as connection:
         if not size.needs_query_size:  # else the query model's size is read with its row

@@ -38,7 +38,7 @@ from app.api.search_params import UnitsField
 from app.api.uploads import UPLOAD_FILE_HELP, BackgroundField, CheckedUpload
 from app.auth.dependency import TenantDep
 from app.db.models import Job, Model, ModelRevision, Upload, utcnow
-from app.ingest.assemblies import add_parts
+from app.ingest.assemblies import add_parts, is_assembly, splits_by_default
 from app.ingest.revisions import (
     add_revision,
     create_model_rows,
@@ -73,6 +73,7 @@ _MEDIA_TYPES = {
     "ply": "application/x-ply",
     "glb": "model/gltf-binary",
     "gltf": "model/gltf+json",
+    "3mf": "model/3mf",
     "off": "application/x-off",
     "step": "model/step",
     "iges": "model/iges",
@@ -148,10 +149,14 @@ def upsert_model(
     limits.text(name, "/name")
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata) if metadata is not None else None
-    if assembly == "split":  # issue 76: a bomb is 422 assembly-too-large, said at once
-        refuse_bomb(file.file, file.filename, services.settings.max_upload_bytes)
+    if (assembly or services.settings.assembly_default) == "split":  # issue 76: a bomb is
+        refuse_bomb(file.file, file.filename, services.settings.max_upload_bytes)  # 422 at once
     upload = services.uploads.read(file.file, file.filename)
-    parts = split_checked(services.settings, upload) if assembly == "split" else None
+    split = assembly == "split" or (
+        assembly is None and splits_by_default(services.settings, upload.format))
+    parts = split_checked(services.settings, upload) if split else None
+    if assembly is None and parts is not None and not is_assembly(parts):
+        parts = []  # split by default, but one part placed once: one model, no part list
     for _ in range(2):  # a concurrent create of the same external id: the second pass updates
         try:
             with services.sessions.begin() as session:

@@ -26,6 +26,7 @@ from app.api.search_params import (
     ORDER_HELP,
     SCAN_MODE_HELP,
     SIZE_HELP,
+    AssemblyQuery,
     ModeQuery,
     SizeOptions,
     UnitsField,
@@ -94,6 +95,7 @@ def search_by_upload(
         ge=0, le=MAX_RETURNED_POINTS,
         description="With `explain`: up to this many points of the part and of the aligned scan "
         "in each explanation.")] = 0,
+    assembly_id: AssemblyQuery = None,
 ) -> SearchResponse:
     upload = services.uploads.read(file.file, file.filename, parse=False)
     try:
@@ -116,6 +118,7 @@ def search_by_upload(
         metadata_ranges=ranges,
         pushdown_max=services.settings.filter_pushdown_max,
         mode=mode,
+        assembly_id=assembly_id,
         size=size.query(extents_mm(
             described["size_length"], described["size_width"], described["size_height"], units
         )),

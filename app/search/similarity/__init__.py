@@ -68,6 +68,7 @@ and order) and ``_scan`` (scan mode's).
 
 from __future__ import annotations
 
+import uuid
 from dataclasses import replace
 from typing import Literal
 
@@ -77,6 +78,7 @@ from sqlalchemy import Connection
 from app.search.index import PartitionKey, ShapeIndex
 from app.search.similarity._filters import (
     Ranges,
+    assembly_part_ids,
     matching_ids,
     metadata_in_ranges,
     metadata_matches,
@@ -125,9 +127,11 @@ def find_similar(
     indexed_query: bool = False,
     size: SizeQuery | None = None,
     metadata_ranges: Ranges | None = None,
+    assembly_id: uuid.UUID | None = None,
 ) -> list[Match]:
     """The ``k`` best matches in partition ``key`` (tenant, descriptor version); in
-    ``scan`` mode each model's best entry counts (see the module's docstring).
+    ``scan`` mode each model's best entry counts (see the module's docstring). With
+    ``assembly_id``, only among the parts that assembly places.
 
     ``indexed_query`` (shape mode): ``vector`` is the index's copy of model ``exclude``
     (``ShapeIndex.vector``: the vector as added, in a compressed partition too), not read
@@ -149,7 +153,12 @@ def find_similar(
     vector = np.ascontiguousarray(vector, dtype=np.float32).ravel()
     query = Query(vector, k, min_score, filters or {}, metadata_ranges or {},
                   size or SizeQuery(), exclude, None, indexed_query)
-    if query.filtered:
+    if assembly_id is not None:  # always narrow: searched among its parts' ids alone
+        within = assembly_part_ids(connection, key[0], assembly_id)
+        allowed = matching_ids(connection, key, query.filters, len(within), query.size,
+                               query.ranges, within) if within else []
+        query = replace(query, allowed=[i for i in allowed or [] if i != exclude])
+    elif query.filtered:
         allowed = matching_ids(connection, key, query.filters, pushdown_max, query.size,
                                query.ranges)
         if allowed is not None:

@@ -1,11 +1,13 @@
 """Metadata filters: the predicate that decides (``metadata_matches``,
 ``metadata_in_ranges``) and the SQL that narrows the candidates to the models it may pass
-(``matching_ids``), on either backend; SQL only narrows, so both ways agree exactly.
+(``matching_ids``), on either backend; SQL only narrows, so both ways agree exactly. An
+assembly filter (``assembly_part_ids``) is always narrow: its parts' ids are searched alone.
 """
 
 from __future__ import annotations
 
 import json
+import uuid
 from typing import Any
 
 from sqlalchemy import (
@@ -26,7 +28,7 @@ from sqlalchemy import (
 )
 from sqlalchemy.dialects.postgresql import JSONB
 
-from app.db.models import Model
+from app.db.models import AssemblyPart, Model
 from app.search.index import PartitionKey
 from app.search.sizing import SizeQuery
 
@@ -155,6 +157,19 @@ def _some_filter_narrow(tenant: str, filters: dict[str, str], limit: int
     return or_(*narrow)
 
 
+def assembly_part_ids(connection: Connection, tenant: str, assembly_id: uuid.UUID
+                      ) -> list[int]:
+    """The ``index_id`` of every model the tenant's assembly ``assembly_id`` places (its
+    distinct parts: at most ``SHAPESEARCH_ASSEMBLY_MAX_PARTS``); none for an unknown id."""
+    return list(connection.scalars(
+        select(Model.index_id).where(
+            Model.tenant == tenant,
+            Model.id.in_(select(AssemblyPart.part_id).where(
+                AssemblyPart.tenant == tenant, AssemblyPart.assembly_id == assembly_id)),
+        )
+    ))
+
+
 def matching_ids(
     connection: Connection,
     key: PartitionKey,
@@ -162,10 +177,12 @@ def matching_ids(
     limit: int,
     size: SizeQuery | None = None,
     ranges: Ranges | None = None,
+    within: list[int] | None = None,
 ) -> list[int] | None:
     """The ids of the ready models of partition ``key`` that pass ``filters`` and the size
-    filters, or None when more than ``limit`` do (the filter is not selective): the search
-    then screens the nearest candidates' rows instead, with the same answers.
+    filters (and are among ``within``, when given), or None when more than ``limit`` do (the
+    filter is not selective): the search then screens the nearest candidates' rows instead,
+    with the same answers. With ``within``, never None: at most ``len(within)`` pass.
 
     On SQLite, with equality filters, None also when each of them names more than ``limit``
     of the tenant's metadata entries, counted from their index alone, before any model's
@@ -180,9 +197,12 @@ def matching_ids(
     time, and the allocations set off the collector's full passes (a query's 14 ms became
     65-123 ms in one query of ten, 2 x 10^4 models)."""
     tenant, version = key
+    if within is not None:
+        limit = len(within)
     matches = (
         select(Model.index_id)
         .where(
+            Model.index_id.in_(within) if within is not None else true(),
             Model.tenant == tenant,
             Model.descriptor_version == version,
             Model.status == "ready",
@@ -199,7 +219,8 @@ def matching_ids(
     listed = select(func.json_group_array(matches.c.index_id)).scalar_subquery()
     # One statement: SQLite computes the list only when the case asks for it.
     found = connection.scalar(select(
-        case((_some_filter_narrow(tenant, filters, limit), listed)) if filters else listed))
+        case((_some_filter_narrow(tenant, filters, limit), listed))
+        if filters and within is None else listed))
     if found is None:
         return None
     ids = json.loads(found)

@@ -29,7 +29,7 @@ class BodySearchByUpload:
     """ 
         Attributes:
             file (File): Mesh, point cloud, scanner or CAD file; its name's extension tells the format: stl, obj, off, ply,
-                glb, xyz, txt, csv, pts, pcd, npy, e57, las, laz, step, iges (stp and igs too).
+                glb, gltf, 3mf, xyz, txt, csv, pts, pcd, npy, e57, las, laz, step, iges (stp and igs too).
             units (BodySearchByUploadUnits | Unset): Units of the file's coordinates: mm, cm, m or in. Sizes compare in
                 millimetres where units are known; without, the numbers are compared as given.
      """

@@ -33,11 +33,12 @@ class BodyUpsertModel:
     """ 
         Attributes:
             file (File): Mesh, point cloud, scanner or CAD file; its name's extension tells the format: stl, obj, off, ply,
-                glb, xyz, txt, csv, pts, pcd, npy, e57, las, laz, step, iges (stp and igs too).
-            assembly (BodyUpsertModelAssembly | Unset): `split`: the file is an assembly (GLB, OBJ or another mesh scene:
-                its geometry nodes; STEP or IGES: its solids); besides the model of the whole assembly, each distinct part
-                becomes a model of its own, its instances counted and placed (`GET /v1/models/{id}/parts`). `whole` or absent:
-                one model.
+                glb, gltf, 3mf, xyz, txt, csv, pts, pcd, npy, e57, las, laz, step, iges (stp and igs too).
+            assembly (BodyUpsertModelAssembly | Unset): `split`: the file is an assembly (GLB, glTF, 3MF, OBJ: its geometry
+                nodes; STEP or IGES: its solids); besides the model of the whole assembly, each distinct part becomes a model of
+                its own, its instances counted and placed (`GET /v1/models/{id}/parts`). `whole`: one model. Absent:
+                SHAPESEARCH_ASSEMBLY_DEFAULT (`whole` unless set; with `split`, a file that places one part once stays one
+                model).
             background (bool | Unset): true for an upload that is part of a bulk load (`shapesearch import` sends it): its
                 job takes turns with the tenant's other uploads instead of holding them up, as a catalogue's re-describe does.
                 Scheduling only: the model and its descriptor are the same. Default: False.

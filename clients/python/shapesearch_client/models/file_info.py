@@ -23,8 +23,8 @@ class FileInfo:
     """ 
         Attributes:
             filename (str):
-            format_ (str): Detected file format, one of stl, obj, off, ply, glb, xyz, txt, csv, pts, pcd, npy, e57, las,
-                laz, step, iges.
+            format_ (str): Detected file format, one of stl, obj, off, ply, glb, gltf, 3mf, xyz, txt, csv, pts, pcd, npy,
+                e57, las, laz, step, iges.
             sha256 (str):
             size (int): Bytes.
      """

@@ -13,6 +13,7 @@ from ...models.model_list import ModelList
 from ...models.problem import Problem
 from ...types import UNSET, Unset
 from typing import cast
+from uuid import UUID
 
 
 
@@ -22,6 +23,7 @@ def _get_kwargs(
     external_id: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    assembly_id: UUID | Unset = UNSET,
 
 ) -> dict[str, Any]:
     
@@ -41,6 +43,11 @@ def _get_kwargs(
     params["limit"] = limit
 
     params["cursor"] = cursor
+
+    json_assembly_id: str | Unset = UNSET
+    if not isinstance(assembly_id, Unset):
+        json_assembly_id = str(assembly_id)
+    params["assembly_id"] = json_assembly_id
 
 
     params = {k: v for k, v in params.items() if v is not UNSET and v is not None}
@@ -108,6 +115,7 @@ def sync_detailed(
     external_id: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    assembly_id: UUID | Unset = UNSET,
 
 ) -> Response[ModelList | Problem]:
     """ List models, newest first
@@ -118,6 +126,8 @@ def sync_detailed(
         limit (int | Unset):  Default: 50.
         cursor (str | Unset): The previous page's next_cursor, unchanged; empty or absent: the
             first page. Default: ''.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -133,6 +143,7 @@ def sync_detailed(
 external_id=external_id,
 limit=limit,
 cursor=cursor,
+assembly_id=assembly_id,
 
     )
 
@@ -149,6 +160,7 @@ def sync(
     external_id: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    assembly_id: UUID | Unset = UNSET,
 
 ) -> ModelList | Problem | None:
     """ List models, newest first
@@ -159,6 +171,8 @@ def sync(
         limit (int | Unset):  Default: 50.
         cursor (str | Unset): The previous page's next_cursor, unchanged; empty or absent: the
             first page. Default: ''.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -175,6 +189,7 @@ status=status,
 external_id=external_id,
 limit=limit,
 cursor=cursor,
+assembly_id=assembly_id,
 
     ).parsed
 
@@ -185,6 +200,7 @@ async def asyncio_detailed(
     external_id: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    assembly_id: UUID | Unset = UNSET,
 
 ) -> Response[ModelList | Problem]:
     """ List models, newest first
@@ -195,6 +211,8 @@ async def asyncio_detailed(
         limit (int | Unset):  Default: 50.
         cursor (str | Unset): The previous page's next_cursor, unchanged; empty or absent: the
             first page. Default: ''.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -210,6 +228,7 @@ async def asyncio_detailed(
 external_id=external_id,
 limit=limit,
 cursor=cursor,
+assembly_id=assembly_id,
 
     )
 
@@ -226,6 +245,7 @@ async def asyncio(
     external_id: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    assembly_id: UUID | Unset = UNSET,
 
 ) -> ModelList | Problem | None:
     """ List models, newest first
@@ -236,6 +256,8 @@ async def asyncio(
         limit (int | Unset):  Default: 50.
         cursor (str | Unset): The previous page's next_cursor, unchanged; empty or absent: the
             first page. Default: ''.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -252,5 +274,6 @@ status=status,
 external_id=external_id,
 limit=limit,
 cursor=cursor,
+assembly_id=assembly_id,
 
     )).parsed

@@ -15,6 +15,7 @@ from ...models.similar_models_mode import SimilarModelsMode
 from ...models.similar_response import SimilarResponse
 from ...types import UNSET, Unset
 from typing import cast
+from uuid import UUID
 
 
 
@@ -25,6 +26,7 @@ def _get_kwargs(
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
     where_used: bool | Unset = False,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -58,6 +60,11 @@ def _get_kwargs(
     params["mode"] = json_mode
 
     params["where_used"] = where_used
+
+    json_assembly_id: str | Unset = UNSET
+    if not isinstance(assembly_id, Unset):
+        json_assembly_id = str(assembly_id)
+    params["assembly_id"] = json_assembly_id
 
     params["size_tolerance"] = size_tolerance
 
@@ -178,6 +185,7 @@ def sync_detailed(
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
     where_used: bool | Unset = False,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -232,6 +240,8 @@ def sync_detailed(
             SimilarModelsMode.SHAPE.
         where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
             contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -267,6 +277,7 @@ k=k,
 min_score=min_score,
 mode=mode,
 where_used=where_used,
+assembly_id=assembly_id,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -298,6 +309,7 @@ def sync(
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
     where_used: bool | Unset = False,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -352,6 +364,8 @@ def sync(
             SimilarModelsMode.SHAPE.
         where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
             contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -388,6 +402,7 @@ k=k,
 min_score=min_score,
 mode=mode,
 where_used=where_used,
+assembly_id=assembly_id,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -413,6 +428,7 @@ async def asyncio_detailed(
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
     where_used: bool | Unset = False,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -467,6 +483,8 @@ async def asyncio_detailed(
             SimilarModelsMode.SHAPE.
         where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
             contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -502,6 +520,7 @@ k=k,
 min_score=min_score,
 mode=mode,
 where_used=where_used,
+assembly_id=assembly_id,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -533,6 +552,7 @@ async def asyncio(
     min_score: float | Unset = UNSET,
     mode: SimilarModelsMode | Unset = SimilarModelsMode.SHAPE,
     where_used: bool | Unset = False,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -587,6 +607,8 @@ async def asyncio(
             SimilarModelsMode.SHAPE.
         where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
             contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -623,6 +645,7 @@ k=k,
 min_score=min_score,
 mode=mode,
 where_used=where_used,
+assembly_id=assembly_id,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,

@@ -22,6 +22,7 @@ def _get_kwargs(
     descriptor_version: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    where_used: bool | Unset = False,
 
 ) -> dict[str, Any]:
     
@@ -39,6 +40,8 @@ def _get_kwargs(
     params["limit"] = limit
 
     params["cursor"] = cursor
+
+    params["where_used"] = where_used
 
 
     params = {k: v for k, v in params.items() if v is not UNSET and v is not None}
@@ -114,6 +117,7 @@ def sync_detailed(
     descriptor_version: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    where_used: bool | Unset = False,
 
 ) -> Response[DuplicateReportResource | Problem]:
     """ A page of the stored duplicates report
@@ -136,6 +140,8 @@ def sync_detailed(
         limit (int | Unset):  Default: 50.
         cursor (str | Unset): The previous page's next_cursor, unchanged; empty or absent: the
             first page. Default: ''.
+        where_used (bool | Unset): true: each group also lists `where_used`, the assemblies that
+            place its members (the same part used across assemblies). Default: False.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -152,6 +158,7 @@ size_tolerance=size_tolerance,
 descriptor_version=descriptor_version,
 limit=limit,
 cursor=cursor,
+where_used=where_used,
 
     )
 
@@ -169,6 +176,7 @@ def sync(
     descriptor_version: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    where_used: bool | Unset = False,
 
 ) -> DuplicateReportResource | Problem | None:
     """ A page of the stored duplicates report
@@ -191,6 +199,8 @@ def sync(
         limit (int | Unset):  Default: 50.
         cursor (str | Unset): The previous page's next_cursor, unchanged; empty or absent: the
             first page. Default: ''.
+        where_used (bool | Unset): true: each group also lists `where_used`, the assemblies that
+            place its members (the same part used across assemblies). Default: False.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -208,6 +218,7 @@ size_tolerance=size_tolerance,
 descriptor_version=descriptor_version,
 limit=limit,
 cursor=cursor,
+where_used=where_used,
 
     ).parsed
 
@@ -219,6 +230,7 @@ async def asyncio_detailed(
     descriptor_version: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    where_used: bool | Unset = False,
 
 ) -> Response[DuplicateReportResource | Problem]:
     """ A page of the stored duplicates report
@@ -241,6 +253,8 @@ async def asyncio_detailed(
         limit (int | Unset):  Default: 50.
         cursor (str | Unset): The previous page's next_cursor, unchanged; empty or absent: the
             first page. Default: ''.
+        where_used (bool | Unset): true: each group also lists `where_used`, the assemblies that
+            place its members (the same part used across assemblies). Default: False.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -257,6 +271,7 @@ size_tolerance=size_tolerance,
 descriptor_version=descriptor_version,
 limit=limit,
 cursor=cursor,
+where_used=where_used,
 
     )
 
@@ -274,6 +289,7 @@ async def asyncio(
     descriptor_version: str | Unset = UNSET,
     limit: int | Unset = 50,
     cursor: str | Unset = '',
+    where_used: bool | Unset = False,
 
 ) -> DuplicateReportResource | Problem | None:
     """ A page of the stored duplicates report
@@ -296,6 +312,8 @@ async def asyncio(
         limit (int | Unset):  Default: 50.
         cursor (str | Unset): The previous page's next_cursor, unchanged; empty or absent: the
             first page. Default: ''.
+        where_used (bool | Unset): true: each group also lists `where_used`, the assemblies that
+            place its members (the same part used across assemblies). Default: False.
 
     Raises:
         errors.UnexpectedStatus: If the server returns an undocumented status code and Client.raise_on_unexpected_status is True.
@@ -313,5 +331,6 @@ size_tolerance=size_tolerance,
 descriptor_version=descriptor_version,
 limit=limit,
 cursor=cursor,
+where_used=where_used,
 
     )).parsed

@@ -16,6 +16,7 @@ from ...models.search_by_upload_mode import SearchByUploadMode
 from ...models.search_response import SearchResponse
 from ...types import UNSET, Unset
 from typing import cast
+from uuid import UUID
 
 
 
@@ -27,6 +28,7 @@ def _get_kwargs(
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
     explain: bool | Unset = False,
     points: int | Unset = 0,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -63,6 +65,11 @@ def _get_kwargs(
     params["explain"] = explain
 
     params["points"] = points
+
+    json_assembly_id: str | Unset = UNSET
+    if not isinstance(assembly_id, Unset):
+        json_assembly_id = str(assembly_id)
+    params["assembly_id"] = json_assembly_id
 
     params["size_tolerance"] = size_tolerance
 
@@ -202,6 +209,7 @@ def sync_detailed(
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
     explain: bool | Unset = False,
     points: int | Unset = 0,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -261,6 +269,8 @@ def sync_detailed(
             how well it fits (`explanation`). Default: False.
         points (int | Unset): With `explain`: up to this many points of the part and of the
             aligned scan in each explanation. Default: 0.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -298,6 +308,7 @@ min_score=min_score,
 mode=mode,
 explain=explain,
 points=points,
+assembly_id=assembly_id,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -330,6 +341,7 @@ def sync(
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
     explain: bool | Unset = False,
     points: int | Unset = 0,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -389,6 +401,8 @@ def sync(
             how well it fits (`explanation`). Default: False.
         points (int | Unset): With `explain`: up to this many points of the part and of the
             aligned scan in each explanation. Default: 0.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -427,6 +441,7 @@ min_score=min_score,
 mode=mode,
 explain=explain,
 points=points,
+assembly_id=assembly_id,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -453,6 +468,7 @@ async def asyncio_detailed(
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
     explain: bool | Unset = False,
     points: int | Unset = 0,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -512,6 +528,8 @@ async def asyncio_detailed(
             how well it fits (`explanation`). Default: False.
         points (int | Unset): With `explain`: up to this many points of the part and of the
             aligned scan in each explanation. Default: 0.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -549,6 +567,7 @@ min_score=min_score,
 mode=mode,
 explain=explain,
 points=points,
+assembly_id=assembly_id,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -581,6 +600,7 @@ async def asyncio(
     mode: SearchByUploadMode | Unset = SearchByUploadMode.SHAPE,
     explain: bool | Unset = False,
     points: int | Unset = 0,
+    assembly_id: UUID | Unset = UNSET,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -640,6 +660,8 @@ async def asyncio(
             how well it fits (`explanation`). Default: False.
         points (int | Unset): With `explain`: up to this many points of the part and of the
             aligned scan in each explanation. Default: 0.
+        assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
+            uploaded with `assembly=split`); an id that places nothing: no results.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -678,6 +700,7 @@ min_score=min_score,
 mode=mode,
 explain=explain,
 points=points,
+assembly_id=assembly_id,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
