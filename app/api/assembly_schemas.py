@@ -13,6 +13,7 @@ from app.api.schemas import ModelSummary, WhereUsedEntry, size_of
 
 __all__ = [
     "AssemblyField",
+    "PartPointsResponse",
     "PartUse",
     "PartsResponse",
     "WhereUsedEntry",
@@ -57,6 +58,19 @@ class PartsResponse(BaseModel):
         description="The distinct parts, in the order the file first places them; empty for "
         "a model that was not uploaded as a split assembly.",
     )
+
+
+class PartPointsResponse(BaseModel):
+    assembly_id: uuid.UUID
+    part_ids: list[uuid.UUID] = Field(
+        description="The assembly's parts, as `GET /v1/models/{id}/parts` lists them.")
+    points: list[list[float]] = Field(
+        description="Points on the whole assembly, x y z in its file's coordinates (the "
+        "stored sample of its describe, evenly thinned to at most `points`).")
+    labels: list[int] = Field(
+        description="Per point, the index in `part_ids` of the part it lies on (its own "
+        "points placed at every placement, the nearest); -1: on none known (a part not "
+        "described yet).")
 
 
 class WhereUsedResponse(BaseModel):

@@ -11,7 +11,8 @@
     index_events  the change feed the search index of every API process follows
     feed_state    one row holding the last revision handed out to the change feed
     duplicate_reports, duplicate_groups  stored duplicate reports (app.search.duplicate_reports)
-    assembly_parts  each placement of a part model in an assembly model (app.ingest.assemblies)
+    assembly_parts  each placement of a part model in an assembly model (written by
+                  app.ingest.assemblies, read by app.search.assemblies)
 
 ``index_id`` is the models' integer primary key because FAISS keys its vectors by int64;
 the public identifier is the UUID ``id``.

@@ -10,6 +10,7 @@ import uuid
 from collections.abc import Iterator
 from typing import Any
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, func, select
@@ -17,7 +18,7 @@ from sqlalchemy import create_engine, func, select
 from app.auth.keys import create_key
 from app.db.models import AssemblyPart, Model
 from app.db.session import make_session_factory
-from app.ingest.assemblies import UNCALIBRATED_COPY
+from app.search.assemblies import UNCALIBRATED_COPY
 from tests.assembly_files import (
     assembly_3mf,
     assembly_glb,
@@ -30,7 +31,9 @@ from tests.assembly_files import (
     translations,
     wide_bomb,
 )
-from tests.conftest import stored_duplicates, wait_for_status
+from app.ingest.describing import encode_sample
+from core.io import load_points
+from tests.conftest import fake_describe, stored_duplicates, wait_for_status
 from tests.plm_helpers import ClientFactory, started_clients
 
 PROBLEM = "application/problem+json"
@@ -234,6 +237,35 @@ def test_the_duplicates_report_says_which_assemblies_use_each_group(
     assert used == {first["id"]: (4, [a_first]), second["id"]: (2, [a_second])}
     assert all(g["where_used"] == [] for g in page["groups"]
                if loose["id"] in {m["id"] for m in g["members"]})
+
+
+def sampled_describe(content: bytes, filename: str) -> dict[str, Any]:
+    """``fake_describe`` with the file's real sample points (``Model.sample``)."""
+    points = load_points(content, filename=filename, max_points=1500).points
+    return {**fake_describe(content, filename), "sample": encode_sample(points)}
+
+
+def test_the_assembly_points_are_labelled_with_the_part_they_lie_on(
+        make_client: ClientFactory) -> None:
+    client = make_client(handler=sampled_describe)
+    assembly = post(client, assembly_glb(), assembly="split").json()
+    parts = parts_by_count(client, assembly["id"])
+    for model_id in (assembly["id"], parts[4]["model"]["id"], parts[1]["model"]["id"]):
+        assert wait_for_status(client, model_id)["status"] == "ready"
+    answer = client.get(f"/v1/models/{assembly['id']}/parts/points", params={"points": 900})
+    assert answer.status_code == 200, answer.text
+    body = answer.json()
+    points, labels = np.asarray(body["points"]), np.asarray(body["labels"])
+    assert len(points) == len(labels) == 900
+    pin = body["part_ids"].index(parts[1]["model"]["id"])
+    bracket = body["part_ids"].index(parts[4]["model"]["id"])
+    assert set(labels.tolist()) == {pin, bracket}
+    # The pin (radius 4, length 30 along z) is placed at y = 60, the brackets far from it.
+    on_pin = (np.abs(points[:, 1] - 60.0) <= 4.01) & (np.abs(points[:, 2]) <= 15.01)
+    assert on_pin.sum() > 20
+    assert np.array_equal(labels == pin, on_pin)
+    assert_problem(client.get(f"/v1/models/{assembly['id']}/parts/points",
+                              params={"points": 0}), 422, "validation-error")
 
 
 @pytest.mark.slow

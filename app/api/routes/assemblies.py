@@ -1,15 +1,17 @@
-"""/v1/models/{id}/parts and /v1/models/{id}/where-used: assemblies and their parts
-(issue 76; the split itself happens at upload, ``app.ingest.assemblies``)."""
+"""/v1/models/{id}/parts (and its labelled points) and /v1/models/{id}/where-used:
+assemblies and their parts (issue 76; the split itself happens at upload,
+``app.ingest.assemblies``; the answers come from ``app.search.assemblies``)."""
 
 from __future__ import annotations
 
 import uuid
-from typing import Any, BinaryIO
+from typing import Annotated, Any, BinaryIO
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Query
 from sqlalchemy import Connection, select
 
 from app.api.assembly_schemas import (
+    PartPointsResponse,
     PartsResponse,
     PartUse,
     WhereUsedEntry,
@@ -18,12 +20,13 @@ from app.api.assembly_schemas import (
 )
 from app.api.deps import Services, ServicesDep
 from app.api.lookups import model_not_found, parse_model_id
-from app.api.problems import problem_responses
+from app.api.problems import Problem, problem_responses
 from app.api.uploads import CheckedUpload, invalid_shape_problem
 from app.auth.dependency import TenantDep
 from app.db.models import Model
-from app.ingest.assemblies import PartFile, assembly_parts, split_upload, where_used
+from app.ingest.assemblies import PartFile, split_upload
 from app.ingest.sandbox import SandboxCrash
+from app.search.assemblies import assembly_parts, labelled_points, where_used
 from app.settings import Settings
 from core.errors import InvalidShapeError
 from core.io import check_gltf_graph
@@ -31,6 +34,9 @@ from core.io import check_gltf_graph
 __all__ = ["refuse_bomb", "router", "split_checked", "with_where_used"]
 
 router = APIRouter(prefix="/v1", tags=["assemblies"])
+
+#: Most points ``/parts/points`` answers (a describe's sample holds up to 3000 by default).
+MAX_LABELLED_POINTS = 10_000
 
 
 def refuse_bomb(stream: BinaryIO, filename: str | None, max_bytes: int) -> None:
@@ -90,6 +96,36 @@ def model_parts(model_id: str, tenant: TenantDep, services: ServicesDep) -> Part
         assembly_id=assembly_id,
         parts=[PartUse(model=summary_of(row), count=len(placements), placements=placements)
                for row, placements in parts],
+    )
+
+
+@router.get(
+    "/models/{model_id}/parts/points",
+    response_model=PartPointsResponse,
+    responses=problem_responses(401, 404, 409),
+    summary="Points on an assembly, each with the part it lies on",
+    description="What a viewer needs to highlight a part in its assembly: points on the "
+    "whole assembly, each labelled with one of its parts (every placement of it). 409 "
+    "`model-not-ready` until the assembly is described; a part not described yet labels "
+    "nothing.",
+)
+def model_part_points(
+    model_id: str, tenant: TenantDep, services: ServicesDep,
+    points: Annotated[int, Query(ge=1, le=MAX_LABELLED_POINTS,
+                                 description="At most this many points.")] = 2000,
+) -> PartPointsResponse:
+    with services.reader.connect() as connection:
+        assembly_id = _owned(connection, tenant, model_id)
+        found = labelled_points(connection, tenant, assembly_id, points)
+        status = None if found is not None else connection.scalar(
+            select(Model.status).where(Model.id == assembly_id))
+    if found is None:
+        raise Problem("model-not-ready",
+                      f"Model {assembly_id} is {status}; its points come with its describe.",
+                      model_status=status)
+    return PartPointsResponse(
+        assembly_id=assembly_id, part_ids=found.part_ids,
+        points=found.points.round(6).tolist(), labels=found.labels.tolist(),
     )
 
 

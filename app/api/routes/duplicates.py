@@ -25,7 +25,7 @@ from app.api.problems import Problem, problem_responses
 from app.api.schemas import JobResource, WhereUsedEntry, job_resource
 from app.auth.dependency import TenantDep
 from app.db.models import DuplicateReport
-from app.ingest.assemblies import where_used_of_groups
+from app.search.assemblies import where_used_of_groups
 from app.search.duplicate_reports import (
     enqueue_report,
     group_page,

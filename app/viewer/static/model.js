@@ -2,7 +2,7 @@
 // eigenvalues, the timings, the most similar models and a side-by-side comparison.
 
 import { ApiError, el, getJson, getPreview, modelLabel, sizeLabel, statusBadge } from "./api.js";
-import { assemblyPanel } from "./assemblies.js";
+import { assemblyPanel, labelledCloud } from "./assemblies.js";
 import { plotXY } from "./plots.js";
 import { PointView, drawThumbnail, scaledColumn } from "./pointview.js";
 
@@ -72,8 +72,9 @@ export async function modelPage(page, modelId) {
   getPreview(modelId).catch(() => {});
   const model = await getJson(`/v1/models/${modelId}`);
   const main = el("div", {});
+  const highlight = { show: null }; // set once the view exists (a ready assembly)
   const side = el("div", { class: "panel" }, el("h2", {}, "Facts"), facts(model), el("h2", {}, "Timings"), timings(model),
-    assemblyPanel(model.id));
+    assemblyPanel(model.id, (part) => highlight.show?.(part)));
   page.replaceChildren(el("h1", {}, modelLabel(model)), el("div", { class: "columns" }, main, side));
   if (model.status !== "ready") {
     main.append(el("p", { class: "hint" },
@@ -102,10 +103,25 @@ export async function modelPage(page, modelId) {
   const primary = new PointView(query.canvas);
   primary.setCloud(preview.points, scaledColumn(preview, +slider.value));
   views3d.push([primary, preview]);
+  let highlighted = null; // the assembly's labelled points while a part is highlighted
   const setTime = () => {
     const index = +slider.value;
     timeLabel.textContent = preview.times[index].toExponential(2);
+    if (highlighted) { // back to the HKS colours of the preview
+      highlighted = null;
+      query.box.firstChild.textContent = "this model";
+      delete query.canvas.dataset.highlighted;
+      primary.setCloud(preview.points, scaledColumn(preview, index));
+    }
     for (const [view, shown] of views3d) view.setValues(scaledColumn(shown, index));
+  };
+  highlight.show = async (part) => {
+    highlighted ??= await labelledCloud(model.id);
+    const values = highlighted.values(part.id);
+    primary.setCloud(highlighted.points, values);
+    query.box.firstChild.textContent = `${modelLabel(part)} highlighted (the slider goes back to the heat colours)`;
+    query.canvas.dataset.highlighted = part.id;
+    query.canvas.dataset.highlightedPoints = String(values.filter((v) => v > 0).length);
   };
   slider.addEventListener("input", setTime);
   setTime();
