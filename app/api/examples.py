@@ -329,6 +329,17 @@ EXAMPLES: dict[tuple[str, str], dict[str, Any]] = {
             404: _NOT_FOUND,
         },
     },
+    ("get", "/v1/models/{model_id}/parts/points"): {
+        "responses": {
+            200: {"assembly_id": _ID, "part_ids": [_ID2, _ID3],
+                  "points": [[12.5, 0.0, 2.5], [60.0, 58.1, 4.2], [71.3, -3.9, 5.0]],
+                  "labels": [0, 1, 0]},
+            401: _UNAUTHORIZED,
+            404: _NOT_FOUND,
+            409: {**_NOT_READY, "detail": f"Model {_ID} is processing; its points come with "
+                  "its describe.", "model_status": "processing"},
+        },
+    },
     ("get", "/v1/models/{model_id}/preview"): {
         "responses": {
             401: _UNAUTHORIZED,

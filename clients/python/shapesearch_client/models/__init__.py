@@ -55,6 +55,7 @@ from .model_resource_status import ModelResourceStatus
 from .model_resource_timings_type_0 import ModelResourceTimingsType0
 from .model_summary import ModelSummary
 from .model_summary_metadata import ModelSummaryMetadata
+from .part_points_response import PartPointsResponse
 from .part_use import PartUse
 from .parts_response import PartsResponse
 from .point_set import PointSet
@@ -153,6 +154,7 @@ __all__ = (
     "ModelResourceTimingsType0",
     "ModelSummary",
     "ModelSummaryMetadata",
+    "PartPointsResponse",
     "PartsResponse",
     "PartUse",
     "PointSet",
