@@ -18,7 +18,9 @@ from sqlalchemy import create_engine, func, select
 from app.auth.keys import create_key
 from app.db.models import AssemblyPart, Model
 from app.db.session import make_session_factory
+from app.ingest.describing import encode_sample
 from app.search.assemblies import UNCALIBRATED_COPY
+from core.io import load_points
 from tests.assembly_files import (
     assembly_3mf,
     assembly_glb,
@@ -31,8 +33,6 @@ from tests.assembly_files import (
     translations,
     wide_bomb,
 )
-from app.ingest.describing import encode_sample
-from core.io import load_points
 from tests.conftest import fake_describe, stored_duplicates, wait_for_status
 from tests.plm_helpers import ClientFactory, started_clients
 
