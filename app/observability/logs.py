@@ -1,13 +1,21 @@
 """Logs: one JSON object per line and event (python-json-logger) for a log collector, or
 one readable line per event for a person at a terminal (``SHAPESEARCH_LOG_FORMAT``).
 
+A log line is handed to a bounded queue and written by a thread of its own, so a slow or
+stuck sink (a pipe nobody reads, a full disk, a collector that stalls) never holds the event
+loop or a request: with the queue full (``QUEUED_LINES``), lines are dropped and counted,
+and the next line written says how many were lost. Formatting happens in the writing
+thread, from the record as it was logged (its message merged with its arguments at once).
+
 Every line carries the request id of the HTTP request it belongs to (``X-Request-ID``: taken
 from the client when it is a sane token, else made up; always returned) and, in workers, the
 job id. Both travel in context variables, so no call site passes them along. Keys never
 reach a log: no header is logged, and routes log tenants, never credentials.
 
     configure_logging()     the process's log lines on stderr (serve, worker): JSON, or
-                            text when asked or, by default, when stderr is a terminal
+                            text when asked or, by default, when stderr is a terminal;
+                            written by a thread of their own (``background``)
+    flush_logs()            wait until every line logged so far is written
     RequestId               ASGI middleware: request id in, out, on every line, one access line
     job_context(job_id)     context manager: the job id on every line of the block
     Outage                  a background loop's outage (its database away or full): logged
@@ -16,14 +24,18 @@ reach a log: no header is logged, and routes log tenants, never credentials.
 
 from __future__ import annotations
 
+import atexit
 import itertools
 import logging
 import os
+import queue
 import re
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
+from logging.handlers import QueueHandler
 from typing import Literal, TextIO
 
 from pythonjsonlogger.json import JsonFormatter
@@ -33,9 +45,12 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from app.storage import storage_full
 
 __all__ = [
-    "LogFormat", "Outage", "RequestId", "configure_logging", "first_line", "job_context",
-    "request_id",
+    "QUEUED_LINES", "LogFormat", "Outage", "RequestId", "configure_logging", "first_line",
+    "flush_logs", "job_context", "request_id",
 ]
+
+#: Log lines waiting for the writing thread at most; beyond, lines are dropped and counted.
+QUEUED_LINES = 10_000
 
 #: ``SHAPESEARCH_LOG_FORMAT``: JSON lines, readable text, or text on a terminal only.
 LogFormat = Literal["auto", "json", "text"]
@@ -68,12 +83,107 @@ class _ContextFilter(logging.Filter):
         return True
 
 
+class _Handoff(QueueHandler):
+    """Hands records to the writing thread without blocking: the context ids are added
+    here (the filter runs in the logging thread, where the context variables are), the
+    message merged with its arguments, and a record that finds the queue full is dropped
+    and counted."""
+
+    def __init__(self, lines: queue.Queue[logging.LogRecord | None]) -> None:
+        super().__init__(lines)
+        self.lines = lines
+        self.dropped = 0
+        self._lock = threading.Lock()
+
+    def prepare(self, record: logging.LogRecord) -> logging.LogRecord:
+        record.msg, record.args = record.getMessage(), None
+        return record
+
+    def enqueue(self, record: logging.LogRecord) -> None:
+        with self._lock:
+            if self.dropped and not self.lines.full():
+                lost, self.dropped = self.dropped, 0
+                self.lines.put_nowait(logging.makeLogRecord({
+                    "name": "shapesearch.logs", "levelno": logging.WARNING,
+                    "levelname": "WARNING", "msg": f"{lost} log lines dropped: the log "
+                    "sink was slower than the lines came"}))
+            try:
+                self.lines.put_nowait(record)
+            except queue.Full:
+                self.dropped += 1
+
+
+class _Writer:
+    """The thread that writes the queued lines through ``handler`` (a daemon: a sink stuck
+    for good does not keep the process alive)."""
+
+    def __init__(self, lines: queue.Queue[logging.LogRecord | None],
+                 handler: logging.Handler) -> None:
+        self.lines = lines
+        self.handler = handler
+        self.thread = threading.Thread(target=self._run, name="log-writer", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while True:
+            record = self.lines.get()
+            try:
+                if record is None:
+                    return
+                self.handler.handle(record)
+            finally:
+                self.lines.task_done()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Write what is queued (waiting at most ``timeout`` seconds), then end."""
+        try:
+            self.lines.put(None, timeout=timeout)
+        except queue.Full:
+            return
+        self.thread.join(timeout)
+
+
+_writer: _Writer | None = None
+
+
+def flush_logs() -> None:
+    """Wait until every line logged so far is written (no-op when lines are written in the
+    logging thread)."""
+    if _writer is not None:
+        _writer.lines.join()
+
+
+def _stop_writer() -> None:
+    global _writer
+    if _writer is not None:
+        _writer.stop()
+        _writer = None
+
+
+atexit.register(_stop_writer)
+
+
+def _write_directly_after_fork() -> None:
+    """A forked child has no writer thread: it writes its lines itself."""
+    global _writer
+    if _writer is not None:
+        handler, _writer = _writer.handler, None
+        handler.addFilter(_ContextFilter())
+        logging.getLogger().handlers[:] = [handler]
+
+
+os.register_at_fork(after_in_child=_write_directly_after_fork)
+
+
 def configure_logging(
-    level: int = logging.INFO, stream: TextIO | None = None, log_format: LogFormat = "auto"
+    level: int = logging.INFO, stream: TextIO | None = None, log_format: LogFormat = "auto",
+    background: bool = True,
 ) -> None:
     """Log lines on ``stream`` (default stderr) for every logger of the process (uvicorn's
     included): JSON, or text with ``log_format`` "text" or, with "auto", when ``stream``
-    is a terminal."""
+    is a terminal; written by a thread of their own unless ``background`` is False."""
+    global _writer
+    _stop_writer()
     handler = logging.StreamHandler(stream)
     formatter: logging.Formatter
     if _wants_text(log_format, handler.stream):
@@ -85,9 +195,16 @@ def configure_logging(
             rename_fields={"asctime": "time", "levelname": "level", "name": "logger"},
         )
     handler.setFormatter(formatter)
-    handler.addFilter(_ContextFilter())
     root = logging.getLogger()
-    root.handlers[:] = [handler]
+    if background:
+        lines: queue.Queue[logging.LogRecord | None] = queue.Queue(QUEUED_LINES)
+        handoff = _Handoff(lines)
+        handoff.addFilter(_ContextFilter())
+        _writer = _Writer(lines, handler)
+        root.handlers[:] = [handoff]
+    else:
+        handler.addFilter(_ContextFilter())
+        root.handlers[:] = [handler]
     root.setLevel(level)
     for name in ("uvicorn", "uvicorn.error", "uvicorn.access"):
         logging.getLogger(name).handlers[:] = []

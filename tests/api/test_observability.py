@@ -7,6 +7,7 @@ import errno
 import io
 import json
 import logging
+import os
 import re
 import threading
 import time
@@ -32,7 +33,15 @@ from app.db.models import Model, Webhook, WebhookDelivery, utcnow
 from app.db.session import make_session_factory
 from app.jobs.queue import JobQueue
 from app.jobs.worker import Worker
-from app.observability.logs import LogFormat, Outage, RequestId, configure_logging, job_context
+from app.observability.logs import (
+    QUEUED_LINES,
+    LogFormat,
+    Outage,
+    RequestId,
+    configure_logging,
+    flush_logs,
+    job_context,
+)
 from app.observability.metrics import (
     IndexCollector,
     QueueCollector,
@@ -62,7 +71,9 @@ def logs_to() -> Iterator[Callable[[io.StringIO, LogFormat], io.StringIO]]:
     handlers, level = root.handlers[:], root.level
 
     def configure(stream: io.StringIO, log_format: LogFormat) -> io.StringIO:
-        configure_logging(stream=stream, log_format=log_format)
+        # Written in the logging thread, so the test reads every line at once (the
+        # background writer has a test of its own).
+        configure_logging(stream=stream, log_format=log_format, background=False)
         return stream
 
     yield configure
@@ -399,3 +410,69 @@ def test_the_log_format_is_a_setting(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("SHAPESEARCH_LOG_FORMAT", "xml")
     with pytest.raises(ValidationError, match="log_format"):
         Settings()
+
+
+class StuckSink(io.StringIO):
+    """A log sink whose writes wait until ``release`` is set: a pipe nobody reads."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.release = threading.Event()
+
+    def write(self, text: str) -> int:
+        self.release.wait()
+        return super().write(text)
+
+
+def test_a_stuck_log_sink_never_holds_the_logging_thread(
+        logs_to: Callable[[io.StringIO, LogFormat], io.StringIO]) -> None:
+    sink = StuckSink()
+    configure_logging(stream=sink, log_format="json")
+    try:
+        log = logging.getLogger("shapesearch.test")
+        done = threading.Event()
+
+        def flood() -> None:  # more lines than the queue holds
+            for number in range(QUEUED_LINES + 500):
+                log.info("line %d", number)
+            done.set()
+
+        threading.Thread(target=flood, daemon=True).start()
+        # Every call returned although nothing could be written (a synchronous handler
+        # would block on the first line for as long as the sink is stuck).
+        assert done.wait(30)
+        assert sink.getvalue() == ""
+        sink.release.set()
+        flush_logs()  # the queue drains once the sink moves again
+        log.info("after")  # the first line with room: after the count of those lost
+        flush_logs()
+        lines = log_lines(sink.getvalue())
+        messages = [line["message"] for line in lines]
+        # The queue's lines in order, then the count of those dropped, then the next line.
+        assert messages[0] == "line 0"
+        assert any(m.endswith("log lines dropped: the log sink was slower than the lines "
+                              "came") for m in messages)
+        dropped = next(int(m.split()[0]) for m in messages if "dropped" in m)
+        kept = [m for m in messages if m.startswith("line ")]
+        assert len(kept) + dropped == QUEUED_LINES + 500
+        assert messages[-1] == "after"
+    finally:
+        sink.release.set()
+        configure_logging(stream=io.StringIO(), background=False)  # stops the writer
+
+
+def test_a_forked_child_writes_its_own_lines(tmp_path: Path) -> None:
+    """The writer thread does not survive a fork: a child writes directly, nothing lost."""
+    out = tmp_path / "child.log"
+    with out.open("w") as stream:
+        configure_logging(stream=stream, log_format="json")
+        try:
+            pid = os.fork()
+            if pid == 0:  # the child: log and leave at once, without atexit
+                logging.getLogger("shapesearch.child").info("from the child")
+                stream.flush()
+                os._exit(0)
+            os.waitpid(pid, 0)
+        finally:
+            configure_logging(stream=io.StringIO(), background=False)
+    assert [line["message"] for line in log_lines(out.read_text())] == ["from the child"]
