@@ -112,7 +112,7 @@ class IndexSettings(BaseModel):
     milvus_index: Literal["FLAT", "HNSW", "IVF_FLAT"] = Field(
         default="HNSW",
         description="The vector index of each Milvus collection: FLAT (exact, a scan per "
-        "query), HNSW (graph, M 16, ef max(64, 2k)) or IVF_FLAT (1024 lists, "
+        "query), HNSW (graph, M 16, ef max(128, 2k)) or IVF_FLAT (1024 lists, "
         "SHAPESEARCH_INDEX_NPROBE searched). Distances are always exact: Milvus keeps the "
         "whole vectors, so nothing is re-ranked. Applies to collections when created.",
     )

@@ -95,6 +95,8 @@ def _batch(held: Held, rows: ModelRows, remote: int | None) -> tuple[int, bool]:
     writing = store is not None and remote is not None and last > remote
     if store is not None:
         store.writing = writing
+        if writing:  # Milvus may lag what this process was built from: gone first
+            store.forget(list(latest))
     try:
         # Models deleted meanwhile are simply not found; their views go with them.
         held.apply(latest, [added(*row) for row in ready if row[3] and row[2]])

@@ -110,6 +110,7 @@ class Held:
             partition.size += len(ids)
             self.partition_of.update(dict.fromkeys(ids, key))
         if partition is not None:
+            store.flush(partition.name)
             self.partitions[key] = partition
 
     def install(

@@ -45,7 +45,8 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.search.index._kept import KeptNeighbourhoods
 from app.search.index._lock import ReadWriteLock
 from app.search.index._partition import Partition
-from app.search.index._view_ids import PartitionKey
+from app.search.index._view_ids import PartitionKey, view_ids
+from core.settings import MAX_VIEWS
 
 __all__ = ["INDEX_TYPES", "AnyPartition", "MilvusPartition", "MilvusStore", "MilvusUnavailable"]
 
@@ -54,6 +55,7 @@ INDEX_TYPES = ("FLAT", "HNSW", "IVF_FLAT")
 #: Milvus answers at most this many results per query (its ``topk`` limit).
 MAX_TOPK = 16_384
 _STATE_ROW = 1
+_HNSW_EF = 128  # HNSW's candidate list per query, at least (2 k when more)
 _IVF_LISTS = 1024  # IVF_FLAT's inverted lists (all searched when few are wanted)
 _UPSERT_ROWS = 256  # rows per upsert call: ~3 MB of 2961-dim vectors
 _GET_IDS = 1_024  # ids per get call
@@ -275,6 +277,14 @@ class MilvusStore:
         for start in range(0, len(ids), _DELETE_IDS):
             self.client.delete(name, ids=[int(i) for i in ids[start:start + _DELETE_IDS]])
 
+    def forget(self, index_ids: Sequence[int]) -> None:
+        """Delete models ``index_ids`` and every view they may have from every collection:
+        what a replay does first, as Milvus may hold models (or views) that the database,
+        and so this process, no longer knows of."""
+        entries = [entry for i in index_ids for entry in (i, *view_ids(i, MAX_VIEWS))]
+        for name in self.collections():
+            self.delete(name, entries)
+
     def get(
         self, name: str, tenant: str, ids: Sequence[int], dim: int
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -330,6 +340,11 @@ class MilvusStore:
                                   count=len(batch))
         finally:
             iterator.close()
+
+    def flush(self, name: str) -> None:
+        """Seal what was written to ``name`` and index it (after a bulk upload: milvus-lite
+        scans unsealed rows one by one, ~1 s a query at 3,000 rows against 60 ms sealed)."""
+        self.client.flush(name)
 
     def count(self, name: str) -> int:
         rows = self.client.query(name, filter="", output_fields=["count(*)"])
@@ -428,7 +443,7 @@ class MilvusPartition:
         """``(m, k)`` squared L2 distances and ids (-1 past the end), as FAISS gives them."""
         query = query[:, : self.dim]
         if self.store.index_type == "HNSW":
-            params: dict[str, Any] = {"ef": min(max(64, 2 * k), 2 * MAX_TOPK)}
+            params: dict[str, Any] = {"ef": min(max(_HNSW_EF, 2 * k), 2 * MAX_TOPK)}
         elif self.store.index_type == "IVF_FLAT":
             params = {"nprobe": self.nprobe if allowed is None else _IVF_LISTS}
         else:

@@ -153,6 +153,8 @@ def _upload(store: MilvusStore, rows: ModelRows, nprobe: int) -> None:
             log.info("Milvus upload: %d models written", uploaded)
     for key in list(pending):
         flush(key)
+    for partition in partitions.values():
+        store.flush(partition.name)
     for name in store.collections():
         kept = np.unique(np.concatenate([np.zeros(0, dtype=np.int64), *written.get(name, [])]))
         stale = [held[~np.isin(held, kept)] for held in store.ids(name)]

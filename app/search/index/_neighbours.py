@@ -268,12 +268,17 @@ def _nearest_others(
     if partition.approximate:  # estimated order: a margin, as for any exact re-rank
         fetch = partition.rerank_scale * max(2 * fetch, fetch + 10)
     _, found = partition.search(vectors, min(fetch, partition.size), None)
-    nearest = []
-    for own, vector, row in zip(ids, vectors, found, strict=True):
-        neighbours = [int(i) for i in row if i >= 0 and i != own and i != exclude]
-        near, _ = partition.exact_vectors(neighbours)
-        nearest.append(np.sort(near @ vector)[::-1][:count].astype(np.float64))
-    return nearest
+    rows = [[int(i) for i in row if i >= 0 and i != own and i != exclude]
+            for own, row in zip(ids, found, strict=True)]
+    if isinstance(partition, Partition):
+        fetched = [partition.exact_vectors(neighbours)[0] for neighbours in rows]
+    else:  # one round trip to Milvus for every id's neighbours
+        union = sorted({i for neighbours in rows for i in neighbours})
+        at = {i: row for row, i in enumerate(union)}
+        every = partition.exact_vectors(union)[0]
+        fetched = [every[[at[i] for i in neighbours]] for neighbours in rows]
+    return [np.sort(near @ vector)[::-1][:count].astype(np.float64)
+            for near, vector in zip(fetched, vectors, strict=True)]
 
 
 def _ivf_blocks(
