@@ -1,6 +1,7 @@
 # shapesearch: the API and the worker share this image (docker-compose.yml runs both).
 #   docker build -t shapesearch .                             # meshes and point clouds
 #   docker build --build-arg WITH_CAD=true -t shapesearch .   # and STEP/IGES (OpenCascade)
+#   docker build --build-arg WITH_MILVUS=true -t shapesearch . # and the Milvus index backend
 # Dependencies come from the hash-checked lock files (tools/lock.sh writes them), installed in
 # a layer of their own before the source is copied: a code change reinstalls nothing.
 
@@ -10,15 +11,20 @@ ARG PYTHON_IMAGE=python:3.11.14-slim-bookworm
 
 FROM ${PYTHON_IMAGE} AS builder
 ARG WITH_CAD=false
+ARG WITH_MILVUS=false
 ENV PIP_NO_CACHE_DIR=1 \
     PIP_DISABLE_PIP_VERSION_CHECK=1
 RUN python -m venv /venv
 # Without CAD the runtime lock; with it the runtime lock plus OpenCascade without VTK
 # (cadquery-ocp-novtk: ~380 MB installed, against ~1.3 GB for cadquery-ocp and VTK).
-COPY requirements-runtime.lock requirements-cad.lock /locks/
+COPY requirements-runtime.lock requirements-cad.lock requirements-milvus.lock /locks/
 RUN if [ "$WITH_CAD" = "true" ]; then lock=/locks/requirements-cad.lock; \
     else lock=/locks/requirements-runtime.lock; fi \
     && /venv/bin/pip install --require-hashes --no-deps -r "$lock"
+# pymilvus (and milvus-lite) for SHAPESEARCH_INDEX_BACKEND=milvus: the same versions of what
+# both locks share, so this adds only the milvus extra's packages.
+RUN if [ "$WITH_MILVUS" = "true" ]; then \
+        /venv/bin/pip install --require-hashes --no-deps -r /locks/requirements-milvus.lock; fi
 # The package as a wheel beside the venv (not into it), so that the final stage's copy of
 # the venv stays the same layer when only the code changed.
 COPY pyproject.toml README.md /src/

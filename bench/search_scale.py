@@ -230,6 +230,7 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
     import faiss
 
     faiss.omp_set_num_threads(1)  # as in the API process (pin_blas_threads)
+    fresh_milvus(args)
     index = ShapeIndexFromArgs(None, args)
     key = ("bench", "v")
     before = status_mb()
@@ -308,6 +309,7 @@ def phase_index(args: argparse.Namespace, real: np.ndarray) -> None:
         f"peak RSS of this process {now['VmHWM']:.0f} MB; now anonymous "
         f"{now['RssAnon']:.0f} MB + file-backed {now['RssFile']:.0f} MB"
     )
+    index.close()
 
 
 def hub_discount_at_scale(
@@ -544,6 +546,7 @@ def in_process(url: str, args: argparse.Namespace, model_ids: list[str]) -> None
         print("filter plan: " + " / ".join(str(row[-1]) for row in plan))
     reader.dispose()
     engine.dispose()
+    index.close()  # a milvus-lite file: the API process opens it next
 
 
 KEY = ("default", "bench")
@@ -576,7 +579,24 @@ def ShapeIndexFromArgs(sessions: object, args: argparse.Namespace) -> object:  #
         sessions, exact_max=args.exact_max, compact_min=args.compact_min, nprobe=args.nprobe,
         rerank_factor=args.rerank_factor, projected_dims=args.projected_dims,
         hub_neighbours=args.hub_neighbours, reciprocal=args.reciprocal,
+        backend=args.backend, milvus_uri=args.milvus_uri, milvus_index=args.milvus_index,
     )
+
+
+def fresh_milvus(args: argparse.Namespace) -> None:
+    """With ``--backend milvus``: empty collections for the next phase (a milvus-lite file
+    of the run's own unless ``--milvus-uri`` names a server)."""
+    if args.backend != "milvus":
+        return
+    if args.milvus_lite:
+        OUT.mkdir(parents=True, exist_ok=True)
+        args.milvus_uri = str(OUT / f"milvus-{os.getpid()}-{time.monotonic_ns()}.db")
+    else:
+        from app.search.index._milvus import MilvusStore
+
+        store = MilvusStore(args.milvus_uri)
+        store.drop_all()
+        store.close()
 
 
 def free_port() -> int:
@@ -605,7 +625,11 @@ def start_api(
         "SHAPESEARCH_SEARCH_RECIPROCAL": str(args.reciprocal).lower(),
         "SHAPESEARCH_API_PROCESSES": str(args.api_processes),
         "SHAPESEARCH_QUERY_THREADS": str(args.query_threads),
+        "SHAPESEARCH_INDEX_BACKEND": args.backend,
+        "SHAPESEARCH_MILVUS_INDEX": args.milvus_index,
     }
+    if args.backend == "milvus":
+        env["SHAPESEARCH_MILVUS_URI"] = args.milvus_uri
     OUT.mkdir(parents=True, exist_ok=True)
     log = (OUT / "api.log").open("wb")
     t0 = time.perf_counter()
@@ -639,7 +663,9 @@ def start_api(
             ready_after = time.perf_counter() - t0
         # With the hub discount, each also keeps every neighbourhood, in the background.
         kept = (OUT / "api.log").read_text().count("hub-discount neighbourhoods of")
-        if ready_after is not None and (kept >= args.api_processes or not args.hub_neighbours):
+        # (Milvus partitions keep no background pass: only what queries compute.)
+        if ready_after is not None and (kept >= args.api_processes or not args.hub_neighbours
+                                        or args.backend == "milvus"):
             return process, base, (ready_after, time.perf_counter() - t0)
         time.sleep(0.2)
 
@@ -676,6 +702,7 @@ def load(
 def phase_db(args: argparse.Namespace, real: np.ndarray, backend: str) -> None:
     print(f"\n== {backend}: {args.models} models (load {load_average()})")
     url, token = new_database(backend)
+    fresh_milvus(args)
     process = None
     try:
         t0 = time.perf_counter()
@@ -1012,7 +1039,18 @@ def main() -> None:
     parser.add_argument("--duplicates-baseline-max", type=int, default=20_000,
                         help="largest catalogue the direct all-pairs baseline runs on")
     parser.add_argument("--quick", action="store_true", help="10^4 models, 10^5 descriptors")
+    parser.add_argument("--backend", choices=("faiss", "milvus"),
+                        default=Settings.model_fields["index_backend"].default,
+                        help="SHAPESEARCH_INDEX_BACKEND (index and db phases)")
+    parser.add_argument("--milvus-uri", help="SHAPESEARCH_MILVUS_URI: a Milvus server, emptied "
+                        "before each phase (default: a fresh milvus-lite file per phase)")
+    parser.add_argument("--milvus-index", default=Settings.model_fields["milvus_index"].default,
+                        choices=("FLAT", "HNSW", "IVF_FLAT"), help="SHAPESEARCH_MILVUS_INDEX")
     args = parser.parse_args()
+    args.milvus_lite = args.backend == "milvus" and not args.milvus_uri
+    if args.milvus_lite and args.api_processes > 1:
+        print("milvus-lite opens its file in one process: the API runs 1 process")
+        args.api_processes = 1
     if args.quick:
         args.models, args.descriptors, args.requests = 10_000, 100_000, 1000
     print(f"search_scale: {vars(args)}; cores {os.cpu_count()}; load {load_average()}")

@@ -20,6 +20,7 @@ LOCKS = {
     "requirements-runtime.lock": (),
     "requirements.lock": ("test",),
     "requirements-cad.lock": ("cad-novtk",),
+    "requirements-milvus.lock": ("milvus",),
 }
 
 

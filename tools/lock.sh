@@ -4,6 +4,7 @@
 #   requirements-runtime.lock  the runtime dependencies (the image without CAD)
 #   requirements.lock          runtime + the test extra (CI, and developers' venvs)
 #   requirements-cad.lock      runtime + the cad-novtk extra (the image built with WITH_CAD=true)
+#   requirements-milvus.lock   runtime + the milvus extra (SHAPESEARCH_INDEX_BACKEND=milvus)
 # Each later file is constrained by the one before, so a package shared by two locks has the
 # same version in both: the image runs what CI tested. Needs uv (pip install uv).
 # Upgrading numpy, scipy, trimesh, robust-laplacian or qdldl changes descriptor_version:
@@ -16,3 +17,4 @@ compile=("$uv" pip compile pyproject.toml --quiet --generate-hashes --python-ver
 "${compile[@]}" -o requirements-runtime.lock
 "${compile[@]}" --extra test -c requirements-runtime.lock -o requirements.lock
 "${compile[@]}" --extra cad-novtk -c requirements.lock -o requirements-cad.lock
+"${compile[@]}" --extra milvus -c requirements.lock -o requirements-milvus.lock

@@ -10,6 +10,7 @@ for the web stack, and ``serve`` does not pay for plotting.
     shapesearch redescribe [--from-version V | --all] [--wait]
     shapesearch duplicates [--min-score 0.98] [--size-tolerance T] [--format csv|json] [--tenant T]
     shapesearch backup DEST
+    shapesearch index rebuild|sync|status
     shapesearch --version
     shapesearch compare A B [--scale] [--tolerance T] [--url URL] [--key KEY] [--json]
     shapesearch import PATH [--url URL] [--key KEY] [--external-id path|stem] [--metadata F]
@@ -88,6 +89,12 @@ def _duplicates(args: argparse.Namespace) -> int:
     return duplicates.run(min_score=args.min_score, output_format=args.format,
                           tenant=args.tenant, descriptor_version=args.descriptor_version,
                           size_tolerance=args.size_tolerance)
+
+
+def _index(args: argparse.Namespace) -> int:
+    from app.cli import index
+
+    return index.run(args.action)
 
 
 def _backup(args: argparse.Namespace) -> int:
@@ -234,6 +241,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     backup.add_argument("destination", help="a new file, or a directory for a time-stamped one")
     backup.set_defaults(handler=_backup)
+
+    index = commands.add_parser(
+        "index", help="the search index's Milvus collections (SHAPESEARCH_INDEX_BACKEND=milvus): "
+        "rebuild them from the database, sync them with its change feed, or show their status")
+    index.add_argument("action", choices=["rebuild", "sync", "status"])
+    index.set_defaults(handler=_index)
 
     comparer = commands.add_parser(
         "compare", help="why two parts match: B placed on A and their deviations (files are "

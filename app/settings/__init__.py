@@ -72,6 +72,11 @@ class Settings(
             hub_neighbours=self.search_hub_neighbours,
             reciprocal=self.search_reciprocal,
             cache_dir=self.resolved_index_cache_dir,
+            backend=self.index_backend,
+            milvus_uri=self.milvus_uri,
+            milvus_index=self.milvus_index,
+            milvus_prefix=self.milvus_prefix,
+            milvus_token=self.milvus_token,
         )
 
     @property

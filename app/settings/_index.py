@@ -4,7 +4,7 @@ partitions are compressed, and where the hub discount's neighbourhoods are saved
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TypedDict
+from typing import Literal, TypedDict
 
 from pydantic import BaseModel, Field
 
@@ -22,6 +22,11 @@ class IndexOptions(TypedDict):
     hub_neighbours: int
     reciprocal: bool
     cache_dir: Path | None
+    backend: str
+    milvus_uri: str | None
+    milvus_index: str
+    milvus_prefix: str
+    milvus_token: str | None
 
 
 class IndexSettings(BaseModel):
@@ -88,4 +93,36 @@ class IndexSettings(BaseModel):
         "they were last written. Unset: `index-cache` in "
         "the data directory with the embedded SQLite database, none (always computed) "
         "with another database URL (docs/operations.md, Restarts restore the pass).",
+    )
+    index_backend: Literal["faiss", "milvus"] = Field(
+        default="faiss",
+        description="Where the search index's vectors are. faiss (default): every API "
+        "process holds a FAISS replica of the whole catalogue, read from the database at "
+        "start-up. milvus: they are in Milvus at SHAPESEARCH_MILVUS_URI (a collection per "
+        "descriptor version, the tenant its partition key), which shards and replicates "
+        "them; a process reads no vector at start-up and keeps none. Needs the milvus "
+        "extra (docs/operations.md, The vector index beyond one machine).",
+    )
+    milvus_uri: str | None = Field(
+        default=None,
+        description="With SHAPESEARCH_INDEX_BACKEND=milvus: a Milvus server, "
+        "http://host:19530, or a milvus-lite file (embedded: one process at a time may "
+        "open it, so one API process with --no-worker and workers apart; tests and trials).",
+    )
+    milvus_index: Literal["FLAT", "HNSW", "IVF_FLAT"] = Field(
+        default="HNSW",
+        description="The vector index of each Milvus collection: FLAT (exact, a scan per "
+        "query), HNSW (graph, M 16, ef max(128, 2k)) or IVF_FLAT (1024 lists, "
+        "SHAPESEARCH_INDEX_NPROBE searched). Distances are always exact: Milvus keeps the "
+        "whole vectors, so nothing is re-ranked. Applies to collections when created.",
+    )
+    milvus_prefix: str = Field(
+        default="shapesearch",
+        pattern=r"^[A-Za-z_][A-Za-z0-9_]{0,63}$",
+        description="What the names of this catalogue's Milvus collections start with: "
+        "deployments (or databases) that share one Milvus apart.",
+    )
+    milvus_token: str | None = Field(
+        default=None,
+        description="The Milvus server's credentials, user:password or an API key.",
     )

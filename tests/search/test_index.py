@@ -14,9 +14,9 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.db.feed import record_event
 from app.db.models import IndexEvent, Model, utcnow
 from app.db.retention import prune_history
-from app.search.index import ShapeIndex
 from app.search.index._entry_neighbours import KEPT_MODELS, KeptEntryNeighbours, nearest_models
 from app.search.similarity import find_similar, metadata_matches, score_of
+from tests.search.conftest import MakeIndex
 
 
 def unit(seed: int, d: int = 8) -> np.ndarray:
@@ -63,17 +63,21 @@ def delete_model(sessions: sessionmaker[Session], index_id: int) -> None:
         record_event(session, index_id, "deleted", tenant or "default")
 
 
-def test_rebuild_loads_every_ready_descriptor(sessions: sessionmaker[Session]) -> None:
+def test_rebuild_loads_every_ready_descriptor(
+    sessions: sessionmaker[Session], make_index: MakeIndex
+) -> None:
     ids = [add_ready(sessions, unit(i)) for i in range(5)]
-    index = ShapeIndex(sessions)
+    index = make_index(sessions)
     index.rebuild()
     assert len(index) == 5
     nearest = index.search(("t", "v1"), unit(3), 2)
     assert nearest[0][0] == ids[3] and nearest[0][1] == pytest.approx(0, abs=1e-3)
 
 
-def test_sync_follows_changes_made_elsewhere(sessions: sessionmaker[Session]) -> None:
-    index = ShapeIndex(sessions)
+def test_sync_follows_changes_made_elsewhere(
+    sessions: sessionmaker[Session], make_index: MakeIndex
+) -> None:
+    index = make_index(sessions)
     index.rebuild()
     first = add_ready(sessions, unit(1))
     second = add_ready(sessions, unit(2))
@@ -87,9 +91,9 @@ def test_sync_follows_changes_made_elsewhere(sessions: sessionmaker[Session]) ->
 
 
 def test_an_event_for_a_model_deleted_meanwhile_adds_nothing(
-    sessions: sessionmaker[Session],
+    sessions: sessionmaker[Session], make_index: MakeIndex,
 ) -> None:
-    index = ShapeIndex(sessions)
+    index = make_index(sessions)
     index.rebuild()
     doomed = add_ready(sessions, unit(1))
     delete_model(sessions, doomed)
@@ -98,11 +102,11 @@ def test_an_event_for_a_model_deleted_meanwhile_adds_nothing(
 
 
 def test_an_index_behind_the_pruned_feed_rebuilds_one_following_it_does_not(
-    sessions: sessionmaker[Session],
+    sessions: sessionmaker[Session], make_index: MakeIndex,
 ) -> None:
     kept = add_ready(sessions, unit(1))
     doomed = add_ready(sessions, unit(2))
-    following, behind = ShapeIndex(sessions), ShapeIndex(sessions)
+    following, behind = make_index(sessions), make_index(sessions)
     following.rebuild()
     behind.rebuild()
     added = add_ready(sessions, unit(3))  # its event is pruned before `behind` reads it
@@ -121,11 +125,13 @@ def test_an_index_behind_the_pruned_feed_rebuilds_one_following_it_does_not(
         assert len(index) == 2
 
 
-def test_partitions_keep_tenants_and_versions_apart(sessions: sessionmaker[Session]) -> None:
+def test_partitions_keep_tenants_and_versions_apart(
+    sessions: sessionmaker[Session], make_index: MakeIndex
+) -> None:
     mine = add_ready(sessions, unit(1), tenant="a")
     add_ready(sessions, unit(1), tenant="b")
     add_ready(sessions, unit(1), tenant="a", version="v2")
-    index = ShapeIndex(sessions)
+    index = make_index(sessions)
     index.rebuild()
     assert [i for i, _ in index.search(("a", "v1"), unit(1), 10)] == [mine]
     assert index.partition_size(("a", "v2")) == 1
@@ -133,14 +139,14 @@ def test_partitions_keep_tenants_and_versions_apart(sessions: sessionmaker[Sessi
 
 
 def test_find_similar_widens_until_k_models_pass_the_filters(
-    sessions: sessionmaker[Session],
+    sessions: sessionmaker[Session], make_index: MakeIndex,
 ) -> None:
     query = unit(0)
     # 30 near neighbours without the tag, then 3 far ones with it.
     for i in range(30):
         add_ready(sessions, query + 0.01 * unit(100 + i), meta={"tag": "no"})
     tagged = [add_ready(sessions, unit(200 + i), meta={"tag": "yes"}) for i in range(3)]
-    index = ShapeIndex(sessions)
+    index = make_index(sessions)
     index.rebuild()
     with sessions() as session:
         matches = find_similar(

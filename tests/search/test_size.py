@@ -167,13 +167,17 @@ def test_a_point_cloud_gets_extents_and_an_area_estimate() -> None:
 
 @pytest.fixture(params=["sqlite", "postgresql"])
 def client(
-    request: pytest.FixtureRequest, tmp_path: Path, postgres: _Postgres | None
+    request: pytest.FixtureRequest, tmp_path: Path, postgres: _Postgres | None,
+    index_backend: str,
 ) -> Iterator[TestClient]:
     if request.param == "sqlite":
         url = f"sqlite:///{tmp_path / 'shapesearch.db'}"
     else:
         url = _require(postgres).new_database()
-    app = create_app(make_settings(url, workers=2), embedded_worker=True)
+    milvus = {} if index_backend == "faiss" else {
+        "index_backend": "milvus", "milvus_uri": str(tmp_path / "milvus.db"),
+        "milvus_index": "FLAT"}
+    app = create_app(make_settings(url, workers=2, **milvus), embedded_worker=True)
     with TestClient(app, raise_server_exceptions=False) as test_client:
         yield test_client
 

@@ -73,13 +73,13 @@ from pathlib import Path
 import numpy as np
 from sqlalchemy.orm import Session, sessionmaker
 
-from app.search.index import _feed, _rebuild
+from app.search.index import _feed, _milvus_rebuild, _rebuild
 from app.search.index._entry_neighbours import KeptEntryNeighbours, entry_neighbours
 from app.search.index._heap import trim_heap
 from app.search.index._held import Held
 from app.search.index._keeper import NeighbourhoodKeeper
+from app.search.index._milvus import INDEX_TYPES, AnyPartition, MilvusStore, MilvusUnavailable
 from app.search.index._neighbours import NeighbourGraph, neighbour_graph, neighbourhood_radii
-from app.search.index._partition import Partition
 from app.search.index._rows import ModelRows
 from app.search.index._view_ids import (
     VIEW_ID_BASE,
@@ -93,8 +93,15 @@ from core.rank.hubness import HUB_NEIGHBOURS
 
 log = logging.getLogger("shapesearch.index")
 
+#: Where the vectors are: ``faiss`` (this process, the default) or ``milvus``.
+BACKENDS = ("faiss", "milvus")
+MILVUS_INDEX_TYPES = INDEX_TYPES
+
 __all__ = [
+    "BACKENDS",
+    "MILVUS_INDEX_TYPES",
     "VIEW_ID_BASE",
+    "MilvusUnavailable",
     "NeighbourGraph",
     "PartitionKey",
     "ShapeIndex",
@@ -137,6 +144,18 @@ class ShapeIndex:
     only : PartitionKey, optional
         Hold this partition alone, without its views: one tenant's descriptors of one
         version, read once (a duplicates job). None: every partition.
+    backend : str
+        ``faiss`` (default): the partitions are FAISS indexes of this process. ``milvus``:
+        the vectors are in Milvus at ``milvus_uri`` (``_milvus``), searched there; an index
+        with ``only`` is FAISS whatever this says (it reads its one partition once).
+    milvus_uri : str, optional
+        A Milvus server (``http://host:19530``) or a milvus-lite file.
+    milvus_index : str
+        The Milvus collections' vector index: ``FLAT`` (exact), ``HNSW`` or ``IVF_FLAT``.
+    milvus_prefix : str
+        What the names of this catalogue's Milvus collections start with.
+    milvus_token : str, optional
+        The Milvus server's credentials.
     """
 
     def __init__(
@@ -152,7 +171,20 @@ class ShapeIndex:
         reciprocal: bool = False,
         cache_dir: Path | None = None,
         only: PartitionKey | None = None,
+        backend: str = "faiss",
+        milvus_uri: str | None = None,
+        milvus_index: str = "FLAT",
+        milvus_prefix: str = "shapesearch",
+        milvus_token: str | None = None,
     ) -> None:
+        if backend not in BACKENDS:
+            raise ValueError(f"index backend {backend!r}: one of {BACKENDS}")
+        store = None
+        if backend == "milvus" and only is None:
+            if not milvus_uri:
+                raise ValueError("the milvus index backend needs a Milvus URI")
+            store = MilvusStore(milvus_uri, index_type=milvus_index, prefix=milvus_prefix,
+                                token=milvus_token)
         # Fixed once made: the parts below are given them.
         self.sessions = sessions
         self.only = only
@@ -161,11 +193,26 @@ class ShapeIndex:
         self.reciprocal = reciprocal
         self.cache_dir = cache_dir
         self._held = Held(exact_max=exact_max, compact_min=compact_min, nprobe=nprobe,
-                          projected_dims=projected_dims)
+                          projected_dims=projected_dims, store=store)
         self._rows = None if sessions is None else ModelRows(sessions, only)
         self._keeper = NeighbourhoodKeeper(self._held, sessions, cache_dir,
                                            every_partition=only is None)
         self._entry_neighbours = KeptEntryNeighbours()  # scan mode's, per partition pair
+
+    @property
+    def backend(self) -> str:
+        """``faiss`` or ``milvus``: where the vectors are."""
+        return "faiss" if self._held.store is None else "milvus"
+
+    @property
+    def milvus(self) -> MilvusStore | None:
+        """The Milvus collections of the ``milvus`` backend."""
+        return self._held.store
+
+    def close(self) -> None:
+        """Let go of Milvus (a milvus-lite file is then free for another process)."""
+        if self._held.store is not None:
+            self._held.store.close()
 
     @property
     def exact_max(self) -> int:
@@ -194,7 +241,7 @@ class ShapeIndex:
         return self._held.changes
 
     @property
-    def _partitions(self) -> dict[PartitionKey, Partition]:
+    def _partitions(self) -> dict[PartitionKey, AnyPartition]:
         """The partitions by key (for tests and benchmarks that look inside)."""
         return self._held.partitions
 
@@ -245,10 +292,11 @@ class ShapeIndex:
 
     def partition_size(self, key: PartitionKey) -> int:
         partition = self._held.partitions.get(key)
-        return 0 if partition is None else int(partition.index.ntotal)
+        return 0 if partition is None else partition.size
 
     def nbytes(self) -> int:
-        """Bytes of vectors, codes, ids and centroids held (allocator slack not counted)."""
+        """Bytes of vectors, codes, ids and centroids held (allocator slack not counted;
+        none of Milvus' vectors)."""
         return sum(partition.nbytes() for partition in list(self._held.partitions.values()))
 
     def file_bytes(self) -> int:
@@ -407,7 +455,7 @@ class ShapeIndex:
             return [[] for _ in queries]
         allowed_ids = None if allowed is None else np.asarray(allowed, dtype=np.int64)
         with partition.lock.reading():
-            held = int(partition.index.ntotal)
+            held = partition.size
             if held == 0 or (allowed_ids is not None and len(allowed_ids) == 0):
                 return [[] for _ in queries]
             squared, ids = partition.search(queries, min(k, held), allowed_ids)
@@ -468,11 +516,20 @@ class ShapeIndex:
 
     # --- following the database (``_rebuild``, ``_feed``) -----------------------------
 
-    def rebuild(self) -> None:
+    def rebuild(self, *, upload: bool = False) -> None:
         """Stream every ready descriptor from the database into new partitions, swap them
-        in, then catch up with the change feed."""
+        in, then catch up with the change feed.
+
+        With Milvus, only what the index keeps of each model besides its vector is read,
+        and the feed is followed from the revision Milvus is in step with
+        (``_milvus_rebuild``); Milvus is uploaded whole when it was never built, is behind
+        the feed's pruning, or with ``upload`` (``shapesearch index rebuild``). FAISS reads
+        every descriptor whatever ``upload`` says."""
         assert self._rows is not None
-        _rebuild.rebuild(self._held, self._rows)
+        if self._held.store is not None:
+            _milvus_rebuild.attach(self._held, self._rows, upload=upload)
+        else:
+            _rebuild.rebuild(self._held, self._rows)
         trim_heap()  # the rows streamed and the builders' buffers, freed
         self.sync()
 
@@ -485,7 +542,8 @@ class ShapeIndex:
         assert self._rows is not None
         applied, missed = _feed.follow(self._held, self._rows)
         if missed:
-            log.warning("search index at change-feed revision %d, behind the feed's pruning: "
-                        "rebuilding it from the models", self.revision)
+            log.warning("search index at change-feed revision %d, behind the feed's pruning "
+                        "(or its Milvus collections gone): rebuilding it from the models",
+                        self.revision)
             self.rebuild()
         return applied

@@ -20,7 +20,7 @@ from collections.abc import Callable, Hashable, Sequence
 
 import numpy as np
 
-from app.search.index._partition import Partition
+from app.search.index._milvus import AnyPartition
 from app.search.index._view_ids import PartitionKey, view_of, views_key
 from core.rank.hubness import SCAN_HUB_NEIGHBOURS
 
@@ -42,7 +42,7 @@ Search = Callable[[PartitionKey, np.ndarray, int], list[list[tuple[int, float]]]
 def entry_neighbours(
     kept: KeptEntryNeighbours,
     key: PartitionKey,
-    partitions: tuple[Partition | None, Partition | None],
+    partitions: tuple[AnyPartition | None, AnyPartition | None],
     search: Search,
     entry_ids: Sequence[int],
     owners: Sequence[int],
@@ -57,7 +57,7 @@ def entry_neighbours(
     found = kept.get(key, stamp, entry_ids)
     missing = [row for row, neighbours in enumerate(found) if neighbours is None]
     if missing:
-        sizes = [0 if p is None else int(p.index.ntotal) for p in partitions]
+        sizes = [0 if p is None else p.size for p in partitions]
         per_model = max(1, -(-sizes[1] // max(sizes[0], 1)))
         rows = np.ascontiguousarray(np.asarray(vectors)[missing], dtype=np.float32)
         model_hits = search(key, rows, KEPT_MODELS + 1)

@@ -17,6 +17,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from app.search.index._builder import Builder
+from app.search.index._milvus import AnyPartition, MilvusPartition, MilvusStore
 from app.search.index._partition import Partition
 from app.search.index._view_ids import PartitionKey, holds_views, view_ids, views_key
 from core.settings import MAX_VIEWS
@@ -37,18 +38,23 @@ class Held:
     ----------
     exact_max, compact_min, nprobe, projected_dims
         How partitions are built: see ``ShapeIndex``.
+    store : MilvusStore, optional
+        Where the vectors are with the Milvus backend (``_milvus``); None: FAISS partitions
+        in this process.
     """
 
     def __init__(
-        self, *, exact_max: int, compact_min: int, nprobe: int, projected_dims: int
+        self, *, exact_max: int, compact_min: int, nprobe: int, projected_dims: int,
+        store: MilvusStore | None = None,
     ) -> None:
+        self.store = store
         self.exact_max = exact_max
         self.compact_min = compact_min
         self.nprobe = nprobe
         self.projected_dims = projected_dims
         self.revision = 0  # last change-feed revision applied
         self.changes = 0  # moves on every applied change: answers cached before are stale
-        self.partitions: dict[PartitionKey, Partition] = {}
+        self.partitions: dict[PartitionKey, AnyPartition] = {}
         self.partition_of: dict[int, PartitionKey] = {}  # models only
         self.views_of: dict[int, int] = {}  # model index_id -> views it has in the index
         # Public model id (its 128-bit int) <-> index_id, both ways, so that a similar query
@@ -57,6 +63,12 @@ class Held:
         self.index_id_of: dict[int, int] = {}
         self.public_id_of: dict[int, int] = {}
         self.lock = threading.Lock()  # one writer of the maps at a time
+
+    def new_partition(self, key: PartitionKey, dim: int) -> AnyPartition:
+        """An empty partition ``key`` of ``dim``-float vectors, of this index's backend."""
+        if self.store is not None:
+            return MilvusPartition(self.store, key, dim, nprobe=self.nprobe)
+        return Partition(dim, self.nprobe, self.projected_dims)
 
     def builder(self, expected: int) -> Builder:
         """A builder of one new partition of about ``expected`` vectors."""
@@ -70,6 +82,9 @@ class Held:
         """Fill partition ``key`` from ``(first_id, (m, d) float32)`` batches whose ids run
         on from ``first_id``."""
         with self.lock:
+            if self.store is not None:
+                self._upload_partition(key, batches)
+                return
             built = self.builder(expected)
             for first, vectors in batches:
                 ids = np.arange(first, first + len(vectors), dtype=np.int64)
@@ -80,9 +95,27 @@ class Held:
                 for index_id in built.ids:
                     self.partition_of[index_id] = key
 
+    def _upload_partition(
+        self, key: PartitionKey, batches: Iterable[tuple[int, np.ndarray]]
+    ) -> None:
+        """``build_partition`` with the Milvus backend: the batches written to Milvus."""
+        store = self.store
+        assert store is not None
+        partition: MilvusPartition | None = None
+        for first, vectors in batches:
+            if partition is None:
+                partition = MilvusPartition(store, key, vectors.shape[1], nprobe=self.nprobe)
+            ids = list(range(first, first + len(vectors)))
+            partition.put(ids, np.ascontiguousarray(vectors, dtype=np.float32))
+            partition.size += len(ids)
+            self.partition_of.update(dict.fromkeys(ids, key))
+        if partition is not None:
+            store.flush(partition.name)
+            self.partitions[key] = partition
+
     def install(
         self,
-        partitions: dict[PartitionKey, Partition],
+        partitions: dict[PartitionKey, AnyPartition],
         partition_of: dict[int, PartitionKey],
         views_of: dict[int, int],
         index_id_of: dict[int, int],
@@ -134,10 +167,11 @@ class Held:
             vectors = np.ascontiguousarray(np.stack([v for _, v in rows]))
             partition = self.partitions.get(key)
             if partition is None:
-                partition = Partition(vectors.shape[1], self.nprobe, self.projected_dims)
+                partition = self.new_partition(key, vectors.shape[1])
                 self.partitions[key] = partition
             with partition.lock.writing():
-                if not partition.approximate and partition.index.ntotal + len(ids) > self.exact_max:
+                if (isinstance(partition, Partition) and not partition.approximate
+                        and partition.size + len(ids) > self.exact_max):
                     flat = partition.index.index
                     held = flat.reconstruct_n(0, flat.ntotal)[:, : partition.dim]
                     sample = np.concatenate([held, vectors])

@@ -71,8 +71,10 @@ class NeighbourhoodKeeper:
         self._waiting: set[PartitionKey] = set()  # for another process's pass (said once)
 
     def _models(self) -> list[tuple[PartitionKey, Partition]]:
+        """The FAISS partitions of models (a Milvus partition keeps only what queries
+        computed: a pass would read every vector back from Milvus)."""
         return [(key, partition) for key, partition in list(self.held.partitions.items())
-                if not holds_views(key)]
+                if not holds_views(key) and isinstance(partition, Partition)]
 
     def keep(self, k: int) -> int:
         """Compute every model's neighbourhood now, partition by partition; the count kept.
@@ -120,7 +122,7 @@ class NeighbourhoodKeeper:
         written = sum(self._save(key, partition, k) for key, partition in partitions)
         if self.every_partition:  # it knows every partition: what none reads can go
             read = [file_for(self.cache_dir, key, k)
-                    for key, partition in partitions if partition.index.ntotal > 0]
+                    for key, partition in partitions if partition.size > 0]
             removed = tidy(self.cache_dir, read)
             if removed:
                 log.info("removed %d saved hub-discount neighbourhood files no partition "
@@ -194,7 +196,7 @@ class NeighbourhoodKeeper:
         changed since a pass last went through it, and holds fewer than half or its last
         pass was stopped by a change (``_kept.KeptNeighbourhoods.wanted``)."""
         return k > 0 and any(
-            partition.kept.wanted(k, int(partition.index.ntotal))
+            partition.kept.wanted(k, partition.size)
             for _, partition in self._models())
 
     def share_kept(self, k: int) -> float:
@@ -205,7 +207,7 @@ class NeighbourhoodKeeper:
         sizes = [
             (min(len(partition.kept), held), held)
             for _, partition in self._models()
-            if (held := int(partition.index.ntotal)) >= k + 2
+            if (held := partition.size) >= k + 2
         ]
         total = sum(held for _, held in sizes)
         return sum(kept for kept, _ in sizes) / total if total else 1.0

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from app.search.index._partition import Partition
+    from app.search.index._milvus import AnyPartition
 
 __all__ = [
     "FORGET_BATCH",
@@ -263,7 +263,7 @@ class KeptNeighbourhoods:
         table.held[rows[rows >= 0]] = False
 
     def changed(
-        self, partition: Partition, ids: np.ndarray, vectors: np.ndarray | None = None
+        self, partition: AnyPartition, ids: np.ndarray, vectors: np.ndarray | None = None
     ) -> None:
         """Models ``ids`` are about to be added to ``partition`` with ``(m, d)`` ``vectors``,
         or removed from it (no ``vectors``: read while they are still held): forget their
@@ -282,7 +282,7 @@ class KeptNeighbourhoods:
 
 
 def entered(
-    partition: Partition,
+    partition: AnyPartition,
     vectors: np.ndarray,
     lookup: Callable[[list[int]], list[Neighbourhood | None]],
 ) -> list[int]:
@@ -290,7 +290,7 @@ def entered(
     is, of those that ``lookup`` finds a neighbourhood for: each vector's
     ``FORGET_NEAREST`` nearest in ``partition`` whose ``k + 1``-th cosine it reaches (call
     with the partition's read lock held)."""
-    held = int(partition.index.ntotal)
+    held = partition.size
     if held == 0 or len(vectors) == 0:
         return []
     _, found = partition.search(vectors, min(FORGET_NEAREST, held), None)

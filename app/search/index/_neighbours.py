@@ -36,6 +36,7 @@ import faiss
 import numpy as np
 
 from app.search.index._kept import Neighbourhood
+from app.search.index._milvus import AnyPartition
 from app.search.index._partition import Partition, list_ids
 
 __all__ = [
@@ -80,10 +81,10 @@ class NeighbourGraph:
         )
 
 
-def neighbour_graph(partition: Partition, k: int) -> NeighbourGraph:
+def neighbour_graph(partition: AnyPartition, k: int) -> NeighbourGraph:
     """The ``k`` most alike others of every vector of ``partition`` (call with its read
     lock held)."""
-    if partition.index.ntotal == 0:
+    if partition.size == 0:
         return NeighbourGraph.empty(k)
     ids, blocks, exact = graph_blocks(partition, k)
     neighbours = np.full((len(ids), k), -1, dtype=np.int64)
@@ -103,7 +104,7 @@ Skip = Callable[[np.ndarray], bool]
 
 
 def graph_blocks(
-    partition: Partition, k: int, skip: Skip | None = None
+    partition: AnyPartition, k: int, skip: Skip | None = None
 ) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
     """The graph of ``partition`` (not empty) block by block: the ``(n,)`` ids, the blocks,
     each computed when the iterator is advanced (but those ``skip`` leaves out), and whether
@@ -111,18 +112,23 @@ def graph_blocks(
     each block is computed, and the partition unchanged in between
     (``Partition.kept.version``): a caller may release the lock between blocks and stop
     when the partition changed."""
-    if partition.approximate:
+    if isinstance(partition, Partition) and partition.approximate:
         return _ivf_blocks(partition, k, skip)
     return _flat_blocks(partition, k, skip)
 
 
 def _flat_blocks(
-    partition: Partition, k: int, skip: Skip | None
+    partition: AnyPartition, k: int, skip: Skip | None
 ) -> tuple[np.ndarray, Iterator[GraphBlock], bool]:
-    """Every vector against every other, a block of rows at a time."""
-    index = partition.index  # IndexIDMap2(IndexFlatL2)
-    ids = faiss.vector_to_array(index.id_map).astype(np.int64)
-    vectors = index.index.reconstruct_n(0, index.ntotal)[:, : partition.dim]
+    """Every vector against every other, a block of rows at a time (a Milvus partition's
+    read back from Milvus first)."""
+    if isinstance(partition, Partition):
+        index = partition.index  # IndexIDMap2(IndexFlatL2)
+        ids = faiss.vector_to_array(index.id_map).astype(np.int64)
+        vectors = index.index.reconstruct_n(0, index.ntotal)[:, : partition.dim]
+    else:
+        ids = np.sort(partition.ids())
+        vectors = partition.exact_vectors(ids.tolist())[0]
     n = len(ids)
     positions = np.arange(n)
     step = max(1, min(1024, _BLOCK_PRODUCTS // n))
@@ -138,7 +144,7 @@ def _flat_blocks(
 
 
 def neighbourhood_radii(
-    partition: Partition,
+    partition: AnyPartition,
     ids: Sequence[int],
     k: int,
     exclude: int | None = None,
@@ -156,7 +162,7 @@ def neighbourhood_radii(
     neighbours (an id is left out of its own neighbourhood by id, not by distance).
     """
     asked = [int(i) for i in ids]
-    if partition.index.ntotal < k + 2:
+    if partition.size < k + 2:
         vectors, held = partition.exact_vectors(asked)
         held_ids = [own for own, h in zip(asked, held.tolist(), strict=True) if h]
         return _counted_radii(partition, held_ids, vectors[held], k, exclude) if held_ids else {}
@@ -217,7 +223,7 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
     with partition.lock.reading():
         kept.use(k)
         version = kept.version
-        if partition.index.ntotal < k + 2:
+        if partition.size < k + 2:
             kept.pass_version = version
             return 0
         ids, blocks, _ = graph_blocks(partition, k + 1, skip=kept.holds_all)
@@ -238,10 +244,10 @@ def keep_neighbourhoods(partition: Partition, k: int) -> int:
 
 
 def _counted_radii(
-    partition: Partition, ids: list[int], vectors: np.ndarray, k: int, exclude: int | None
+    partition: AnyPartition, ids: list[int], vectors: np.ndarray, k: int, exclude: int | None
 ) -> dict[int, float]:
     """``neighbourhood_radii`` of a partition with fewer than ``k + 2`` vectors, counted."""
-    others = int(partition.index.ntotal) - 1
+    others = partition.size - 1
     if exclude is not None and partition.exact_vectors([exclude])[1][0]:
         others -= 1
     k = min(k, others)
@@ -252,7 +258,7 @@ def _counted_radii(
 
 
 def _nearest_others(
-    partition: Partition, ids: list[int], vectors: np.ndarray, count: int,
+    partition: AnyPartition, ids: list[int], vectors: np.ndarray, count: int,
     exclude: int | None = None,
 ) -> list[np.ndarray]:
     """For each of ``ids`` (at ``vectors : (m, d) float32``), the exact cosines of its
@@ -261,13 +267,18 @@ def _nearest_others(
     fetch = count + 2  # itself and the excluded model may be among the nearest
     if partition.approximate:  # estimated order: a margin, as for any exact re-rank
         fetch = partition.rerank_scale * max(2 * fetch, fetch + 10)
-    _, found = partition.search(vectors, min(fetch, int(partition.index.ntotal)), None)
-    nearest = []
-    for own, vector, row in zip(ids, vectors, found, strict=True):
-        neighbours = [int(i) for i in row if i >= 0 and i != own and i != exclude]
-        near, _ = partition.exact_vectors(neighbours)
-        nearest.append(np.sort(near @ vector)[::-1][:count].astype(np.float64))
-    return nearest
+    _, found = partition.search(vectors, min(fetch, partition.size), None)
+    rows = [[int(i) for i in row if i >= 0 and i != own and i != exclude]
+            for own, row in zip(ids, found, strict=True)]
+    if isinstance(partition, Partition):
+        fetched = [partition.exact_vectors(neighbours)[0] for neighbours in rows]
+    else:  # one round trip to Milvus for every id's neighbours
+        union = sorted({i for neighbours in rows for i in neighbours})
+        at = {i: row for row, i in enumerate(union)}
+        every = partition.exact_vectors(union)[0]
+        fetched = [every[[at[i] for i in neighbours]] for neighbours in rows]
+    return [np.sort(near @ vector)[::-1][:count].astype(np.float64)
+            for near, vector in zip(fetched, vectors, strict=True)]
 
 
 def _ivf_blocks(

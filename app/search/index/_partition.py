@@ -75,6 +75,11 @@ class Partition:
         return f"{projected}ivf-sq{self.bits}"
 
     @property
+    def size(self) -> int:
+        """How many vectors it holds."""
+        return int(self.index.ntotal)
+
+    @property
     def approximate(self) -> bool:
         return self.bits != 32
 

@@ -9,7 +9,7 @@ from sqlalchemy.orm import Session
 
 from app.db.models import FeedState, Model
 from app.search.index._held import Held
-from app.search.index._partition import Partition
+from app.search.index._milvus import AnyPartition
 from app.search.index._rows import ModelRows
 from app.search.index._view_ids import PartitionKey, holds_views, view_ids, views_array, views_key
 
@@ -44,7 +44,7 @@ def rebuild(held: Held, rows: ModelRows) -> None:
                 for entry, view in zip(view_ids(index_id, len(views)), views, strict=True):
                     view_builder.add_one(entry, view)
                 views_of[index_id] = len(views)
-        partitions: dict[PartitionKey, Partition] = {}
+        partitions: dict[PartitionKey, AnyPartition] = {}
         partition_of: dict[int, PartitionKey] = {}
         for key, builder in builders.items():
             partition = builder.finish()
