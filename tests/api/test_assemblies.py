@@ -170,7 +170,7 @@ def test_gltf_and_3mf_assemblies_split_and_the_part_limit_is_a_setting(
     assert "more than 1 distinct parts" in body["detail"]
 
 
-def test_assembly_id_narrows_the_list_similar_and_search_to_its_parts(
+def test_assembly_id_narrows_the_list_and_similar_to_its_parts(
         make_client: ClientFactory, database_url: str) -> None:
     client = make_client(auth_cache_seconds=0)
     engine = create_engine(database_url)
@@ -198,10 +198,6 @@ def test_assembly_id_narrows_the_list_similar_and_search_to_its_parts(
     assert {r["model"]["id"] for r in similar.json()["results"]} == part_ids
     unfiltered = client.get(f"/v1/models/{loose['id']}/similar", params={"k": 10}).json()
     assert len(unfiltered["results"]) > len(part_ids)  # the filter did the narrowing
-    searched = client.post("/v1/search", params={"k": 10, "assembly_id": assembly["id"]},
-                           files={"file": ("a.stl", rotated_a_stl(), "model/stl")})
-    assert searched.status_code == 200, searched.text
-    assert {r["model"]["id"] for r in searched.json()["results"]} <= part_ids
     # An id that places nothing (unknown, a part, another tenant's assembly): no results.
     nobody = str(uuid.uuid4())
     a_part = next(iter(part_ids))
@@ -373,7 +369,7 @@ def test_a_rotated_copy_uploaded_alone_finds_the_assembly(make_client: ClientFac
     assembly = post(client, assembly_glb(), assembly="split").json()
     a_id = parts_by_count(client, assembly["id"])[4]["model"]["id"]
     alone = post(client, rotated_a_stl(), filename="bracket.stl").json()
-    for model_id in (a_id, alone["id"]):
+    for model_id in [item["id"] for item in client.get("/v1/models").json()["items"]]:
         assert wait_for_status(client, model_id)["status"] == "ready"
     time.sleep(0.5)
     assert where_used(client, alone["id"]) == {assembly["id"]: 4}
@@ -387,3 +383,19 @@ def test_a_rotated_copy_uploaded_alone_finds_the_assembly(make_client: ClientFac
         found[a_id]["likeness"] is None and found[a_id]["score"] >= UNCALIBRATED_COPY)
     assert [(e["assembly"]["id"], e["count"]) for e in found[a_id]["where_used"]] == [
         (assembly["id"], 4)]
+    # A search by upload (the real engine describes it): narrowed to the assembly's parts,
+    # each with where it is used.
+    searched = client.post(
+        "/v1/search", params={"k": 5, "assembly_id": assembly["id"], "where_used": "true"},
+        files={"file": ("scan.stl", rotated_a_stl(), "model/stl")})
+    assert searched.status_code == 200, searched.text
+    results = searched.json()["results"]
+    part_ids = {p["model"]["id"] for p in parts_by_count(client, assembly["id"]).values()}
+    assert {r["model"]["id"] for r in results} == part_ids  # not `alone`, not the assembly
+    assert results[0]["model"]["id"] == a_id
+    assert [(e["assembly"]["id"], e["count"]) for e in results[0]["where_used"]] == [
+        (assembly["id"], 4)]
+    plain = client.post("/v1/search", params={"k": 5},
+                        files={"file": ("scan.stl", rotated_a_stl(), "model/stl")}).json()
+    assert {r["model"]["id"] for r in plain["results"]} > part_ids
+    assert all("where_used" not in r for r in plain["results"])

@@ -31,7 +31,7 @@ from app.settings import Settings
 from core.errors import InvalidShapeError
 from core.io import check_gltf_graph
 
-__all__ = ["refuse_bomb", "router", "split_checked", "with_where_used"]
+__all__ = ["refuse_bomb", "router", "split_checked", "where_used_entries", "with_where_used"]
 
 router = APIRouter(prefix="/v1", tags=["assemblies"])
 
@@ -144,12 +144,13 @@ def model_where_used(
 ) -> WhereUsedResponse:
     with services.reader.connect() as connection:
         part_id = _owned(connection, tenant, model_id)
-        used = _entries(services, connection, tenant, part_id)
+        used = where_used_entries(services, connection, tenant, part_id)
     return WhereUsedResponse(model_id=part_id, assemblies=used)
 
 
-def _entries(services: Services, connection: Connection, tenant: str,
-             model_id: uuid.UUID) -> list[WhereUsedEntry]:
+def where_used_entries(services: Services, connection: Connection, tenant: str,
+                       model_id: uuid.UUID) -> list[WhereUsedEntry]:
+    """``GET /v1/models/{id}/where-used``'s entries for one model."""
     return [WhereUsedEntry(assembly=summary_of(entry.assembly), count=entry.count,
                            parts=entry.parts)
             for entry in where_used(services.index, connection, tenant, model_id)]
@@ -162,6 +163,6 @@ def with_where_used(services: Services, tenant: str, answer: Any) -> Any:
     with services.reader.connect() as connection:
         for result in answer["results"]:  # new dicts: the answer may be shared
             model_id = uuid.UUID(str(result["model"]["id"]))
-            used = _entries(services, connection, tenant, model_id)
+            used = where_used_entries(services, connection, tenant, model_id)
             results.append({**result, "where_used": [entry.model_dump() for entry in used]})
     return {**answer, "results": results}

@@ -11,6 +11,7 @@ from sqlalchemy.orm import Session
 from app.api.deps import ServicesDep, SessionDep
 from app.api.inputs import fields_once
 from app.api.problems import problem_responses
+from app.api.routes.assemblies import where_used_entries
 from app.api.routes.compare import alignment_record, point_sets
 from app.api.schemas import (
     Explanation,
@@ -96,6 +97,9 @@ def search_by_upload(
         description="With `explain`: up to this many points of the part and of the aligned scan "
         "in each explanation.")] = 0,
     assembly_id: AssemblyQuery = None,
+    where_used: Annotated[bool, Query(
+        description="true: each result also lists `where_used`, the assemblies that "
+        "contain it or a copy of it (as `GET /v1/models/{id}/where-used`).")] = False,
 ) -> SearchResponse:
     upload = services.uploads.read(file.file, file.filename, parse=False)
     try:
@@ -125,6 +129,13 @@ def search_by_upload(
     )
     cutoff = cutoff_record(described["cutoff"])
     assert cutoff is not None
+    results = _results(services.comparer, session, tenant, matches,
+                       described["descriptor_version"],
+                       described.get("sample") if explain else None, points)
+    if where_used:  # issue 76
+        for result in results:
+            result.where_used = where_used_entries(services, session.connection(), tenant,
+                                                   result.model.id)
     return SearchResponse(
         query=SearchQuery(
             n_points=described["n_points"],
@@ -135,9 +146,7 @@ def search_by_upload(
                          described["size_height"], described["size_area"],
                          described["size_volume"], units),
         ),
-        results=_results(services.comparer, session, tenant, matches,
-                         described["descriptor_version"],
-                         described.get("sample") if explain else None, points),
+        results=results,
     )
 
 

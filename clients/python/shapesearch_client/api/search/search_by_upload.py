@@ -29,6 +29,7 @@ def _get_kwargs(
     explain: bool | Unset = False,
     points: int | Unset = 0,
     assembly_id: UUID | Unset = UNSET,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -70,6 +71,8 @@ def _get_kwargs(
     if not isinstance(assembly_id, Unset):
         json_assembly_id = str(assembly_id)
     params["assembly_id"] = json_assembly_id
+
+    params["where_used"] = where_used
 
     params["size_tolerance"] = size_tolerance
 
@@ -210,6 +213,7 @@ def sync_detailed(
     explain: bool | Unset = False,
     points: int | Unset = 0,
     assembly_id: UUID | Unset = UNSET,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -271,6 +275,8 @@ def sync_detailed(
             aligned scan in each explanation. Default: 0.
         assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
             uploaded with `assembly=split`); an id that places nothing: no results.
+        where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
+            contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -309,6 +315,7 @@ mode=mode,
 explain=explain,
 points=points,
 assembly_id=assembly_id,
+where_used=where_used,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -342,6 +349,7 @@ def sync(
     explain: bool | Unset = False,
     points: int | Unset = 0,
     assembly_id: UUID | Unset = UNSET,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -403,6 +411,8 @@ def sync(
             aligned scan in each explanation. Default: 0.
         assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
             uploaded with `assembly=split`); an id that places nothing: no results.
+        where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
+            contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -442,6 +452,7 @@ mode=mode,
 explain=explain,
 points=points,
 assembly_id=assembly_id,
+where_used=where_used,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -469,6 +480,7 @@ async def asyncio_detailed(
     explain: bool | Unset = False,
     points: int | Unset = 0,
     assembly_id: UUID | Unset = UNSET,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -530,6 +542,8 @@ async def asyncio_detailed(
             aligned scan in each explanation. Default: 0.
         assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
             uploaded with `assembly=split`); an id that places nothing: no results.
+        where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
+            contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -568,6 +582,7 @@ mode=mode,
 explain=explain,
 points=points,
 assembly_id=assembly_id,
+where_used=where_used,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
@@ -601,6 +616,7 @@ async def asyncio(
     explain: bool | Unset = False,
     points: int | Unset = 0,
     assembly_id: UUID | Unset = UNSET,
+    where_used: bool | Unset = False,
     size_tolerance: float | Unset = UNSET,
     size_weight: float | Unset = 0.0,
     metadata: MetadataFilter | Unset = UNSET,
@@ -662,6 +678,8 @@ async def asyncio(
             aligned scan in each explanation. Default: 0.
         assembly_id (UUID | Unset): Only the parts that this assembly places (the id of a model
             uploaded with `assembly=split`); an id that places nothing: no results.
+        where_used (bool | Unset): true: each result also lists `where_used`, the assemblies that
+            contain it or a copy of it (as `GET /v1/models/{id}/where-used`). Default: False.
         size_tolerance (float | Unset): Keep models whose three extents are each within this
             relative tolerance of the query's (0.1: +-10%).
         size_weight (float | Unset): Weight of the size term in the ranking distance (0: the
@@ -701,6 +719,7 @@ mode=mode,
 explain=explain,
 points=points,
 assembly_id=assembly_id,
+where_used=where_used,
 size_tolerance=size_tolerance,
 size_weight=size_weight,
 metadata=metadata,
