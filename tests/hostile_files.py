@@ -28,6 +28,7 @@
 
 from __future__ import annotations
 
+import base64
 import json
 import struct
 from collections.abc import Callable
@@ -50,6 +51,7 @@ __all__ = [
     "HOSTILE_FILES",
     "break_step",
     "glb_instancing_bomb",
+    "gltf_instancing_bomb",
     "iges_part",
     "iges_reader_hang",
     "obj_short_vertex",
@@ -96,6 +98,17 @@ def glb_instancing_bomb(instances: int) -> bytes:
     chunks = struct.pack("<I4s", len(text), b"JSON") + text
     chunks += struct.pack("<I4s", len(binary), b"BIN\x00") + binary
     return struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks
+
+
+def gltf_instancing_bomb(instances: int) -> bytes:
+    """The same scene as a text ``.gltf``, its buffer embedded as a base64 data URI."""
+    glb = glb_instancing_bomb(instances)
+    length = struct.unpack_from("<I", glb, 12)[0]
+    document = json.loads(glb[20 : 20 + length])
+    binary = glb[20 + length + 8 :]
+    document["buffers"] = [{"byteLength": len(binary), "uri": "data:application/octet-stream;"
+                            "base64," + base64.b64encode(binary).decode()}]
+    return json.dumps(document).encode()
 
 
 def stl_triangle_bomb(size: int = 60 * 1024 * 1024, triangles: int = 3_200_000_000) -> bytes:
@@ -261,6 +274,8 @@ def opencascade_imports() -> bool:
 HOSTILE_FILES = {
     "glb-20000-instances": ("bomb.glb", lambda: glb_instancing_bomb(20_000), 413, "too_large"),
     "glb-3000-instances": ("bomb.glb", lambda: glb_instancing_bomb(3_000), 413, "too_large"),
+    "gltf-20000-instances": ("bomb.gltf", lambda: gltf_instancing_bomb(20_000), 413,
+                             "too_large"),
     "stl-3.2e9-triangles": ("bomb.stl", stl_triangle_bomb, 422, "unparsable"),
     "ply-1e9-vertices": ("bomb.ply", ply_vertex_bomb, 413, "too_large"),
     "obj-short-vertex-line": ("short.obj", obj_short_vertex, 422, "unparsable"),
