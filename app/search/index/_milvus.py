@@ -5,9 +5,10 @@ milvus-lite file. It holds one collection per descriptor version (and one for th
 scan-mode views, ``views_key``), named after a hash of the version and the vectors' width,
 with the model's ``index_id`` (or a view's ``view_id``) as primary key, the tenant as
 partition key and the full float32 vector; its vector index is ``FLAT`` (exact),
-``HNSW`` or ``IVF_FLAT`` (``SHAPESEARCH_MILVUS_INDEX``), L2 on the unit vectors. Milvus
-returns squared L2 distances, as a FAISS partition does, and keeps the vectors whole, so its
-distances are exact whatever index chooses the candidates: no re-rank is needed.
+``HNSW`` or ``IVF_FLAT`` (``SHAPESEARCH_MILVUS_INDEX``), by inner product on the unit
+vectors (the order of L2; ``search`` answers squared L2 distances, 2 - 2 ip, as a FAISS
+partition does). Milvus keeps the vectors whole, so its distances are exact whatever index
+chooses the candidates: no re-rank is needed.
 
 One more collection, ``<prefix>_state``, holds a single row: the change-feed revision
 through which the vector collections are known to be in step with the database. It is
@@ -172,7 +173,11 @@ class MilvusStore:
             schema.add_field("tenant", DataType.VARCHAR, max_length=512, is_partition_key=True)
             schema.add_field("vector", DataType.FLOAT_VECTOR, dim=dim)
             params = client.prepare_index_params()
-            params.add_index(field_name="vector", index_type=self.index_type, metric_type="L2",
+            # Inner product: the vectors are unit-norm, so its order is L2's and the squared
+            # L2 distance is 2 - 2 ip; and milvus-lite scans rows not indexed yet with a
+            # matrix product for IP but an (queries, rows, dim) array for L2 (40 GB for 40
+            # queries over 92,000 rows of 2961 floats).
+            params.add_index(field_name="vector", index_type=self.index_type, metric_type="IP",
                              params=_build_params(self.index_type))
             with contextlib.suppress(Exception):  # created meanwhile by another process
                 client.create_collection(name, schema=schema, index_params=params,
@@ -319,14 +324,14 @@ class MilvusStore:
         found = self.client.search(
             name, data=[q for q in np.asarray(queries, dtype=np.float32)], limit=limit,
             filter=expression, output_fields=["id"],
-            search_params={"metric_type": "L2", "params": search_params},
+            search_params={"metric_type": "IP", "params": search_params},
         )
         squared = np.full((len(queries), k), np.inf, dtype=np.float32)
         ids = np.full((len(queries), k), -1, dtype=np.int64)
         for row, hits in enumerate(found):
             for column, hit in enumerate(hits):
                 ids[row, column] = int(hit["id"])
-                squared[row, column] = float(hit["distance"])
+                squared[row, column] = max(0.0, 2.0 - 2.0 * float(hit["distance"]))
         return squared, ids
 
     def ids(self, name: str, tenant: str | None = None) -> Iterator[np.ndarray]:
