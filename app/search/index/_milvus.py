@@ -35,6 +35,7 @@ import itertools
 import os
 import tempfile
 import threading
+import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -60,6 +61,7 @@ _HNSW_EF = 128  # HNSW's candidate list per query, at least (2 k when more)
 _IVF_LISTS = 1024  # IVF_FLAT's inverted lists (all searched when few are wanted)
 _UPSERT_ROWS = 256  # rows per upsert call: ~3 MB of 2961-dim vectors
 _GET_IDS = 1_024  # ids per get call
+_LOCK_WAIT_SECONDS = 30.0  # how long opening a milvus-lite file waits for its last user
 #: Allowed ids (a narrow filter) up to which a search fetches their vectors and compares
 #: them here, exactly, instead of asking the vector index: an HNSW graph walked under a
 #: filter that few rows pass can stop short of k (milvus-lite answered none at all for a
@@ -82,14 +84,22 @@ def _load_client(uri: str, token: str | None) -> Any:
         raise MilvusUnavailable(
             "SHAPESEARCH_INDEX_BACKEND=milvus needs the milvus extra: "
             "pip install 'shapesearch[milvus]'") from error
-    try:
-        return MilvusClient(uri=uri, token=token or "")
-    except Exception as error:
-        hint = ""
-        if not uri.startswith(("http://", "https://", "tcp://", "unix:")):
-            hint = (" (milvus-lite is embedded: one process at a time may open a file; "
-                    "several API processes need a Milvus server)")
-        raise MilvusUnavailable(f"cannot open Milvus at {uri}{hint}: {error}") from error
+    local = not uri.startswith(("http://", "https://", "tcp://", "unix:"))
+    deadline = time.monotonic() + (_LOCK_WAIT_SECONDS if local else 0.0)
+    while True:
+        try:
+            return MilvusClient(uri=uri, token=token or "")
+        except Exception as error:
+            # A milvus-lite file whose last user is still letting go of it (a process
+            # closing, or exiting): wait for it a little, then say who holds it.
+            if local and "lock" in str(error) and time.monotonic() < deadline:
+                time.sleep(0.5)
+                continue
+            hint = ""
+            if local:
+                hint = (" (milvus-lite is embedded: one process at a time may open a file; "
+                        "several API processes need a Milvus server)")
+            raise MilvusUnavailable(f"cannot open Milvus at {uri}{hint}: {error}") from error
 
 
 def collection_name(prefix: str, version: str, dim: int) -> str:
