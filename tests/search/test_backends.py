@@ -5,6 +5,8 @@ the k-reciprocal re-rank, in shape and scan mode."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -108,3 +110,23 @@ def test_a_narrow_filter_on_hnsw_answers_k_exactly(
                                                            abs=1e-5)
     finally:
         milvus.close()
+
+
+def test_a_closed_index_frees_its_milvus_lite_file_for_another_process(
+    sessions: sessionmaker[Session], tmp_path: Path
+) -> None:
+    """milvus-lite opens a file in one process at a time; ``close`` lets it go at once
+    (a benchmark, a CLI command or a test hands the file to an API process next)."""
+    if reason := milvus_missing():
+        pytest.skip(reason)
+    uri = str(tmp_path / "milvus.db")
+    add_ready(sessions, unit(1, 16))
+    index = ShapeIndex(sessions, backend="milvus", milvus_uri=uri)
+    index.rebuild()
+    index.close()
+    opened = subprocess.run(
+        [sys.executable, "-c", "import sys; from app.search.index._milvus import MilvusStore; "
+         "store = MilvusStore(sys.argv[1]); print(store.collections()); store.close()", uri],
+        capture_output=True, text=True, timeout=120)
+    assert opened.returncode == 0, opened.stderr[-2000:]
+    assert "shapesearch" in opened.stdout  # the collections the first process wrote

@@ -167,6 +167,10 @@ class MilvusStore:
         with self._open:
             if self._client is not None:
                 self._client.close()
+                if self.local:  # milvus-lite keeps the file's server until told (or exit)
+                    from milvus_lite.server_manager import server_manager_instance
+
+                    server_manager_instance.release_server(self.uri)
             self._client, self._ready = None, set()
 
     # --- collections ----------------------------------------------------------------
