@@ -24,14 +24,16 @@ from app.api.problems import Problem, problem_responses
 from app.api.uploads import CheckedUpload, invalid_shape_problem
 from app.auth.dependency import TenantDep
 from app.db.models import Model
-from app.ingest.assemblies import PartFile, split_upload
+from app.ingest.assemblies import PartFile, is_assembly, split_upload, splits_by_default
 from app.ingest.sandbox import SandboxCrash
 from app.search.assemblies import assembly_parts, labelled_points, where_used
 from app.settings import Settings
 from core.errors import InvalidShapeError
 from core.io import check_gltf_graph
 
-__all__ = ["refuse_bomb", "router", "split_checked", "where_used_entries", "with_where_used"]
+__all__ = [
+    "parts_of", "refuse_bomb", "router", "wants_split", "where_used_entries", "with_where_used",
+]
 
 router = APIRouter(prefix="/v1", tags=["assemblies"])
 
@@ -39,15 +41,17 @@ router = APIRouter(prefix="/v1", tags=["assemblies"])
 MAX_LABELLED_POINTS = 10_000
 
 
-def refuse_bomb(stream: BinaryIO, filename: str | None, max_bytes: int) -> None:
-    """Refuse a GLB sent with ``assembly=split`` whose node graph is a bomb (422
-    ``assembly-too-large``), from its JSON chunk alone, before the upload's own checks
-    (which refuse an over-instanced scene as 413 ``too-large`` without saying why)."""
+def refuse_bomb(settings: Settings, stream: BinaryIO, assembly: str | None) -> None:
+    """Refuse a GLB that is to be split (``assembly``, or the default) whose node graph is a
+    bomb (422 ``assembly-too-large``), from its JSON chunk alone, before the upload's own
+    checks (which refuse an over-instanced scene as 413 ``too-large`` without saying why)."""
+    if (assembly or settings.assembly_default) != "split":
+        return
     head = stream.read(20)
     try:
         if len(head) == 20 and head[:4] == b"glTF" and head[16:20] == b"JSON":
             length = int.from_bytes(head[12:16], "little")
-            if length <= max_bytes:
+            if length <= settings.max_upload_bytes:
                 check_gltf_graph(head + stream.read(length))
     except InvalidShapeError as error:
         if error.reason == "assembly_too_large":
@@ -56,8 +60,25 @@ def refuse_bomb(stream: BinaryIO, filename: str | None, max_bytes: int) -> None:
         stream.seek(0)
 
 
+def wants_split(settings: Settings, assembly: str | None, file_format: str) -> bool:
+    """Whether an upload is split: asked (``split``), or not said and the default splits
+    its format."""
+    return assembly == "split" or (
+        assembly is None and splits_by_default(settings, file_format))
+
+
+def parts_of(settings: Settings, upload: CheckedUpload, assembly: str | None
+             ) -> list[PartFile] | None:
+    """The parts an upload becomes besides its own model; None when it stays one model (not
+    split, or split by default but a file that places one part once)."""
+    if not wants_split(settings, assembly, upload.format):
+        return None
+    parts = split_checked(settings, upload)
+    return parts if assembly == "split" or is_assembly(parts) else None
+
+
 def split_checked(settings: Settings, upload: CheckedUpload) -> list[PartFile]:
-    """The parts of an upload sent with ``assembly=split``; a refusal as its Problem (422
+    """The parts of an upload that is split; a refusal as its Problem (422
     ``assembly-too-large`` for a bomb, or the reader's)."""
     try:
         return split_upload(settings, upload.content, upload.filename)

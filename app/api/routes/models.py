@@ -49,7 +49,7 @@ from app.api.idempotency import remember, replay_or_refuse, request_sha256
 from app.api.inputs import JSON_OBJECT_FIELD, METADATA_HELP, InputLimits, fields_once
 from app.api.lookups import load_model, model_not_found, parse_model_id
 from app.api.problems import Problem, problem_responses
-from app.api.routes.assemblies import refuse_bomb, split_checked, with_where_used
+from app.api.routes.assemblies import parts_of, refuse_bomb, wants_split, with_where_used
 from app.api.schemas import (
     ModelList,
     ModelPatch,
@@ -75,7 +75,7 @@ from app.api.uploads import UPLOAD_FILE_HELP, BackgroundField
 from app.auth.dependency import TenantDep
 from app.db.feed import record_event
 from app.db.models import AssemblyPart, Job, Model, utcnow
-from app.ingest.assemblies import add_parts, is_assembly, splits_by_default
+from app.ingest.assemblies import add_parts
 from app.ingest.revisions import create_model_rows, latest_jobs, lock_models
 from app.search.similarity import Match, QueryChanged, SearchMode, find_similar
 from app.search.sizing import extents_mm
@@ -134,12 +134,9 @@ def upload_model(
     limits.text(name, "/name")
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata)
-    wanted = assembly or services.settings.assembly_default
-    if wanted == "split":  # issue 76: a bomb is 422 assembly-too-large, said at once
-        refuse_bomb(file.file, file.filename, services.settings.max_upload_bytes)
+    refuse_bomb(services.settings, file.file, assembly)  # issue 76: 422 at once
     upload = services.uploads.read(file.file, file.filename)
-    split = assembly == "split" or (
-        assembly is None and splits_by_default(services.settings, upload.format))
+    split = wants_split(services.settings, assembly, upload.format)
     request_digest = request_sha256(upload.sha256 + (":split" if split else ""), external_id,
                                     name, meta, units, background)
     if idempotency_key is not None:
@@ -147,9 +144,7 @@ def upload_model(
                                   services.settings.idempotency_ttl_seconds)
         if replay is not None:
             return replay
-    parts = split_checked(services.settings, upload) if split else []
-    if assembly is None and not is_assembly(parts):
-        split = False  # split by default, but a file of one part placed once: one model
+    parts = parts_of(services.settings, upload, assembly)
     model = Model(
         id=uuid.uuid4(),
         tenant=tenant,
@@ -167,7 +162,7 @@ def upload_model(
         # The model, its bytes and its job commit together: no accepted upload without a job.
         with services.sessions.begin() as session:
             job = create_model_rows(session, model, upload.content, background=background)
-            if split:  # issue 76: its parts as models of their own, with their placements
+            if parts is not None:  # issue 76: its parts as models, with their placements
                 add_parts(session, model, parts, background=background)
             resource = model_resource(model, job)
             if idempotency_key is not None:

@@ -32,13 +32,13 @@ from app.api.inputs import (
 )
 from app.api.lookups import load_model, parse_model_id
 from app.api.problems import Problem, problem_responses
-from app.api.routes.assemblies import refuse_bomb, split_checked
+from app.api.routes.assemblies import parts_of, refuse_bomb
 from app.api.schemas import FileInfo, JobResource, ModelResource, job_resource, model_resource
 from app.api.search_params import UnitsField
 from app.api.uploads import UPLOAD_FILE_HELP, BackgroundField, CheckedUpload
 from app.auth.dependency import TenantDep
 from app.db.models import Job, Model, ModelRevision, Upload, utcnow
-from app.ingest.assemblies import add_parts, is_assembly, splits_by_default
+from app.ingest.assemblies import add_parts
 from app.ingest.revisions import (
     add_revision,
     create_model_rows,
@@ -149,14 +149,9 @@ def upsert_model(
     limits.text(name, "/name")
     limits.text(file.filename, "/file/filename")
     meta = limits.metadata_text(metadata) if metadata is not None else None
-    if (assembly or services.settings.assembly_default) == "split":  # issue 76: a bomb is
-        refuse_bomb(file.file, file.filename, services.settings.max_upload_bytes)  # 422 at once
+    refuse_bomb(services.settings, file.file, assembly)  # issue 76: 422 at once
     upload = services.uploads.read(file.file, file.filename)
-    split = assembly == "split" or (
-        assembly is None and splits_by_default(services.settings, upload.format))
-    parts = split_checked(services.settings, upload) if split else None
-    if assembly is None and parts is not None and not is_assembly(parts):
-        parts = []  # split by default, but one part placed once: one model, no part list
+    parts = parts_of(services.settings, upload, assembly)
     for _ in range(2):  # a concurrent create of the same external id: the second pass updates
         try:
             with services.sessions.begin() as session:
