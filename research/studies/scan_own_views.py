@@ -64,7 +64,8 @@ from research.rule import TIE, bootstrap, choose, loso
 
 #: The sources that vote, and those reported beside them.
 VOTING = ("madcad", "gearworks", "vslot", "mcad", "freecad", "cqparts", "capod")
-REPORTED = ("generated", "bendable", "capod-nonrigid")
+#: ``bosl2`` is test 4's judge (``describe /work/tuning-bosl2 OUT --sources bosl2``).
+REPORTED = ("generated", "bendable", "capod-nonrigid", "bosl2")
 NONRIGID_CAPOD = ("Dog", "Hand", "Horse", "Human", "Spider")
 PER_CLASS = 3
 VIEWS = 3
