@@ -45,7 +45,17 @@ query rows) is measured by ``bench/`` and reported beside the verdict.
     python -m research.studies.scan_own_views describe /work/tuning /work/scan-own --seed 5
     python -m research.studies.scan_own_views decide /work/scan-own --seed 5 --confirm own3
 
-**Record.** Not run yet.
+**Record** (2026-12-07, 2-core machine; 192 models of the seven sources a draw, each
+described whole, as 3 views, as a merged and a single scan, and as 3 own views of each
+query). Seed 3: mean of seven, the scans pooled, ``scan`` 0.7072 and ``own3`` 0.7126
+(merged 0.7249 -> 0.7299, single 0.6894 -> 0.6952), the rule's choice ``own3``, but left
+out **-0.0094 (95 % -0.0328 .. +0.0130)**: test 1 fails; clean queries 0.8628 -> 0.8300,
+test 2 fails too (FreeCAD 0.932 -> 0.777, CAPOD 1.000 -> 0.942); BOSL2 0.751 -> 0.693.
+Seed 5 (run for the record, not needed for the verdict): 0.7269 -> 0.7267, the rule keeps
+``scan``, left out -0.0145 (-0.0320 .. +0.0020). **Declined**: a scan's own views add as many
+wrong near entries as right ones. On these draws merged scans already score above single
+views in the mean (0.725 against 0.689; 0.751 against 0.703); MCAD is the source where they
+do not (0.463 against 0.539).
 """
 
 from __future__ import annotations
