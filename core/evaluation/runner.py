@@ -44,7 +44,6 @@ from core.evaluation.scans import random_rotation, scan_of_kind
 from core.io import OUTLIER_RATIO, denoise_points, load_points, validate_points
 from core.pipeline import descriptor_from_eigenpairs, normalised_operators
 from core.settings import EngineSettings
-from core.views import virtual_view
 
 __all__ = [
     "EigenStore",
@@ -281,9 +280,8 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
     uploaded ``.xyz``), so that it goes through the point-cloud cleanup steps.
     """
     start = time.perf_counter()
-    scan, _, own_view = sampling.scan.partition("@")
-    dense = sampling.max_points * (1 if scan == "clean" else SCAN_OVERSAMPLING)
-    kind, _, steps = scan.partition("+")
+    dense = sampling.max_points * (1 if sampling.scan == "clean" else SCAN_OVERSAMPLING)
+    kind, _, steps = sampling.scan.partition("+")
     if kind == "points":
         dense = sampling.max_points
     if sampling.feature_share:
@@ -296,7 +294,7 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
     if sampling.feature_share:
         points = points[feature_weighted_subsample(
             points, sampling.max_points, sampling.feature_share, sampling.sample_seed)]
-    if scan != "clean":
+    if sampling.scan != "clean":
         outliers, denoise, ratio, revolve = _cleanup_steps(steps)
         # Seeded without the denoise and revolve steps: a denoised or completed scan is the
         # same scan, cleaned, so that with and without them compare paired.
@@ -317,19 +315,7 @@ def _sample_points(model: Model, sampling: Sampling, min_points: int) -> tuple[n
             points = denoise_points(points, neighbours, passes, fit)
         if revolve:
             points = revolve_about(points, fit_axis(points), len(points), sampling.sample_seed)
-    if own_view:
-        points = _own_view(points, own_view)
     return points, time.perf_counter() - start
-
-
-def _own_view(points: np.ndarray, name: str) -> np.ndarray:
-    """``qv<i>of<n>``: view ``i`` of ``n`` (``core.views.virtual_view``) of the query's own
-    points, as scan mode would describe a query's views (the scan kind's suffix
-    ``@qv<i>of<n>``, e.g. ``multi+sor@qv0of3``)."""
-    match = re.fullmatch(r"qv(\d+)of(\d+)", name)
-    if match is None or int(match[1]) >= int(match[2]):
-        raise ValueError(f"unknown own view {name!r}: qv<i>of<n>, i < n")
-    return virtual_view(points, int(match[1]), int(match[2]))
 
 
 def describe_sampling(

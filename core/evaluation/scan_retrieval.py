@@ -173,12 +173,10 @@ def _scores(
     labels: dict[str, str],
     descriptor: str,
     hub: bool = False,
-    own_views: dict[str, list[Described]] | None = None,
 ) -> dict[str, float]:
     """Leave-one-out scores of ``queries`` against ``catalogue`` (each model's entries) by
     best entry, plain or (``hub``) in the search service's scan-mode order
-    (``core.rank.scan_order.scan_ranking``); with ``own_views`` (``hub`` only), each query
-    is its scan and those views of it, a model keyed by its least over them."""
+    (``core.rank.scan_order.scan_ranking``)."""
     names = sorted(catalogue)
     query_names = sorted(queries)
     entries, owners = [], []
@@ -191,15 +189,8 @@ def _scores(
         position = {name: index for index, name in enumerate(names)}
         left_out = np.array([position.get(q, -1) for q in query_names])
         whole = np.array([catalogue[name][0].descriptors[descriptor] for name in names])
-        query_of = None
-        if own_views is not None:
-            extra = [(number, view.descriptors[descriptor])
-                     for number, q in enumerate(query_names) for view in own_views.get(q, [])]
-            query_of = np.array([*range(len(query_names)), *(n for n, _ in extra)])
-            if extra:
-                query_rows = np.vstack([query_rows, np.array([row for _, row in extra])])
         distances = scan_mode_positions(query_rows, np.array(entries), np.array(owners),
-                                        left_out, whole, query_of=query_of)
+                                        left_out, whole)
     else:
         distances = best_entry_distances(query_rows, np.array(entries), np.array(owners),
                                          len(names))
@@ -222,7 +213,6 @@ def run(
     variants: tuple[str, ...] = tuple(DESCRIPTORS),
     rotation_seed: int = ROTATION_SEED,
     extra_kinds: tuple[str, ...] = (),
-    own_views: int = 0,
 ) -> dict[str, Any]:
     """Describe catalogue and queries, score every (mode, descriptor, query kind).
 
@@ -231,10 +221,6 @@ def run(
     ``extra_kinds`` are described and saved with the rest (``scan_retrieval_descriptors.npz``)
     but not scored: catalogue entries for a study to combine after the fact (e.g. the views
     fixed in a shape's own frame, ``fview<i>t<degrees>``).
-
-    ``own_views`` describes each query also as that many virtual views of its own points
-    (``<kind>@qv<i>of<n>``, ``runner._own_view``) and adds the mode ``views<n>+hub+own``:
-    scan mode's order with each model keyed by its least over the query and its views.
 
     ``merged`` names merged virtual views (e.g. ``("merge012of4", "merge123of4")``) that add
     the catalogue modes ``merged`` (clean + those) and ``merged+views`` (+ the single views).
@@ -251,8 +237,7 @@ def run(
     settings = EngineSettings(max_points=points)
     factory = lambda stiffness, mass: SpectralSolver(stiffness, mass)  # noqa: E731
     kinds = list(dict.fromkeys(["clean", *[view_kind(i, views) for i in range(views)],
-                                *merged, *query_kinds, *extra_kinds,
-                                *own_view_kinds(query_kinds, own_views)]))
+                                *merged, *query_kinds, *extra_kinds]))
     described: dict[str, dict[str, Described]] = {kind: {} for kind in kinds}
     failures: list[str] = []
     skipped: list[str] = []
@@ -291,17 +276,6 @@ def run(
                 for m, d in described["clean"].items()
             }
     scores: dict[str, Any] = {}
-    if own_views:
-        for descriptor in variants:
-            for kind in query_kinds:
-                views_of = {
-                    q: [described[f"{kind}@qv{i}of{own_views}"][q] for i in range(own_views)
-                        if q in described[f"{kind}@qv{i}of{own_views}"]]
-                    for q in described[kind]
-                }
-                scores[f"views{views}+hub+own|{descriptor}|{kind}"] = _scores(
-                    described[kind], catalogues[f"views{views}"], labels, descriptor, True,
-                    views_of)
     for mode, catalogue in catalogues.items():
         # Catalogues with views are also scored in the service's scan-mode order.
         orders = (False, True) if mode.startswith("views") else (False,)
@@ -335,11 +309,6 @@ def run(
         for name, vector in entry.descriptors.items()
     })
     return record
-
-
-def own_view_kinds(query_kinds: tuple[str, ...], count: int) -> list[str]:
-    """The kinds of ``count`` own views of each query kind (``<kind>@qv<i>of<count>``)."""
-    return [f"{kind}@qv{i}of{count}" for kind in query_kinds for i in range(count)]
 
 
 def _mean_seconds(described: dict[str, Described]) -> dict[str, float]:
@@ -383,16 +352,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--extra-kinds", nargs="*", default=[],
                         help="catalogue entry kinds described and saved, not scored, e.g. "
                              "fview0t45 fview1t45 fview2t45")
-    parser.add_argument("--own-views", type=int, default=0,
-                        help="describe each query also as this many views of its own points")
     parser.add_argument("--cached-only", action="store_true",
                         help="score only the models an earlier run fully cached")
     args = parser.parse_args(argv)
     record = run(args.dataset, args.out, args.per_class or None, args.views,
                  query_kinds=tuple(args.kinds), cached_only=args.cached_only,
                  merged=tuple(args.merged), variants=tuple(args.descriptors),
-                 rotation_seed=args.rotation_seed, extra_kinds=tuple(args.extra_kinds),
-                 own_views=args.own_views)
+                 rotation_seed=args.rotation_seed, extra_kinds=tuple(args.extra_kinds))
     print(markdown(record))
     print(json.dumps(record["seconds"], indent=1))
     return 0

@@ -106,8 +106,7 @@ def scan_ranking(keys: np.ndarray, whole: np.ndarray, depth: int, radii: np.ndar
 
 def scan_mode_positions(queries: np.ndarray, entries: np.ndarray, owners: np.ndarray,
                         left_out: np.ndarray, whole: np.ndarray,
-                        depth: int | None = None,
-                        query_of: np.ndarray | None = None) -> np.ndarray:
+                        depth: int | None = None) -> np.ndarray:
     """Each query's ``scan_ranking`` over a whole catalogue, as the search service answers
     10 results (``depth`` ``scan_depth(10)`` unless given).
 
@@ -117,24 +116,14 @@ def scan_mode_positions(queries: np.ndarray, entries: np.ndarray, owners: np.nda
         As ``core.rank.hubness.scan_hub_keys`` (``left_out`` -1: none).
     whole : (m, d) float
         Each model's whole descriptor (unit rows).
-    query_of : (r,) int, optional
-        When a query has several rows (the scan and its own views): the query, ``0 .. q - 1``,
-        of each row of ``queries``; a model's key is its least over the query's rows, and
-        ``left_out`` is given per query.
 
     Returns
     -------
     positions : (q, m) float
         Lower first; ``inf`` for each query's left-out model.
     """
+    keys = scan_hub_keys(queries, entries, owners, left_out)
     left_out = np.asarray(left_out)
-    if query_of is None:
-        keys = scan_hub_keys(queries, entries, owners, left_out)
-    else:
-        query_of = np.asarray(query_of)
-        row_keys = scan_hub_keys(queries, entries, owners, left_out[query_of])
-        keys = np.full((len(left_out), row_keys.shape[1]), np.inf)
-        np.minimum.at(keys, query_of, row_keys)
     whole = np.asarray(whole, dtype=np.float64)
     rows = np.flatnonzero(left_out >= 0)
     keys[rows, left_out[rows]] = np.inf
