@@ -56,6 +56,13 @@ parts (``bench/``).
     python -m research.studies.scan_view_pairs decide /work/scan-own --seed 3 --round 2
     python -m research.studies.scan_view_pairs decide /work/scan-own --seed 5 --round 2 \
         --confirm pairs-only
+
+**Record, round 2, and the rest** (2026-12-07): ``pairs-only`` 0.7041 against 0.7072 (merged
+0.8036, single views 0.6046: a single view needs a single-view entry), left out **-0.0139
+(95 % -0.0327 .. +0.0041)**: declined. For the record, round 1's ``pairs`` fixed on seed 5:
+0.7269 -> 0.7550, **+0.0280 (+0.0113 .. +0.0459)**, merged 0.751 -> 0.798, at 1.61x; and on
+BOSL2 (test 4, no choice saw it) it falls, 0.751 -> 0.719 (merged 0.778 -> 0.740, single
+0.724 -> 0.698): declined by its cost and by the judge alike.
 """
 
 from __future__ import annotations
