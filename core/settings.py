@@ -9,13 +9,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar, Literal, get_args
 
-import numpy as np
-
 from core.errors import SettingsError
 from core.io._outliers import OUTLIER_RATIO
 
 __all__ = [
     "DESCRIPTOR_FAMILIES",
+    "HKS_TIMES",
     "MAX_VIEWS",
     "CutoffMode",
     "CutoffSettings",
@@ -78,6 +77,19 @@ class CutoffSettings:
             raise SettingsError("fixed cutoff n must be at least 2", "n")
 
 
+#: The default HKS times: 16 log-spaced in [1e-3, 1e-1], written out. Computed, they depend
+#: on the CPU: ``np.geomspace(1e-3, 1e-1, 16)[6]`` is 0.006309573444801929 on the Intel Xeon
+#: machines the stored versions were made on and 0.00630957344480193 on an AMD EPYC, and the
+#: times are part of ``descriptor_version``: computed, one deployment's processes on two kinds
+#: of CPU would each find the other's models stale.
+HKS_TIMES: tuple[float, ...] = (
+    0.001, 0.0013593563908785254, 0.0018478497974222907, 0.0025118864315095794,
+    0.003414548873833601, 0.004641588833612777, 0.006309573444801929, 0.008576958985908946,
+    0.011659144011798317, 0.015848931924611134, 0.021544346900318832, 0.02928644564625236,
+    0.039810717055349734, 0.054116952654646375, 0.07356422544596414, 0.1,
+)
+
+
 @dataclass(frozen=True)
 class DescriptorSettings:
     """Signature grids, block weights and block parameters; shared by every model of one
@@ -105,7 +117,7 @@ class DescriptorSettings:
     setting was chosen on: see the changelog.
     """
 
-    hks_times: tuple[float, ...] = tuple(np.geomspace(1e-3, 1e-1, 16).tolist())
+    hks_times: tuple[float, ...] = HKS_TIMES
     hks_scaled: bool = True
     # 0.1 % and 99.9 % quantiles of log scaled HKS on capod lie in about [-1.9, 2.4].
     hks_range: tuple[float, float] = (-2.0, 2.5)

@@ -13,10 +13,9 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Any
 
-import numpy as np
-
 from core.settings import (
     DESCRIPTOR_FAMILIES,
+    HKS_TIMES,
     CutoffSettings,
     DescriptorSettings,
     EngineSettings,
@@ -46,7 +45,7 @@ BUDGET_POINTS: tuple[int, ...] = (2000, 3000, 5000, 10000, 20000)
 #: The naive baseline descriptor: heat-trace-scaled log-HKS at 16 log-spaced times
 #: in [1e-3, 1e-1], 32 area-weighted bins on [-3, 3] per time, square root, L2.
 NAIVE_DESCRIPTOR = DescriptorSettings(
-    hks_times=tuple(np.geomspace(1e-3, 1e-1, 16).tolist()),
+    hks_times=HKS_TIMES,
     hks_scaled=True,
     hks_range=(-3.0, 3.0),
     bins=32,

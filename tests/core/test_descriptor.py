@@ -30,7 +30,13 @@ from core.evaluation.variants import (
     SS11_DESCRIPTOR,
 )
 from core.extrinsic import ANGULAR_BANDS, principal_frame
-from core.settings import DESCRIPTOR_FAMILIES, CutoffSettings, DescriptorSettings, EngineSettings
+from core.settings import (
+    DESCRIPTOR_FAMILIES,
+    HKS_TIMES,
+    CutoffSettings,
+    DescriptorSettings,
+    EngineSettings,
+)
 from tests.shapes import plate_points, sphere_points, torus_points
 
 
@@ -490,6 +496,16 @@ DIGEST_TEXTS = {
     "spectral": (SPECTRAL_DESCRIPTOR, "49c39e7458ecc5fe"),
     "ss11": (SS11_DESCRIPTOR, "85e9366d3e160112"),
 }
+
+
+def test_the_default_times_are_written_out_as_their_grid() -> None:
+    """The HKS times are literal values (a computed grid's last bit follows the CPU, and the
+    times are part of the version): 16 log-spaced times in [1e-3, 1e-1], each within an
+    ulp or two of the analytic value."""
+    assert DescriptorSettings().hks_times is HKS_TIMES and len(HKS_TIMES) == 16
+    exact = [10.0 ** (-3.0 + 2.0 * i / 15.0) for i in range(16)]
+    np.testing.assert_allclose(HKS_TIMES, exact, rtol=1e-15, atol=0.0)
+    assert HKS_TIMES[0] == 0.001 and HKS_TIMES[-1] == 0.1
 
 
 @pytest.mark.parametrize("name", list(DIGEST_TEXTS))
