@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar, Literal, get_args
 
+import numpy as np
+
 from core.errors import SettingsError
 from core.io._outliers import OUTLIER_RATIO
 
@@ -23,6 +25,7 @@ __all__ = [
     "Laplacian",
     "Normalisation",
     "ViewSettings",
+    "log_spaced_times",
 ]
 
 
@@ -88,6 +91,15 @@ HKS_TIMES: tuple[float, ...] = (
     0.011659144011798317, 0.015848931924611134, 0.021544346900318832, 0.02928644564625236,
     0.039810717055349734, 0.054116952654646375, 0.07356422544596414, 0.1,
 )
+
+
+def log_spaced_times(low: float, high: float, count: int) -> tuple[float, ...]:
+    """``count`` times log-spaced from ``low`` to ``high``: ``HKS_TIMES`` for the default
+    grid (the same on every CPU), else ``np.geomspace``'s (as every release computed them,
+    so that a deployment's own grid keeps its version on the machine it was made on)."""
+    if (low, high, count) == (HKS_TIMES[0], HKS_TIMES[-1], len(HKS_TIMES)):
+        return HKS_TIMES
+    return tuple(np.geomspace(low, high, count).tolist())
 
 
 @dataclass(frozen=True)

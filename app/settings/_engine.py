@@ -8,7 +8,6 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import TYPE_CHECKING, Literal
 
-import numpy as np
 from pydantic import BaseModel, Field
 
 from core.descriptor import DescriptorSpec
@@ -20,6 +19,7 @@ from core.settings import (
     EngineSettings,
     Laplacian,
     Normalisation,
+    log_spaced_times,
 )
 
 if TYPE_CHECKING:
@@ -231,10 +231,8 @@ def engine_settings(settings: Settings) -> EngineSettings:
         # family's measured defaults: start from them, never from a second copy of the numbers.
         descriptor=replace(
             family,
-            hks_times=tuple(
-                np.geomspace(
-                    settings.descriptor_t_min, settings.descriptor_t_max, settings.descriptor_times
-                ).tolist()
+            hks_times=log_spaced_times(
+                settings.descriptor_t_min, settings.descriptor_t_max, settings.descriptor_times
             ),
             hks_scaled=settings.descriptor_hks_scaled,
             hks_weight=_or(settings.descriptor_hks_weight, family.hks_weight),
