@@ -171,11 +171,13 @@ def test_default_settings_describe_exactly_like_the_engine(
     import os
 
     from app.settings import Settings, engine_settings
-    from core.settings import EngineSettings
+    from core.settings import HKS_TIMES, EngineSettings
 
     for name in [n for n in os.environ if n.startswith("SHAPESEARCH_")]:
         monkeypatch.delenv(name)
     assert engine_settings(Settings()) == EngineSettings()
+    # The written-out times (the same version on every CPU), not a grid computed again.
+    assert engine_settings(Settings()).descriptor.hks_times is HKS_TIMES
 
 
 @pytest.mark.slow
