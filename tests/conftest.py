@@ -21,11 +21,12 @@ from typing import Any
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from sqlalchemy import create_engine, text
+from sqlalchemy import create_engine, select, text
 from sqlalchemy.engine import make_url
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.migrate import upgrade
+from app.db.models import FeedState
 from app.db.session import make_engine, make_session_factory
 from app.ingest.describing import size_columns
 from app.settings import Settings
@@ -173,15 +174,36 @@ def wait_for_status(
     timeout: float = 120.0,
     headers: dict[str, str] | None = None,
 ) -> dict[str, Any]:
-    """Poll GET /v1/models/{id} until its status is one of ``statuses``."""
+    """Poll GET /v1/models/{id} until its status is one of ``statuses``; a ready model is
+    then awaited in the serving process's index too (``wait_until_indexed``)."""
     deadline = time.monotonic() + timeout
     while True:
         body = client.get(f"/v1/models/{model_id}", headers=headers).json()
         if body.get("status") in statuses:
+            if body["status"] == "ready":
+                wait_until_indexed(client, deadline - time.monotonic())
             return body
         if time.monotonic() > deadline:
             raise AssertionError(f"model {model_id} still {body.get('status')} after {timeout}s")
         time.sleep(0.05)
+
+
+def wait_until_indexed(client: TestClient, timeout: float = 30.0) -> None:
+    """Wait until the index of ``client``'s process has applied the change feed up to its
+    newest event. A model reads "ready" as its transaction commits; the worker's sync (or
+    the feed's follower) adds it to the index a moment later, longer on a loaded machine with
+    Milvus's writes: a search in between would not find it yet. Waits, never syncs itself,
+    so a process that stopped following the feed still fails the test."""
+    services = getattr(client.app.state, "services", None)  # type: ignore[attr-defined]
+    if services is None:
+        return
+    with services.sessions() as session:
+        head = session.scalar(select(FeedState.revision).where(FeedState.id == 1))
+    deadline = time.monotonic() + max(timeout, 1.0)
+    while services.index.revision < (head or 0):
+        if time.monotonic() > deadline:
+            raise AssertionError(f"index at revision {services.index.revision}, feed at {head}")
+        time.sleep(0.01)
 
 
 def stored_duplicates(client: TestClient, limit: int = 50, **params: Any) -> dict[str, Any]:
