@@ -36,7 +36,6 @@ from scipy.spatial import cKDTree
 
 __all__ = [
     "ANGULAR_BANDS",
-    "ANGULAR_HALF_OCTAVES",
     "ANGULAR_SHELLS",
     "CAPS_SHARPNESS",
     "END_DIRECTIONS",
@@ -73,10 +72,6 @@ SIGN_FLIPS: np.ndarray = np.array(
 #: Bands of angular orders ``k`` (half-open ``[low, high)``) of ``angular_spectrum``: about
 #: an octave each, from a part's overall lobes to the teeth of a fine gear.
 ANGULAR_BANDS: tuple[tuple[int, int], ...] = ((1, 3), (3, 6), (6, 12), (12, 24), (24, 48))
-
-#: The same orders in bands of about half an octave: a tooth count placed twice as finely.
-ANGULAR_HALF_OCTAVES: tuple[tuple[int, int], ...] = (
-    (1, 2), (2, 3), (3, 4), (4, 6), (6, 8), (8, 12), (12, 16), (16, 24), (24, 32), (32, 48))
 
 #: Shells of distance from the axis in ``angular_spectrum``.
 ANGULAR_SHELLS = 3
@@ -386,10 +381,8 @@ def reflection_symmetry(points: np.ndarray, areas: np.ndarray) -> np.ndarray:
 
 
 def angular_spectrum(points: np.ndarray, areas: np.ndarray,
-                     shell_centres: tuple[float, float, float] = SHELL_CENTRES,
-                     bands: tuple[tuple[int, int], ...] = ANGULAR_BANDS,
-                     peak: bool = False) -> np.ndarray:
-    """What repeats around the first and the third principal axis, ``(2, 3, bands) float``.
+                     shell_centres: tuple[float, float, float] = SHELL_CENTRES) -> np.ndarray:
+    """What repeats around the first and the third principal axis, ``(2, 3, 5) float``.
 
     The symmetry axis of a turned part is its first principal axis when it is long (a
     screw) and its third when it is flat (a washer, a flange, a gear). About each, the
@@ -398,8 +391,7 @@ def angular_spectrum(points: np.ndarray, areas: np.ndarray,
     coefficients ``c_k = sum(w e^(-ik theta)) / sum(w)`` measure ``k``-fold repetition: a
     20-tooth sprocket's rim has its power at ``k = 20``, four bolt holes at ``k = 4``, a hex
     head at ``k = 6``, a plain cylinder none. Each value is the root mean ``|c_k|^2`` over one
-    of ``bands`` (with ``peak``, the largest ``|c_k|`` of the band: one strong order, a tooth
-    count, is not diluted by the band's width), in [0, 1].
+    of ``ANGULAR_BANDS``, in [0, 1].
 
     ``|c_k|`` does not depend on where the angle starts or which way it turns, so the
     spectrum is invariant to rotation (including the principal axes' arbitrary signs and,
@@ -413,33 +405,26 @@ def angular_spectrum(points: np.ndarray, areas: np.ndarray,
         Non-negative, not all zero.
     shell_centres : (3,) float
         The soft shells' centres (``shell_spectrum``).
-    bands : sequence of (int, int)
-        Half-open ranges ``[low, high)`` of orders, ``low >= 1`` (``ANGULAR_BANDS``,
-        ``ANGULAR_HALF_OCTAVES``).
-    peak : bool
-        Each band's largest ``|c_k|`` instead of its root mean power.
 
     Returns
     -------
-    spectrum : (2, 3, b) float
-        Axis (first, third), shell (innermost first), band.
+    spectrum : (2, 3, 5) float
+        Axis (first, third), shell (innermost first), band (``ANGULAR_BANDS``).
     """
     coordinates, _, _ = principal_frame(points, areas)
     weights = areas / areas.sum()
-    spectrum = np.zeros((2, ANGULAR_SHELLS, len(bands)))
+    spectrum = np.zeros((2, ANGULAR_SHELLS, len(ANGULAR_BANDS)))
     # About the first axis the angle lies in the plane of the second and third, about the
     # third in that of the first and second; the coordinate along the axis does not enter.
     for row, (u, v) in enumerate(((1, 2), (0, 1))):
         spectrum[row] = shell_spectrum(coordinates[:, u] - 1j * coordinates[:, v], weights,
-                                       shell_centres, bands, peak)
+                                       shell_centres)
     return spectrum
 
 
 def shell_spectrum(across: np.ndarray, weights: np.ndarray,
-                   centres: tuple[float, float, float] = SHELL_CENTRES,
-                   bands: tuple[tuple[int, int], ...] = ANGULAR_BANDS,
-                   peak: bool = False) -> np.ndarray:
-    """The band values of ``angular_spectrum`` about one axis, ``(ANGULAR_SHELLS, bands)``.
+                   centres: tuple[float, float, float] = SHELL_CENTRES) -> np.ndarray:
+    """The band powers of ``angular_spectrum`` about one axis, ``(ANGULAR_SHELLS, bands)``.
 
     Parameters
     ----------
@@ -457,15 +442,13 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray,
         shell's coefficients are over its mass or a third of the whole, whichever is
         larger: a nearly empty shell (the sliver of a wall just beyond a centre, lopsided
         by the same noise) counts by its share, not as if it were a whole shell.
-    bands, peak
-        As in ``angular_spectrum``.
 
     Returns
     -------
-    (ANGULAR_SHELLS, len(bands)) float
-        Each band's root mean power per shell (``peak``: its largest magnitude), in [0, 1].
+    (ANGULAR_SHELLS, len(ANGULAR_BANDS)) float
+        Each band's root mean power per shell, in [0, 1].
     """
-    highest = max(high for _, high in bands)
+    highest = max(high for _, high in ANGULAR_BANDS)
     radius = np.abs(across)
     # e^(-i theta) per point (1 on the axis itself, where theta is undefined), and its
     # powers 1 .. highest - 1 by repeated products rather than one exp per order.
@@ -482,9 +465,8 @@ def shell_spectrum(across: np.ndarray, weights: np.ndarray,
     mass = np.maximum(by_shell.sum(axis=1), share[-1] / ANGULAR_SHELLS)
     coefficients = (by_shell @ powers) / np.where(mass > 0, mass, 1.0)[:, None]
     power = np.abs(coefficients) ** 2
-    pool = np.max if peak else np.mean
-    return np.stack([np.sqrt(pool(power[:, low - 1 : high - 1], axis=1))
-                     for low, high in bands], axis=1)
+    return np.stack([np.sqrt(power[:, low - 1 : high - 1].mean(axis=1))
+                     for low, high in ANGULAR_BANDS], axis=1)
 
 
 def end_profiles(points: np.ndarray, areas: np.ndarray, bins: int, depth: float,

@@ -12,14 +12,12 @@ from typing import Any, ClassVar, Literal, get_args
 import numpy as np
 
 from core.errors import SettingsError
-from core.extrinsic import ANGULAR_BANDS, ANGULAR_HALF_OCTAVES
 from core.io._outliers import OUTLIER_RATIO
 
 __all__ = [
     "DESCRIPTOR_FAMILIES",
     "HKS_TIMES",
     "MAX_VIEWS",
-    "RING_BANDS",
     "CutoffMode",
     "CutoffSettings",
     "DescriptorSettings",
@@ -104,12 +102,6 @@ def log_spaced_times(low: float, high: float, count: int) -> tuple[float, ...]:
     return tuple(np.geomspace(low, high, count).tolist())
 
 
-#: ``DescriptorSettings.ring_bands``: the ring block's bands of angular order by name.
-RING_BANDS: dict[str, tuple[tuple[int, int], ...]] = {
-    "octave": ANGULAR_BANDS, "half-octave": ANGULAR_HALF_OCTAVES,
-}
-
-
 @dataclass(frozen=True)
 class DescriptorSettings:
     """Signature grids, block weights and block parameters; shared by every model of one
@@ -176,10 +168,6 @@ class DescriptorSettings:
     # small block, and that is information). Weight 4: leave-one-source-out +0.009 mAP over
     # no ring block on six tuning sources, +0.010 with a seventh no setting was chosen on.
     ring_weight: float = 4.0
-    # The ring's bands of angular order: "octave" (5 bands, 1 .. 47) or "half-octave" (10),
-    # and each band's value: "rms" (its root mean power) or "peak" (its largest coefficient).
-    ring_bands: str = "octave"
-    ring_statistic: str = "rms"
     # Each end's depth-radius profile along the first and third principal axes, measured
     # from the end in the part's median radius (core.extrinsic.end_profiles), so that a
     # kind that comes in many lengths (screws, shafts, keys) keeps its head, countersink or
@@ -254,10 +242,6 @@ class DescriptorSettings:
             raise SettingsError("normal_neighbours must be at least 3", "normal_neighbours")
         if self.d2_pairs < 100:
             raise SettingsError("d2_pairs must be at least 100", "d2_pairs")
-        if self.ring_bands not in RING_BANDS:
-            raise SettingsError(f"ring_bands must be one of {sorted(RING_BANDS)}", "ring_bands")
-        if self.ring_statistic not in ("rms", "peak"):
-            raise SettingsError("ring_statistic must be 'rms' or 'peak'", "ring_statistic")
         if self.caps_bins < 2 or not self.caps_depth > 0:
             raise SettingsError(
                 "caps_bins must be >= 2 and caps_depth > 0", "caps_bins", "caps_depth"

@@ -24,7 +24,7 @@ from core.descriptor.blocks.normals import NormalsBlock
 from core.descriptor.blocks.ring import RingBlock
 from core.descriptor.blocks.spectral import DnaBlock, HksBlock, SlopeBlock, WksBlock
 from core.descriptor.blocks.symmetry import SymmetryBlock
-from core.settings import RING_BANDS, DescriptorSettings, EngineSettings
+from core.settings import DescriptorSettings, EngineSettings
 
 __all__ = ["BLOCK_WEIGHTS", "DescriptorSpec"]
 
@@ -98,8 +98,7 @@ class DescriptorSpec:
             (D1Block(bins), settings.d1_weight),
             (NormalsBlock(), settings.normal_weight),
             (SymmetryBlock(), settings.symmetry_weight),
-            (RingBlock(bands=RING_BANDS[settings.ring_bands],
-                       peak=settings.ring_statistic == "peak"), settings.ring_weight),
+            (RingBlock(), settings.ring_weight),
             (CapsBlock(settings.caps_bins, settings.caps_depth), settings.caps_weight),
             (local, settings.local_weight),
         )

@@ -23,7 +23,6 @@ from core.descriptor.blocks.normals import NormalsBlock
 from core.descriptor.blocks.ring import RingBlock
 from core.descriptor.blocks.spectral import DnaBlock, HksBlock, SlopeBlock, WksBlock
 from core.descriptor.blocks.symmetry import SymmetryBlock
-from core.extrinsic import ANGULAR_BANDS
 from core.settings import EngineSettings
 
 if TYPE_CHECKING:
@@ -166,9 +165,6 @@ def canonical_text(spec: DescriptorSpec, settings: EngineSettings) -> str:
         ("local_neighbours", local.neighbours),
         ("family", spec.family),
     ]
-    if (ring.bands, ring.peak) != (ANGULAR_BANDS, False):
-        # Appended only when not the default, which the stored versions were made with.
-        fields.append(("ring_spectrum", (ring.bands, ring.peak)))
     layout = {kind.name for kind in _LAYOUT_BLOCKS}
     extra = tuple((block, w) for block, w in spec.parts if block.name not in layout)
     if extra:

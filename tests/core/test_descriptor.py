@@ -162,13 +162,6 @@ def test_a_runs_longest_that_is_not_positive_is_refused(longest: float) -> None:
     DescriptorSettings(runs_longest=None).validate()  # the part as it is: allowed
 
 
-@pytest.mark.parametrize(("field", "value"), [("ring_bands", "third-octave"),
-                                              ("ring_statistic", "max")])
-def test_an_unknown_ring_spectrum_is_refused(field: str, value: str) -> None:
-    with pytest.raises(ValueError, match=field):
-        replace(DescriptorSettings(), **{field: value}).validate()
-
-
 def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
     base = EngineSettings()
     spec = DescriptorSpec.from_settings(base.descriptor)
@@ -203,8 +196,6 @@ def test_version_changes_with_every_parameter_that_changes_the_vector() -> None:
         DescriptorSettings(normal_neighbours=16),
         DescriptorSettings(symmetry_weight=0.5),
         DescriptorSettings(ring_weight=2.0),
-        DescriptorSettings(ring_bands="half-octave"),
-        DescriptorSettings(ring_statistic="peak"),
         DescriptorSettings(caps_weight=2.0),
         DescriptorSettings(caps_bins=4),
         DescriptorSettings(caps_depth=2.0),

@@ -15,7 +15,6 @@ from core.descriptor import DescriptorSpec, Sample, area_histograms, distance_di
 from core.evaluation.scans import random_rotation
 from core.extrinsic import (
     ANGULAR_BANDS,
-    ANGULAR_HALF_OCTAVES,
     CAPS_SHARPNESS,
     END_DIRECTIONS,
     SHELL_CENTRES,
@@ -326,27 +325,6 @@ def test_soft_shells_hold_a_ring_of_points_at_the_median_distance_in_the_middle_
                 for low, high in ANGULAR_BANDS]
     np.testing.assert_allclose(spectrum[1], expected, atol=1e-12)
     np.testing.assert_allclose(spectrum[[0, 2]], 0.0, atol=1e-12)
-
-
-@pytest.mark.parametrize("bands", [ANGULAR_BANDS, ANGULAR_HALF_OCTAVES])
-def test_a_bands_peak_is_its_strongest_order_and_bands_may_be_finer(
-    bands: tuple[tuple[int, int], ...],
-) -> None:
-    # The hexagon again: every multiple of 6 has |c_k| = 1, every other order 0, so a band's
-    # peak is 1 where it holds a multiple of 6 and 0 elsewhere, whatever its width, while its
-    # root mean power shrinks with the orders around the multiple.
-    angles = 2 * np.pi * np.arange(6) / 6 + 0.3
-    across, weights = np.exp(-1j * angles), np.full(6, 1 / 6)
-    peak = shell_spectrum(across, weights, SHELL_CENTRES, bands, peak=True)
-    rms = shell_spectrum(across, weights, SHELL_CENTRES, bands)
-    holds_six = [float(any(k % 6 == 0 for k in range(low, high))) for low, high in bands]
-    np.testing.assert_allclose(peak[1], holds_six, atol=1e-12)
-    assert peak.shape == rms.shape == (3, len(bands))
-    assert np.all(peak >= rms - 1e-12)
-    # A 20-toothed rim: its order lies in the half-octave 16-23, placed apart from 12-15.
-    points, areas = _profile_points(_toothed_outline(20, 0.85, 1.0), 0.1)
-    rim = angular_spectrum(points, areas, bands=ANGULAR_HALF_OCTAVES, peak=True)[1, 2]
-    assert ANGULAR_HALF_OCTAVES[int(np.argmax(rim))] == (16, 24), rim
 
 
 def test_soft_shells_keep_a_cylinder_wall_from_following_the_sampling() -> None:

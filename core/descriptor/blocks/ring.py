@@ -3,7 +3,7 @@ hex heads and sockets).
 
 The angular spectrum about the first and the third principal axis, by three soft shells of
 distance from the axis (``core.extrinsic.angular_spectrum``): 2 axes x 3 shells x 5 bands of
-angular order (by default), each value in [0, 1].
+angular order, each value in [0, 1].
 """
 
 from __future__ import annotations
@@ -22,8 +22,7 @@ __all__ = ["RingBlock", "ring_block"]
 
 @dataclass(frozen=True)
 class RingBlock(Block):
-    """The angular spectrum flattened, over the square root of its length, ``(2 * 3 * b,)``
-    (``(30,)`` by default).
+    """The angular spectrum flattened, over the square root of its length, ``(30,)``.
 
     Not scaled to unit norm: each value is in [0, 1], so the block's norm is at most 1, and
     small when nothing repeats (a part with nothing repeating has a small block, and that is
@@ -34,10 +33,6 @@ class RingBlock(Block):
     shells : (3,) float
         The soft shells' centres, in the median distance from the axis
         (``core.extrinsic.SHELL_CENTRES``).
-    bands : sequence of (int, int)
-        The bands of angular order (``core.extrinsic.ANGULAR_BANDS``).
-    peak : bool
-        Each band's largest coefficient instead of its root mean power.
     """
 
     name: ClassVar[str] = "ring"
@@ -45,23 +40,18 @@ class RingBlock(Block):
     tag: ClassVar[str | None] = "ring"
 
     shells: tuple[float, float, float] = SHELL_CENTRES
-    bands: tuple[tuple[int, int], ...] = ANGULAR_BANDS
-    peak: bool = False
 
     @property
     def width(self) -> int:
-        return 2 * ANGULAR_SHELLS * len(self.bands)
+        return 2 * ANGULAR_SHELLS * len(ANGULAR_BANDS)
 
     def measure(self, sample: Sample) -> np.ndarray:
-        return ring_block(sample.body_points, sample.body_areas, shell_centres=self.shells,
-                          bands=self.bands, peak=self.peak)
+        return ring_block(sample.body_points, sample.body_areas, shell_centres=self.shells)
 
 
 def ring_block(points: np.ndarray, areas: np.ndarray, weight: float = 1.0,
-               shell_centres: tuple[float, float, float] = SHELL_CENTRES,
-               bands: tuple[tuple[int, int], ...] = ANGULAR_BANDS,
-               peak: bool = False) -> np.ndarray:
+               shell_centres: tuple[float, float, float] = SHELL_CENTRES) -> np.ndarray:
     """``RingBlock``'s vector of ``points : (n, 3) float`` with ``areas : (n,) float``,
-    times ``weight``, ``(2 * 3 * len(bands),) float``."""
-    spectrum = angular_spectrum(points, areas, shell_centres, bands, peak).ravel()
+    times ``weight``, ``(30,) float``."""
+    spectrum = angular_spectrum(points, areas, shell_centres).ravel()
     return weight * spectrum / np.sqrt(spectrum.size)
